@@ -1,0 +1,27 @@
+"""bathprint: simulate and learn to print soft gelling filaments in a reacting bath."""
+
+from bathprint._cache import ensure_fresh_cache
+
+ensure_fresh_cache()
+
+# ruff: noqa: E402
+
+from bathprint import layout
+from bathprint.errors import SceneError, SimulationError
+from bathprint.run import Result, simulate
+from bathprint.scene import Scene, builtin_scene_names, load_scene
+from bathprint.simulation import Simulation
+
+__version__ = "0.1.0"
+
+__all__ = [
+    "Result",
+    "Scene",
+    "SceneError",
+    "Simulation",
+    "SimulationError",
+    "builtin_scene_names",
+    "layout",
+    "load_scene",
+    "simulate",
+]

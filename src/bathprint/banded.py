@@ -1,0 +1,87 @@
+"""Banded LU with partial pivoting, in numba, O(n kl (kl + ku)) work.
+
+Row-oriented storage: entry A[i, j] lives at ``band[i, j - i + kl]``; each row keeps
+``2 kl + ku + 1`` slots so that row swaps of partial pivoting (which widen the upper
+band to ``ku + kl``) fit in place. No allocation: the pivot array is passed in.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+
+@njit(cache=True)
+def band_clear(band: np.ndarray, n: int) -> None:
+    """Zero the first ``n`` rows of a band matrix."""
+    w = band.shape[1]
+    for i in range(n):
+        for k in range(w):
+            band[i, k] = 0.0
+
+
+@njit(cache=True)
+def band_lu(band: np.ndarray, n: int, kl: int, ku: int, piv: np.ndarray) -> int:
+    """Factor the leading n x n band matrix in place. Returns 0, or k+1 for a zero pivot."""
+    ku2 = ku + kl
+    for k in range(n):
+        # choose the pivot in column k among rows k..k+kl
+        last = min(n - 1, k + kl)
+        p = k
+        best = abs(band[k, kl])
+        for i in range(k + 1, last + 1):
+            a = abs(band[i, k - i + kl])
+            if a > best:
+                best = a
+                p = i
+        piv[k] = p
+        if best == 0.0 or not np.isfinite(best):
+            return k + 1
+        jmax = min(n - 1, k + ku2)
+        if p != k:
+            for j in range(k, jmax + 1):
+                tmp = band[k, j - k + kl]
+                band[k, j - k + kl] = band[p, j - p + kl]
+                band[p, j - p + kl] = tmp
+        pivot = band[k, kl]
+        for i in range(k + 1, last + 1):
+            lik = band[i, k - i + kl] / pivot
+            band[i, k - i + kl] = lik
+            if lik != 0.0:
+                for j in range(k + 1, jmax + 1):
+                    band[i, j - i + kl] -= lik * band[k, j - k + kl]
+    return 0
+
+
+@njit(cache=True)
+def band_solve(band: np.ndarray, n: int, kl: int, ku: int, piv: np.ndarray, b: np.ndarray) -> None:
+    """Solve A x = b in place (b overwritten by x) with the factors from :func:`band_lu`."""
+    ku2 = ku + kl
+    # forward: apply the row swaps and L in the order they were made
+    for k in range(n):
+        p = piv[k]
+        if p != k:
+            tmp = b[k]
+            b[k] = b[p]
+            b[p] = tmp
+        last = min(n - 1, k + kl)
+        bk = b[k]
+        for i in range(k + 1, last + 1):
+            b[i] -= band[i, k - i + kl] * bk
+    # backward: U has ku + kl super-diagonals
+    for i in range(n - 1, -1, -1):
+        s = b[i]
+        jmax = min(n - 1, i + ku2)
+        for j in range(i + 1, jmax + 1):
+            s -= band[i, j - i + kl] * b[j]
+        b[i] = s / band[i, kl]
+
+
+@njit(cache=True)
+def band_matvec(band: np.ndarray, n: int, kl: int, ku: int, x: np.ndarray, y: np.ndarray) -> None:
+    """y = A x for an unfactored band matrix (kl sub-, ku super-diagonals)."""
+    for i in range(n):
+        s = 0.0
+        for j in range(max(0, i - kl), min(n, i + ku + 1)):
+            s += band[i, j - i + kl] * x[j]
+        y[i] = s

@@ -1,0 +1,110 @@
+"""The ``bathprint`` command."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from pathlib import Path
+
+from bathprint.errors import SceneError, SimulationError
+
+
+def _cmd_simulate(args: argparse.Namespace) -> int:
+    from bathprint.run import simulate
+    from bathprint.scene import parse_override
+
+    overrides = dict(parse_override(s) for s in args.set or [])
+    out = Path(args.out or f"runs/{Path(args.scene).stem}")
+    result = simulate(args.scene, overrides, out_dir=out, progress=not args.quiet)
+    s = result.summary
+    mb = s["mass_balance"]
+    print(
+        f"{s['scene']}: {s['time_s']:.3g} s simulated in {s['wall_time_s']:.2f} s wall "
+        f"({s['steps']} steps, {s['rejected_steps']} rejected, {s['nodes']} nodes); "
+        f"mass balance error {mb['relative_error']:.2e}"
+    )
+    print(
+        f"wrote {out}/trajectory.npz, summary.json"
+        + (", filament.png" if result.scene.outputs.plot else "")
+    )
+    return 0
+
+
+def _cmd_scenes(args: argparse.Namespace) -> int:
+    from bathprint.scene import builtin_scene_names, load_scene, scene_summary_line
+
+    for name in builtin_scene_names():
+        print(scene_summary_line(load_scene(name)))
+    return 0
+
+
+def _cmd_show(args: argparse.Namespace) -> int:
+    from bathprint.scene import load_scene, parse_override
+
+    overrides = dict(parse_override(s) for s in args.set or [])
+    print(json.dumps(load_scene(args.scene, overrides).to_dict(), indent=2))
+    return 0
+
+
+def _cmd_validate(args: argparse.Namespace) -> int:
+    from bathprint.validation import run_all
+
+    checks = run_all()
+    print(f"{'check':<58} {'simulated':>12} {'exact':>12} {'rel. error':>10} {'tol':>6}  ok")
+    for c in checks:
+        print(
+            f"{c.name:<58} {c.simulated:>12.6g} {c.exact:>12.6g} {c.relative_error:>10.2e} "
+            f"{c.tolerance:>6.0e}  {'yes' if c.passed else 'NO'}"
+        )
+    return 0 if all(c.passed for c in checks) else 1
+
+
+def build_parser() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(
+        prog="bathprint",
+        description="Simulate soft gelling filaments extruded into a reacting bath.",
+    )
+    sub = p.add_subparsers(dest="command", required=True)
+    s = sub.add_parser("simulate", help="run a scene and write trajectory, summary and picture")
+    s.add_argument(
+        "scene",
+        nargs="?",
+        default="paper_simulation",
+        help="built-in scene name (see `bathprint scenes`) or a TOML path "
+        "(default: paper_simulation)",
+    )
+    s.add_argument(
+        "--set",
+        action="append",
+        metavar="KEY=VALUE",
+        help="override a scene value by dotted key, e.g. flow.q_outer_ml_min=5",
+    )
+    s.add_argument("--out", help="output directory (default runs/SCENE)")
+    s.add_argument("--quiet", action="store_true", help="no progress bar")
+    s.set_defaults(func=_cmd_simulate)
+    sc = sub.add_parser("scenes", help="list the built-in scenes")
+    sc.set_defaults(func=_cmd_scenes)
+    sh = sub.add_parser("show", help="print a scene, with overrides applied, as JSON")
+    sh.add_argument("scene")
+    sh.add_argument("--set", action="append", metavar="KEY=VALUE")
+    sh.set_defaults(func=_cmd_show)
+    v = sub.add_parser("validate", help="run the analytic checks and print the table")
+    v.set_defaults(func=_cmd_validate)
+    return p
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = build_parser().parse_args(argv)
+    try:
+        return int(args.func(args))
+    except SceneError as exc:
+        print(f"bathprint: scene error: {exc}", file=sys.stderr)
+        return 2
+    except SimulationError as exc:
+        print(f"bathprint: {exc}", file=sys.stderr)
+        return 3
+
+
+if __name__ == "__main__":
+    sys.exit(main())

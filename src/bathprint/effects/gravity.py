@@ -1,0 +1,58 @@
+"""Gravity and buoyancy: net weight (rho - rho_bath(z)) A g per length, along -z.
+
+The bath density is rho_top at the free surface and grows linearly with depth at
+``P_BATH_DENSITY_GRADIENT`` (kg/m^3 per m; zero for a uniform bath), which is the
+density-gradient column of the paper's Fig. 3E. Each segment's rest volume is lumped
+half on each of its nodes, so the weight is that of the material actually printed.
+"""
+
+from __future__ import annotations
+
+import math
+
+from numba import njit
+
+from bathprint.effects._band import add_diag
+from bathprint.layout import (
+    MAT_DENSITY,
+    MAT_RADIUS,
+    P_BATH_DENSITY_GRADIENT,
+    P_BATH_DENSITY_TOP,
+    P_BATH_SURFACE_Z,
+    P_GRAVITY,
+)
+
+
+@njit(cache=True, inline="always")
+def bath_density(params, z: float) -> float:
+    """Bath density (kg/m^3) at height z (m)."""
+    return params[P_BATH_DENSITY_TOP] + params[P_BATH_DENSITY_GRADIENT] * (
+        params[P_BATH_SURFACE_Z] - z
+    )
+
+
+@njit(cache=True)
+def accumulate(
+    pos, vel, acc, n_nodes, seg_rest, seg_mat, params, t, cx, cv, ca, force, band, work, do_jac
+) -> float:
+    """Add net weight (and its z-Jacobian); return the gravitational potential energy (J)."""
+    n_free = n_nodes - 2
+    g = params[P_GRAVITY]
+    grad = params[P_BATH_DENSITY_GRADIENT]
+    rho_top = params[P_BATH_DENSITY_TOP]
+    zs = params[P_BATH_SURFACE_Z]
+    energy = 0.0
+    for j in range(n_nodes - 2):
+        r = seg_mat[j, MAT_RADIUS]
+        half_vol = 0.5 * math.pi * r * r * seg_rest[j]
+        rho = seg_mat[j, MAT_DENSITY]
+        for side in range(2):
+            i = j + side
+            z = pos[3 * i + 2]
+            rho_b = rho_top + grad * (zs - z)
+            force[3 * i + 2] -= half_vol * g * (rho - rho_b)
+            # potential: g V [rho z - (rho_top z + grad (zs z - z^2/2))]
+            energy += half_vol * g * (rho * z - (rho_top * z + grad * (zs * z - 0.5 * z * z)))
+            if do_jac and grad != 0.0:
+                add_diag(band, n_free, i, 2, cx * half_vol * g * grad)
+    return energy

@@ -1,0 +1,719 @@
+"""Time integration: implicit SDIRK2 / backward Euler with Newton, and an explicit reference.
+
+The equations of motion of every scene have one form: the total force of the listed
+effects vanishes, F(x, v, a, t) = 0, where drag depends on v and inertia on a (an
+overdamped scene has no inertia and no velocity state). A diagonally implicit stage
+with coefficient h*gamma fixes v = (X - Sx)/(h gamma) and a = (v - Sv)/(h gamma) as
+functions of the stage positions X, so each stage is a Newton solve for X with the
+banded Jacobian  -(dF/dx + dF/dv / (h gamma) + dF/da / (h gamma)^2),  O(N) per iteration.
+
+``implicit`` is Alexander's two-stage SDIRK (order 2, L-stable, stiffly accurate),
+gamma = 1 - 1/sqrt(2); its local error is estimated by X2 - x_n - h V1 (the embedded
+first-order solution) and controls the step. ``implicit_euler`` is one stage with
+gamma = 1 and the predictor-corrector estimate (X - x_n - h v_n)/2. ``explicit`` is
+forward Euler (overdamped: solve F(x_n, V) = 0 for V, a block-diagonal solve) or
+symplectic Euler (with inertia), at a fixed step: the reference for verification.
+
+Everything runs inside one numba call per output interval: no Python and no
+allocation per step. Failures return a status code and ``info`` = [time, node, value].
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+from bathprint.assemble import assemble
+from bathprint.banded import band_lu, band_matvec, band_solve
+from bathprint.extrusion import (
+    extruded_length,
+    flow_rate,
+    set_boundary,
+    split_inlet,
+    transport_curvature,
+)
+from bathprint.layout import (
+    C_FAIL_NODE,
+    C_NEWTON_FAILURES,
+    C_NEWTON_ITERATIONS,
+    C_REJECTED,
+    C_SPLITS,
+    C_STEPS,
+    INTEGRATOR_EXPLICIT,
+    INTEGRATOR_IMPLICIT_EULER,
+    KL,
+    KU,
+    P_FIXED_STEP,
+    P_INERTIA,
+    P_MAX_INLET_GROWTH,
+    P_MAX_NEWTON,
+    P_MAX_STEP,
+    P_MAX_STRAIN_CHANGE,
+    P_MIN_STEP,
+    P_NEEDLE_AREA,
+    P_NEWTON_TOL,
+    P_NODE_SPACING,
+    P_STRETCH_LIMIT,
+    P_TOLERANCE,
+    STATUS_CAPACITY,
+    STATUS_NAN,
+    STATUS_NEWTON,
+    STATUS_OK,
+    STATUS_STEP_LIMIT,
+    STATUS_STRETCH,
+)
+
+GAMMA = 1.0 - 1.0 / math.sqrt(2.0)
+
+# rows of the vector workspace ``vecs`` (each 3 * capacity long)
+V_POS0 = 0
+V_VEL0 = 1
+V_SX = 2
+V_SV = 3
+V_K1V = 4
+V_K1A = 5
+V_ACC = 6
+V_FORCE = 7
+V_RHS = 8
+V_ERR = 9
+N_VECS = 10
+
+
+@njit(cache=True)
+def _worst_node(vec: np.ndarray, nd: int) -> int:
+    best = -1.0
+    node = 0
+    for k in range(nd):
+        a = abs(vec[k])
+        if not np.isfinite(a):
+            return k // 3
+        if a > best:
+            best = a
+            node = k // 3
+    return node
+
+
+@njit(cache=True)
+def _stage_solve(
+    hg,
+    t_stage,
+    n_nodes,
+    pos,
+    vel,
+    node_s,
+    seg_rest,
+    seg_mat,
+    params,
+    enabled,
+    flow,
+    flow_cum,
+    needle,
+    vecs,
+    band,
+    piv,
+    work,
+    calls,
+    counters,
+    energies,
+    info,
+) -> bool:
+    """Newton solve of one implicit stage for the free node positions ``pos``."""
+    nd = 3 * (n_nodes - 2)
+    inertial = params[P_INERTIA] > 0.0
+    sx = vecs[V_SX]
+    sv = vecs[V_SV]
+    acc = vecs[V_ACC]
+    force = vecs[V_FORCE]
+    rhs = vecs[V_RHS]
+    scale = params[P_TOLERANCE] * params[P_NODE_SPACING]
+    ca = 1.0 / (hg * hg) if inertial else 0.0
+    for _it in range(int(params[P_MAX_NEWTON])):
+        set_boundary(
+            pos, vel, node_s, seg_rest, n_nodes, t_stage, flow, flow_cum, needle, params, work
+        )
+        for k in range(nd):
+            vel[k] = (pos[k] - sx[k]) / hg
+            acc[k] = (vel[k] - sv[k]) / hg if inertial else 0.0
+        assemble(
+            pos,
+            vel,
+            acc,
+            n_nodes,
+            seg_rest,
+            seg_mat,
+            params,
+            t_stage,
+            1.0,
+            1.0 / hg,
+            ca,
+            force,
+            band,
+            work,
+            True,
+            enabled,
+            calls,
+            energies,
+        )
+        for k in range(nd):
+            rhs[k] = force[k]
+        if band_lu(band, nd, KL, KU, piv) != 0:
+            info[1] = _worst_node(force, nd)
+            return False
+        band_solve(band, nd, KL, KU, piv, rhs)
+        counters[C_NEWTON_ITERATIONS] += 1
+        norm = 0.0
+        for k in range(nd):
+            norm += rhs[k] * rhs[k]
+        norm = math.sqrt(norm / max(nd, 1)) / scale
+        if not np.isfinite(norm) or norm > 1e12:
+            info[1] = _worst_node(rhs, nd)
+            return False
+        for k in range(nd):
+            pos[k] += rhs[k]
+        if norm < params[P_NEWTON_TOL]:
+            for k in range(nd):
+                vel[k] = (pos[k] - sx[k]) / hg
+                acc[k] = (vel[k] - sv[k]) / hg if inertial else 0.0
+            return True
+    info[1] = _worst_node(rhs, nd)
+    return False
+
+
+@njit(cache=True)
+def _filtered_norm(
+    hg,
+    t,
+    n_nodes,
+    pos,
+    vel,
+    seg_rest,
+    seg_mat,
+    params,
+    enabled,
+    vecs,
+    band,
+    band2,
+    piv,
+    work,
+    calls,
+    energies,
+) -> float:
+    """RMS of the error estimate filtered through the stage matrix (Shampine's filter).
+
+    e_f = A^{-1} D e, with A = D + K the Newton matrix (its LU is still in ``band``) and
+    D = dF/dv / (h gamma) + dF/da / (h gamma)^2 its damping and mass part. Resolved modes
+    pass unchanged (A ~ D); stiff transients, which the L-stable stage damps anyway and
+    which a split or an imperfection excites, are scaled by D/K << 1 instead of forcing
+    the step down to their time scale.
+    """
+    nd = 3 * (n_nodes - 2)
+    inertial = params[P_INERTIA] > 0.0
+    evec = vecs[V_ERR]
+    rhs = vecs[V_RHS]
+    acc = vecs[V_ACC]
+    force = vecs[V_FORCE]
+    ca = 1.0 / (hg * hg) if inertial else 0.0
+    assemble(
+        pos,
+        vel,
+        acc,
+        n_nodes,
+        seg_rest,
+        seg_mat,
+        params,
+        t,
+        0.0,
+        1.0 / hg,
+        ca,
+        force,
+        band2,
+        work,
+        True,
+        enabled,
+        calls,
+        energies,
+    )
+    band_matvec(band2, nd, KL, KU, evec, rhs)
+    band_solve(band, nd, KL, KU, piv, rhs)
+    err = 0.0
+    for k in range(nd):
+        err += rhs[k] * rhs[k]
+    return math.sqrt(err / max(nd, 1))
+
+
+@njit(cache=True)
+def _implicit_step(
+    h,
+    t,
+    n_nodes,
+    integrator,
+    pos,
+    vel,
+    node_s,
+    seg_rest,
+    seg_mat,
+    params,
+    enabled,
+    flow,
+    flow_cum,
+    needle,
+    vecs,
+    band,
+    band2,
+    piv,
+    work,
+    calls,
+    counters,
+    energies,
+    info,
+) -> float:
+    """One SDIRK2 (or backward Euler) step; returns the scaled error norm, or -1 on failure."""
+    nd = 3 * (n_nodes - 2)
+    pos0 = vecs[V_POS0]
+    vel0 = vecs[V_VEL0]
+    sx = vecs[V_SX]
+    sv = vecs[V_SV]
+    k1v = vecs[V_K1V]
+    k1a = vecs[V_K1A]
+    acc = vecs[V_ACC]
+    scale = params[P_TOLERANCE] * params[P_NODE_SPACING]
+    gamma = 1.0 if integrator == INTEGRATOR_IMPLICIT_EULER else GAMMA
+    hg = h * gamma
+    for k in range(nd):
+        sx[k] = pos0[k]
+        sv[k] = vel0[k]
+        pos[k] = pos0[k] + hg * vel0[k]
+    ok = _stage_solve(
+        hg,
+        t + hg,
+        n_nodes,
+        pos,
+        vel,
+        node_s,
+        seg_rest,
+        seg_mat,
+        params,
+        enabled,
+        flow,
+        flow_cum,
+        needle,
+        vecs,
+        band,
+        piv,
+        work,
+        calls,
+        counters,
+        energies,
+        info,
+    )
+    if not ok:
+        return -1.0
+    evec = vecs[V_ERR]
+    if integrator == INTEGRATOR_IMPLICIT_EULER:
+        for k in range(nd):
+            evec[k] = 0.5 * (pos[k] - pos0[k] - h * vel0[k])
+        return (
+            _filtered_norm(
+                hg,
+                t + h,
+                n_nodes,
+                pos,
+                vel,
+                seg_rest,
+                seg_mat,
+                params,
+                enabled,
+                vecs,
+                band,
+                band2,
+                piv,
+                work,
+                calls,
+                energies,
+            )
+            / scale
+        )
+    for k in range(nd):
+        k1v[k] = vel[k]
+        k1a[k] = acc[k]
+        sx[k] = pos0[k] + h * (1.0 - GAMMA) * k1v[k]
+        sv[k] = vel0[k] + h * (1.0 - GAMMA) * k1a[k]
+        pos[k] = pos0[k] + h * k1v[k]
+    ok = _stage_solve(
+        hg,
+        t + h,
+        n_nodes,
+        pos,
+        vel,
+        node_s,
+        seg_rest,
+        seg_mat,
+        params,
+        enabled,
+        flow,
+        flow_cum,
+        needle,
+        vecs,
+        band,
+        piv,
+        work,
+        calls,
+        counters,
+        energies,
+        info,
+    )
+    if not ok:
+        return -1.0
+    for k in range(nd):
+        evec[k] = pos[k] - pos0[k] - h * k1v[k]
+    return (
+        _filtered_norm(
+            hg,
+            t + h,
+            n_nodes,
+            pos,
+            vel,
+            seg_rest,
+            seg_mat,
+            params,
+            enabled,
+            vecs,
+            band,
+            band2,
+            piv,
+            work,
+            calls,
+            energies,
+        )
+        / scale
+    )
+
+
+@njit(cache=True)
+def _explicit_step(
+    h,
+    t,
+    n_nodes,
+    pos,
+    vel,
+    node_s,
+    seg_rest,
+    seg_mat,
+    params,
+    enabled,
+    flow,
+    flow_cum,
+    needle,
+    vecs,
+    band,
+    piv,
+    work,
+    calls,
+    counters,
+    energies,
+    info,
+) -> float:
+    """Forward Euler (overdamped) or symplectic Euler (inertial); returns 0, or -1."""
+    nd = 3 * (n_nodes - 2)
+    inertial = params[P_INERTIA] > 0.0
+    acc = vecs[V_ACC]
+    force = vecs[V_FORCE]
+    rhs = vecs[V_RHS]
+    pos0 = vecs[V_POS0]
+    vel0 = vecs[V_VEL0]
+    set_boundary(pos, vel, node_s, seg_rest, n_nodes, t, flow, flow_cum, needle, params, work)
+    if inertial:
+        for k in range(nd):
+            acc[k] = 0.0
+            vel[k] = vel0[k]
+        assemble(
+            pos,
+            vel,
+            acc,
+            n_nodes,
+            seg_rest,
+            seg_mat,
+            params,
+            t,
+            0.0,
+            0.0,
+            1.0,
+            force,
+            band,
+            work,
+            True,
+            enabled,
+            calls,
+            energies,
+        )
+        for k in range(nd):
+            rhs[k] = force[k]
+        if band_lu(band, nd, KL, KU, piv) != 0:
+            return -1.0
+        band_solve(band, nd, KL, KU, piv, rhs)
+        for k in range(nd):
+            vel[k] = vel0[k] + h * rhs[k]
+            pos[k] = pos0[k] + h * vel[k]
+        return 0.0
+    scale = params[P_TOLERANCE] * params[P_NODE_SPACING]
+    for _it in range(int(params[P_MAX_NEWTON])):
+        assemble(
+            pos,
+            vel,
+            acc,
+            n_nodes,
+            seg_rest,
+            seg_mat,
+            params,
+            t,
+            0.0,
+            1.0,
+            0.0,
+            force,
+            band,
+            work,
+            True,
+            enabled,
+            calls,
+            energies,
+        )
+        for k in range(nd):
+            rhs[k] = force[k]
+        if band_lu(band, nd, KL, KU, piv) != 0:
+            return -1.0
+        band_solve(band, nd, KL, KU, piv, rhs)
+        norm = 0.0
+        for k in range(nd):
+            vel[k] += rhs[k]
+            norm += (h * rhs[k]) ** 2
+        if math.sqrt(norm / max(nd, 1)) / scale < params[P_NEWTON_TOL]:
+            break
+    for k in range(nd):
+        pos[k] = pos0[k] + h * vel[k]
+    return 0.0
+
+
+@njit(cache=True)
+def _max_strain_change(pos0, pos, seg_rest, n_nodes) -> float:
+    """Largest change of a segment's length over the step, relative to its rest length.
+
+    The inlet segment is left out: its rest length grows during the step.
+    """
+    worst = 0.0
+    for j in range(n_nodes - 3):
+        a = 0.0
+        b = 0.0
+        for c in range(3):
+            a += (pos0[3 * j + 3 + c] - pos0[3 * j + c]) ** 2
+            b += (pos[3 * j + 3 + c] - pos[3 * j + c]) ** 2
+        change = abs(math.sqrt(b) - math.sqrt(a)) / seg_rest[j]
+        if change > worst:
+            worst = change
+    return worst
+
+
+@njit(cache=True)
+def _check_state(pos, vel, seg_rest, n_nodes, params, info) -> int:
+    """Non-finite values or stretch past the bound: a status code, with the node in info."""
+    nd = 3 * (n_nodes - 2)
+    for k in range(nd):
+        if not (np.isfinite(pos[k]) and np.isfinite(vel[k])):
+            info[1] = k // 3
+            info[2] = pos[k]
+            return STATUS_NAN
+    limit = params[P_STRETCH_LIMIT]
+    for j in range(n_nodes - 2):
+        ex = pos[3 * j + 3] - pos[3 * j]
+        ey = pos[3 * j + 4] - pos[3 * j + 1]
+        ez = pos[3 * j + 5] - pos[3 * j + 2]
+        strain = math.sqrt(ex * ex + ey * ey + ez * ez) / seg_rest[j] - 1.0
+        if abs(strain) > limit:
+            info[1] = j
+            info[2] = strain
+            return STATUS_STRETCH
+    return STATUS_OK
+
+
+@njit(cache=True)
+def advance(
+    t_end: float,
+    max_steps: int,
+    integrator: int,
+    pos: np.ndarray,
+    vel: np.ndarray,
+    node_s: np.ndarray,
+    seg_rest: np.ndarray,
+    seg_mat: np.ndarray,
+    istate: np.ndarray,
+    fstate: np.ndarray,
+    params: np.ndarray,
+    enabled: np.ndarray,
+    flow: np.ndarray,
+    flow_cum: np.ndarray,
+    needle: np.ndarray,
+    vecs: np.ndarray,
+    band: np.ndarray,
+    band2: np.ndarray,
+    piv: np.ndarray,
+    work: np.ndarray,
+    calls: np.ndarray,
+    counters: np.ndarray,
+    energies: np.ndarray,
+    info: np.ndarray,
+) -> int:
+    """Integrate from fstate[0] to t_end. istate = [n_nodes, n_splits]; fstate = [t, h_next].
+
+    Returns a STATUS_* code; on failure ``info`` holds [time, node, value].
+    """
+    capacity = pos.shape[0] // 3
+    n_nodes = istate[0]
+    t = fstate[0]
+    fixed = params[P_FIXED_STEP]
+    h_min = params[P_MIN_STEP]
+    h_max = params[P_MAX_STEP]
+    dl = params[P_NODE_SPACING]
+    area = params[P_NEEDLE_AREA]
+    pos0 = vecs[V_POS0]
+    vel0 = vecs[V_VEL0]
+    steps = 0
+    eps = 1e-12 * max(1.0, abs(t_end))
+    while t < t_end - eps:
+        if steps >= max_steps:
+            fstate[0] = t
+            istate[0] = n_nodes
+            return STATUS_STEP_LIMIT
+        if n_nodes + 2 > capacity:
+            fstate[0] = t
+            istate[0] = n_nodes
+            return STATUS_CAPACITY
+        if fixed > 0.0:
+            h = fixed
+        else:
+            h = min(fstate[1], h_max)
+            qo, qi = flow_rate(flow, t)
+            v_exit = (qo + qi) / area
+            if v_exit > 0.0:
+                h = min(h, params[P_MAX_INLET_GROWTH] * dl / v_exit)
+        h_taken = min(h, t_end - t)
+        if t_end - t - h_taken < 1e-3 * h_taken:
+            h_taken = t_end - t
+        nall = 3 * n_nodes
+        for k in range(nall):
+            pos0[k] = pos[k]
+            vel0[k] = vel[k]
+        info[0] = t
+        if integrator == INTEGRATOR_EXPLICIT:
+            err = _explicit_step(
+                h_taken,
+                t,
+                n_nodes,
+                pos,
+                vel,
+                node_s,
+                seg_rest,
+                seg_mat,
+                params,
+                enabled,
+                flow,
+                flow_cum,
+                needle,
+                vecs,
+                band,
+                piv,
+                work,
+                calls,
+                counters,
+                energies,
+                info,
+            )
+        else:
+            err = _implicit_step(
+                h_taken,
+                t,
+                n_nodes,
+                integrator,
+                pos,
+                vel,
+                node_s,
+                seg_rest,
+                seg_mat,
+                params,
+                enabled,
+                flow,
+                flow_cum,
+                needle,
+                vecs,
+                band,
+                band2,
+                piv,
+                work,
+                calls,
+                counters,
+                energies,
+                info,
+            )
+        if err >= 0.0 and fixed <= 0.0:
+            # a jump in strain means Newton found a spurious (folded) branch: step back
+            jump = _max_strain_change(pos0, pos, seg_rest, n_nodes) / params[P_MAX_STRAIN_CHANGE]
+            if jump > 1.0:
+                err = max(err, 16.0 * jump)
+        if err < 0.0 or (fixed <= 0.0 and err > 1.0):
+            for k in range(nall):
+                pos[k] = pos0[k]
+                vel[k] = vel0[k]
+            counters[C_REJECTED] += 1
+            if err < 0.0:
+                counters[C_NEWTON_FAILURES] += 1
+            if fixed > 0.0:
+                info[0] = t
+                counters[C_FAIL_NODE] = int(info[1])
+                return STATUS_NEWTON
+            if err < 0.0:
+                fstate[1] = 0.25 * h_taken
+            else:
+                fstate[1] = h_taken * max(0.2, 0.9 / math.sqrt(err))
+            if fstate[1] < h_min:
+                info[0] = t
+                info[2] = fstate[1]
+                return STATUS_NEWTON
+            continue
+        t += h_taken
+        steps += 1
+        counters[C_STEPS] += 1
+        info[0] = t
+        status = _check_state(pos, vel, seg_rest, n_nodes, params, info)
+        if status != STATUS_OK:
+            fstate[0] = t
+            istate[0] = n_nodes
+            return status
+        transport_curvature(pos0, pos, n_nodes, seg_mat)
+        if fixed <= 0.0 and h_taken >= 0.999 * h:
+            fstate[1] = h * min(5.0, 0.9 / math.sqrt(max(err, 1e-10)))
+        s_tip = extruded_length(flow, flow_cum, area, t)
+        while s_tip - node_s[n_nodes - 3] >= 2.0 * dl and n_nodes + 1 <= capacity:
+            set_boundary(
+                pos, vel, node_s, seg_rest, n_nodes, t, flow, flow_cum, needle, params, work
+            )
+            n_nodes = split_inlet(
+                pos,
+                vel,
+                node_s,
+                seg_rest,
+                seg_mat,
+                n_nodes,
+                t,
+                flow,
+                flow_cum,
+                needle,
+                params,
+                istate[1],
+                work,
+            )
+            istate[1] += 1
+            counters[C_SPLITS] += 1
+        set_boundary(pos, vel, node_s, seg_rest, n_nodes, t, flow, flow_cum, needle, params, work)
+    fstate[0] = t_end
+    istate[0] = n_nodes
+    return STATUS_OK

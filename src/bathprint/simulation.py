@@ -1,0 +1,264 @@
+"""The state of a filament and the stepper that moves it: :class:`Simulation`.
+
+Node order runs from the free end (node 0, the oldest material) to the needle tip
+(node n-2) and a ghost node inside the needle (node n-1) that clamps the tangent.
+All arrays are preallocated with spare capacity and grown (doubled) between calls.
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from bathprint import layout as L
+from bathprint.assemble import assemble
+from bathprint.errors import SimulationError
+from bathprint.extrusion import exit_material, extruded_length, needle_state, set_boundary
+from bathprint.integrators import N_VECS, advance
+from bathprint.model import Model, compile_model
+from bathprint.scene import Scene, load_scene
+
+WORK_SIZE = 400
+
+
+def _perpendicular(d: np.ndarray) -> np.ndarray:
+    axis = np.array([1.0, 0.0, 0.0]) if abs(d[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
+    u = np.cross(d, axis)
+    return u / np.linalg.norm(u)
+
+
+class Simulation:
+    """A running simulation of one scene.
+
+    >>> sim = Simulation("paper_simulation", overrides={"duration_s": 0.5})
+    >>> sim.advance(0.1)           # integrate to t = 0.1 s
+    >>> sim.centerline().shape     # (n, 3) node positions, free end first, needle tip last
+    """
+
+    def __init__(
+        self, scene: str | Path | Scene | dict, overrides: dict[str, Any] | None = None
+    ) -> None:
+        self.scene = load_scene(scene, overrides)
+        self.model: Model = compile_model(self.scene)
+        self._init_state()
+
+    # ------------------------------------------------------------------ state
+    def _capacity_estimate(self, n0: int) -> int:
+        m = self.model
+        s_end = extruded_length(m.flow, m.flow_cum, m.needle_area, self.scene.duration_s)
+        return int(n0 + 1.2 * max(s_end, 0.0) / m.node_spacing + 16)
+
+    def _init_state(self) -> None:
+        m = self.model
+        sc = self.scene
+        dl = m.node_spacing
+        length0 = sc.initial.length_mm * 1e-3 or 2.0 * dl
+        n_seg = max(1, int(math.floor(length0 / dl + 1e-9)))
+        seg_len = length0 / n_seg
+        n_nodes = n_seg + 2  # free nodes, tip, ghost
+        cap = max(64, self._capacity_estimate(n_nodes))
+        self._alloc(cap)
+        p = np.empty(3)
+        d = np.empty(3)
+        v = np.empty(3)
+        needle_state(m.needle, 0.0, p, d, v)
+        perp = _perpendicular(d)
+        amp = sc.initial.perturbation_mm * 1e-3
+        pos = self.pos.reshape(-1, 3)
+        for i in range(n_seg + 1):
+            dist = length0 - i * seg_len  # distance from the tip along the needle axis
+            pos[i] = p + dist * d + amp * (1.0 - math.cos(0.5 * math.pi * dist / length0)) * perp
+            self.node_s[i] = -dist
+        row = np.empty(L.N_MAT)
+        exit_material(0.0, m.params, m.flow, row)
+        row[L.MAT_BIRTH_TIME] = -sc.initial.age_s
+        self.seg_mat[: n_seg + 1] = row
+        self.seg_rest[:n_seg] = seg_len
+        self.istate[:] = (n_nodes, 0)
+        h0 = sc.numerics.time_step_s or min(sc.numerics.max_step_s, 1e-4)
+        self.fstate[:] = (0.0, h0)
+        set_boundary(
+            self.pos,
+            self.vel,
+            self.node_s,
+            self.seg_rest,
+            n_nodes,
+            0.0,
+            m.flow,
+            m.flow_cum,
+            m.needle,
+            m.params,
+            self.work,
+        )
+        self.initial_volume = float(np.sum(self.seg_rest[:n_seg]) * m.needle_area)
+        self.initial_length = float(length0)
+
+    def _alloc(self, cap: int) -> None:
+        self.pos = np.zeros(3 * cap)
+        self.vel = np.zeros(3 * cap)
+        self.node_s = np.zeros(cap)
+        self.seg_rest = np.zeros(cap)
+        self.seg_mat = np.zeros((cap, L.N_MAT))
+        self.vecs = np.zeros((N_VECS, 3 * cap))
+        self.band = np.zeros((3 * cap, L.BAND_WIDTH))
+        self.band2 = np.zeros((3 * cap, L.BAND_WIDTH))
+        self.piv = np.zeros(3 * cap, dtype=np.int64)
+        if not hasattr(self, "istate"):
+            self.istate = np.zeros(2, dtype=np.int64)
+            self.fstate = np.zeros(2)
+            self.work = np.zeros(WORK_SIZE)
+            self.calls = np.zeros(L.N_EFFECTS, dtype=np.int64)
+            self.counters = np.zeros(L.N_COUNTERS, dtype=np.int64)
+            self.energies = np.zeros(L.N_EFFECTS)
+            self.info = np.zeros(3)
+
+    def _grow(self) -> None:
+        n = self.n_nodes
+        old = (self.pos, self.vel, self.node_s, self.seg_rest, self.seg_mat)
+        self._alloc(2 * self.capacity)
+        self.pos[: 3 * n] = old[0][: 3 * n]
+        self.vel[: 3 * n] = old[1][: 3 * n]
+        self.node_s[:n] = old[2][:n]
+        self.seg_rest[:n] = old[3][:n]
+        self.seg_mat[:n] = old[4][:n]
+
+    # ------------------------------------------------------------------ properties
+    @property
+    def t(self) -> float:
+        """Simulated time (s)."""
+        return float(self.fstate[0])
+
+    @property
+    def n_nodes(self) -> int:
+        """Nodes including the needle tip and the ghost node."""
+        return int(self.istate[0])
+
+    @property
+    def capacity(self) -> int:
+        return self.pos.shape[0] // 3
+
+    def centerline(self) -> np.ndarray:
+        """Filament node positions (m), free end first, needle tip last: shape (n, 3)."""
+        return self.pos[: 3 * (self.n_nodes - 1)].reshape(-1, 3).copy()
+
+    def velocities(self) -> np.ndarray:
+        """Node velocities (m/s) of the free nodes and the tip."""
+        return self.vel[: 3 * (self.n_nodes - 1)].reshape(-1, 3).copy()
+
+    def material(self) -> np.ndarray:
+        """Per-segment material records (columns: :data:`bathprint.layout.MATERIAL_COLUMNS`)."""
+        return self.seg_mat[: self.n_nodes - 2].copy()
+
+    def rest_lengths(self) -> np.ndarray:
+        """Rest length of each filament segment (m)."""
+        return self.seg_rest[: self.n_nodes - 2].copy()
+
+    def printed_volume(self) -> float:
+        """Volume of gel out of the needle (m^3), from the segments' rest lengths."""
+        return float(np.sum(self.rest_lengths() * math.pi * self.material()[:, L.MAT_RADIUS] ** 2))
+
+    def counts(self) -> dict[str, int]:
+        """Steps, rejected steps, Newton iterations, node births so far."""
+        c = self.counters
+        return {
+            "steps": int(c[L.C_STEPS]),
+            "rejected_steps": int(c[L.C_REJECTED]),
+            "newton_iterations": int(c[L.C_NEWTON_ITERATIONS]),
+            "nodes_born": int(c[L.C_SPLITS]),
+            "newton_failures": int(c[L.C_NEWTON_FAILURES]),
+        }
+
+    def effect_calls(self) -> dict[str, int]:
+        """How often each effect's kernel has run (0 for effects the scene does not list)."""
+        return {name: int(self.calls[k]) for k, name in enumerate(L.EFFECT_NAMES)}
+
+    def energies_now(self) -> dict[str, float]:
+        """Energy of each listed effect at the current state (J; drag: dissipation rate, W)."""
+        zero = np.zeros_like(self.vel)
+        force = np.zeros_like(self.pos)
+        calls = np.zeros_like(self.calls)
+        energies = np.zeros_like(self.energies)
+        assemble(
+            self.pos,
+            self.vel,
+            zero,
+            self.n_nodes,
+            self.seg_rest,
+            self.seg_mat,
+            self.model.params,
+            self.t,
+            1.0,
+            0.0,
+            0.0,
+            force,
+            self.band,
+            self.work,
+            False,
+            self.model.enabled,
+            calls,
+            energies,
+        )
+        return {n: float(energies[k]) for k, n in enumerate(L.EFFECT_NAMES) if calls[k]}
+
+    # ------------------------------------------------------------------ stepping
+    def advance(self, t_end: float, max_steps: int = 10**9) -> None:
+        """Integrate to ``t_end`` (s). Raises :class:`SimulationError` on divergence."""
+        if not math.isfinite(t_end):
+            raise ValueError(f"t_end = {t_end!r} must be finite")
+        m = self.model
+        budget = max_steps
+        while True:
+            before = int(self.counters[L.C_STEPS])
+            status = advance(
+                float(t_end),
+                int(budget),
+                m.integrator,
+                self.pos,
+                self.vel,
+                self.node_s,
+                self.seg_rest,
+                self.seg_mat,
+                self.istate,
+                self.fstate,
+                m.params,
+                m.enabled,
+                m.flow,
+                m.flow_cum,
+                m.needle,
+                self.vecs,
+                self.band,
+                self.band2,
+                self.piv,
+                self.work,
+                self.calls,
+                self.counters,
+                self.energies,
+                self.info,
+            )
+            budget -= int(self.counters[L.C_STEPS]) - before
+            if status == L.STATUS_OK:
+                return
+            if status == L.STATUS_CAPACITY:
+                self._grow()
+                continue
+            if status == L.STATUS_STEP_LIMIT:
+                return
+            self._raise(status)
+
+    def _raise(self, status: int) -> None:
+        cause = L.STATUS_MESSAGES.get(status, f"status {status}")
+        t, node, value = self.info
+        detail = ""
+        if status == L.STATUS_STRETCH:
+            detail = f"strain {value:+.3g} beyond numerics.stretch_limit"
+        elif status == L.STATUS_NEWTON:
+            detail = (
+                f"integrator {self.scene.numerics.integrator}, "
+                f"step {self.fstate[1]:.3g} s, min step {self.scene.numerics.min_step_s:g} s"
+                if self.scene.numerics.time_step_s == 0
+                else f"fixed step {self.scene.numerics.time_step_s:g} s"
+            )
+        raise SimulationError(cause, t, int(node), detail)

@@ -1,0 +1,111 @@
+"""Scene loading, overrides and validation: every bad input is one clear error."""
+
+from __future__ import annotations
+
+import math
+
+import pytest
+
+from bathprint import SceneError, builtin_scene_names, load_scene
+from bathprint.scene import parse_override
+
+REQUIRED_SCENES = {
+    "paper_simulation",
+    "rope_coiling_18G",
+    "drag_coiling_22G",
+    "period_doubling_22G",
+    "chaotic_crumpling_22G",
+}
+
+
+def test_builtin_scenes_load_and_include_the_paper_regimes() -> None:
+    names = set(builtin_scene_names())
+    assert REQUIRED_SCENES <= names
+    for name in names:
+        assert load_scene(name).name == name
+
+
+def test_paper_simulation_has_the_papers_parameters() -> None:
+    s = load_scene("paper_simulation")
+    assert s.material.youngs_modulus_pa == 4800.0
+    assert s.flow.q_outer_ml_min == 10.0
+    assert s.needle.inner_diameter_mm == 1.0
+    assert s.material.density_kg_m3 - s.bath.density_kg_m3 == pytest.approx(15.0)
+
+
+@pytest.mark.parametrize(
+    "key, value",
+    [
+        ("needle.inner_diameter_mm", 0.41),
+        ("flow.q_outer_ml_min", 5.0),
+        ("flow.q_inner_ml_min", 1.0),
+        ("material.youngs_modulus_pa", 2700.0),
+        ("bath.viscosity_pa_s", 2e-3),
+        ("duration_s", 0.5),
+    ],
+)
+def test_overrides_by_dotted_key(key: str, value: float) -> None:
+    s = load_scene("paper_simulation", {key: value})
+    obj = s
+    for part in key.split("."):
+        obj = getattr(obj, part)
+    assert obj == value
+
+
+def test_cli_and_python_overrides_agree() -> None:
+    key, value = parse_override("needle.inner_diameter_mm=0.41")
+    assert load_scene("paper_simulation", {key: value}) == load_scene(
+        "paper_simulation", {"needle.inner_diameter_mm": 0.41}
+    )
+    assert parse_override("needle.direction=[1, 0, 0]") == ("needle.direction", [1, 0, 0])
+    assert parse_override("numerics.integrator=explicit") == ("numerics.integrator", "explicit")
+
+
+@pytest.mark.parametrize(
+    "overrides, words",
+    [
+        ({"needle.inner_diameter_mmm": 1.0}, ["needle.inner_diameter_mmm", "unknown"]),
+        ({"flow.q_outer_ml_min": -1.0}, ["flow.q_outer_ml_min", "-1.0", "[0, 1000]"]),
+        ({"material.youngs_modulus_pa": 0.0}, ["material.youngs_modulus_pa", "0.0", "(1,"]),
+        ({"bath.viscosity_pa_s": math.nan}, ["bath.viscosity_pa_s", "nan"]),
+        ({"bath.viscosity_pa_s": 1e4}, ["bath.viscosity_pa_s", "10000.0", "1e-05"]),
+        ({"needle.inner_diameter_mm": "wide"}, ["needle.inner_diameter_mm", "wide", "number"]),
+        ({"effects": ["elasticity", "drag", "magic"]}, ["magic", "allowed", "floor"]),
+        ({"effects": ["elasticity"]}, ["drag", "singular"]),
+        ({"numerics.integrator": "rk99"}, ["numerics.integrator", "rk99", "implicit"]),
+        ({"duration_s": None}, ["duration_s", "missing"]),
+        ({"flow.schedule": [[0.0, 1.0, 0.0], [-1.0, 1.0, 0.0]]}, ["flow.schedule[1]"]),
+        ({"flow.schedule": [[1.0, 1.0, 0.0], [0.5, 1.0, 0.0]]}, ["does not rise"]),
+        ({"needle.direction": [0.0, 0.0, 0.0]}, ["needle.direction", "non-zero"]),
+        ({"numerics.node_spacing_mm": 0.01}, ["numerics.node_spacing_mm", "radius"]),
+    ],
+)
+def test_bad_input_is_one_clear_error(overrides: dict, words: list[str]) -> None:
+    with pytest.raises(SceneError) as err:
+        load_scene("paper_simulation", overrides)
+    message = str(err.value)
+    for w in words:
+        assert w in message, message
+
+
+def test_unknown_scene_lists_the_builtin_ones() -> None:
+    with pytest.raises(SceneError, match="paper_simulation"):
+        load_scene("no_such_scene")
+
+
+def test_toml_file_scene(tmp_path) -> None:
+    path = tmp_path / "mine.toml"
+    path.write_text(
+        'name = "mine"\nduration_s = 0.2\n[flow]\nq_outer_ml_min = 2.5\n'
+        "[needle]\ninner_diameter_mm = 0.5\n"
+    )
+    s = load_scene(path)
+    assert s.name == "mine" and s.flow.q_outer_ml_min == 2.5
+    path.write_text("duration_s = [")
+    with pytest.raises(SceneError, match="not valid TOML"):
+        load_scene(path)
+
+
+def test_scene_round_trips_through_a_dict() -> None:
+    s = load_scene("drag_coiling_22G")
+    assert load_scene(s.to_dict()) == s

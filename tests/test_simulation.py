@@ -1,0 +1,181 @@
+"""Conservation, determinism, stability and failure reporting of the stepper."""
+
+from __future__ import annotations
+
+import math
+import pickle
+
+import numpy as np
+import pytest
+
+from bathprint import Simulation, SimulationError, simulate
+from bathprint import layout as L
+from bathprint.stability import explicit_step_limit
+from bathprint.validation import CANTILEVER
+
+SHORT = {"duration_s": 0.4, "outputs.frame_interval_s": 0.1, "outputs.plot": False}
+
+
+def test_mass_is_conserved_under_a_varying_schedule() -> None:
+    schedule = [[0.0, 2.0, 0.0], [0.1, 10.0, 0.0], [0.25, 10.0, 0.0], [0.3, 4.0, 0.0]]
+    res = simulate("paper_simulation", {**SHORT, "flow.schedule": schedule})
+    mb = res.summary["mass_balance"]
+    assert abs(mb["relative_error"]) < 1e-3  # the issue asks for 0.1%
+    # and independently of the bookkeeping: trapezoid of the schedule by hand
+    t = np.array([r[0] for r in schedule] + [0.4])
+    q = np.array([r[1] for r in schedule] + [4.0]) * 1e-6 / 60
+    volume = np.trapezoid(q, t)
+    initial = 2 * 1e-3 * math.pi * 0.5e-3**2  # the stub of two 1 mm segments
+    assert mb["printed_volume_ml"] * 1e-6 == pytest.approx(volume + initial, rel=1e-3)
+
+
+def test_no_segment_is_born_tiny() -> None:
+    sim = Simulation("drag_coiling_22G", {"duration_s": 0.5})
+    sim.advance(0.5)
+    rest = sim.rest_lengths()
+    spacing = sim.model.node_spacing
+    assert rest.min() >= spacing * (1 - 1e-9)
+    assert rest[:-1].max() <= 1.5 * spacing * (1 + 1e-9)
+    assert rest[-1] < 2.0 * spacing  # the inlet, still growing
+
+
+def test_same_scene_twice_gives_identical_trajectories() -> None:
+    a = simulate("period_doubling_22G", {**SHORT, "duration_s": 0.1})
+    b = simulate("period_doubling_22G", {**SHORT, "duration_s": 0.1})
+    assert len(a.frames) == len(b.frames)
+    for fa, fb in zip(a.frames, b.frames, strict=True):
+        np.testing.assert_array_equal(fa, fb)
+
+
+def test_chunking_of_advance_does_not_change_fixed_step_results() -> None:
+    over = {"numerics.time_step_s": 1e-3, "duration_s": 0.2}
+    a = Simulation("drag_coiling_22G", over)
+    a.advance(0.2)
+    b = Simulation("drag_coiling_22G", over)
+    for t in np.linspace(0.02, 0.2, 10):
+        b.advance(float(t))
+    np.testing.assert_allclose(a.centerline(), b.centerline(), rtol=0, atol=1e-12)
+
+
+def test_unlisted_effects_are_never_called() -> None:
+    sim = Simulation("paper_simulation", {"effects": ["elasticity", "drag"], "duration_s": 0.1})
+    sim.advance(0.1)
+    calls = sim.effect_calls()
+    assert calls["elasticity"] > 0 and calls["drag"] > 0
+    for name in ("gravity", "floor", "inertia", "end_load"):
+        assert calls[name] == 0, name
+    sim2 = Simulation("rope_coiling_18G", {"duration_s": 0.1})
+    sim2.advance(0.1)
+    assert sim2.effect_calls()["floor"] > 0 and sim2.effect_calls()["inertia"] == 0
+
+
+def test_overdamped_relaxation_never_increases_energy() -> None:
+    sim = Simulation(
+        "paper_simulation",
+        {
+            **CANTILEVER,
+            "initial.perturbation_mm": 3.0,
+            "numerics.node_spacing_mm": 0.4,
+            "numerics.tolerance": 1e-4,
+        },
+    )
+    elastic0 = sim.energies_now()["elasticity"]
+    energies = []
+    for _ in range(150):
+        sim.advance(1.0, max_steps=1)
+        e = sim.energies_now()
+        energies.append(e["elasticity"] + e["gravity"])
+    diffs = np.diff(energies)
+    assert diffs.max() <= 1e-12 * abs(energies[0])
+    assert sim.energies_now()["elasticity"] < 0.01 * elastic0  # and it did relax
+
+
+def test_inertial_cantilever_oscillates_at_the_damped_beam_frequency() -> None:
+    # released straight, with mass + added mass and (uniform, hence modal) drag damping:
+    # omega_d = sqrt(omega_1^2 - (c / 2m)^2), omega_1 = 1.8751^2 sqrt(B / (m L^4)), c = 2 mu_s
+    sim = Simulation(
+        "cantilever_water",
+        {"effects": ["elasticity", "drag", "gravity", "inertia"], "numerics.tolerance": 1e-5},
+    )
+    times = np.linspace(0.0, 0.5, 2001)[1:]
+    z = []
+    for t in times:
+        sim.advance(float(t))
+        c = sim.centerline()
+        z.append(c[0, 2] - c[-1, 2])
+    z = np.array(z)
+    m = sim.model
+    area = math.pi * m.radius**2
+    mass = area * (1006.0 + 1003.0)
+    omega_1 = 1.8751**2 * math.sqrt(m.bending_stiffness / (mass * 0.01**4))
+    zeta_omega = 2 * m.mu_s / (2 * mass)
+    omega_d = math.sqrt(omega_1**2 - zeta_omega**2)
+    dev = z - z[-400:].mean()
+    crossings = times[1:][np.diff(np.sign(dev)) != 0]
+    period = 2 * np.mean(np.diff(crossings))
+    assert 2 * math.pi / period == pytest.approx(omega_d, rel=0.02)
+
+
+def test_implicit_is_stable_at_1e4_times_the_explicit_limit_on_the_default_scene() -> None:
+    sim = Simulation("paper_simulation")
+    sim.advance(0.3)
+    h_explicit = explicit_step_limit(sim)
+    state = pickle.dumps(sim)
+    # the limit is real: explicit just below it runs, just above it diverges
+    below = pickle.loads(state)
+    below.model.params[L.P_FIXED_STEP] = 0.9 * h_explicit
+    below.model.integrator = L.INTEGRATOR_EXPLICIT
+    below.advance(0.3 + 300 * 0.9 * h_explicit)
+    above = pickle.loads(state)
+    above.model.params[L.P_FIXED_STEP] = 1.1 * h_explicit
+    above.model.integrator = L.INTEGRATOR_EXPLICIT
+    with pytest.raises(SimulationError):
+        above.advance(0.3 + 3000 * 1.1 * h_explicit)
+    # implicit at 1e4 x the limit: runs on through buckling with bounded stretch
+    implicit = pickle.loads(state)
+    implicit.model.params[L.P_FIXED_STEP] = 1e4 * h_explicit
+    implicit.advance(1.0)
+    c = implicit.centerline()
+    assert np.isfinite(c).all()
+    strain = np.linalg.norm(np.diff(c, axis=0), axis=1) / implicit.rest_lengths() - 1
+    assert np.abs(strain).max() < 0.05
+    lateral = np.hypot(c[:, 0], c[:, 1]).max()
+    assert lateral > 1e-3  # it did buckle and coil
+
+
+def test_divergence_raises_simulation_error_naming_time_node_and_cause() -> None:
+    sim = Simulation(
+        "paper_simulation", {"numerics.integrator": "explicit", "numerics.time_step_s": 1e-4}
+    )
+    with pytest.raises(SimulationError) as err:
+        sim.advance(0.1)
+    e = err.value
+    assert 0.0 <= e.time_s < 0.1
+    assert 0 <= e.node < sim.n_nodes
+    assert e.cause in L.STATUS_MESSAGES.values()
+    assert f"node {e.node}" in str(e) and "t =" in str(e)
+
+
+def test_newton_failure_at_fixed_step_is_reported() -> None:
+    sim = Simulation(
+        "paper_simulation", {"numerics.time_step_s": 5.0, "numerics.max_newton_iterations": 1}
+    )
+    with pytest.raises(SimulationError, match="Newton"):
+        sim.advance(10.0)
+
+
+def test_capacity_grows_without_losing_state() -> None:
+    sim = Simulation("drag_coiling_22G", {"duration_s": 0.05})
+    cap0 = sim.capacity
+    sim.advance(1.0)  # beyond the scene's duration: arrays must grow
+    assert sim.capacity > cap0
+    assert sim.rest_lengths().min() > 0
+    assert np.isfinite(sim.centerline()).all()
+
+
+def test_moving_needle_is_followed_by_the_clamp() -> None:
+    path = [[0.0, 0.0, 0.0, -10.0, 0.0, 0.0, -1.0], [0.5, 5.0, 0.0, -10.0, 0.0, 0.0, -1.0]]
+    sim = Simulation("drag_coiling_22G", {"needle.path": path, "duration_s": 0.5})
+    sim.advance(0.25)
+    tip = sim.centerline()[-1]
+    np.testing.assert_allclose(tip, [2.5e-3, 0.0, -10e-3], atol=1e-12)
