@@ -33,11 +33,19 @@ def main() -> None:
     c = sim.counts()
     h_explicit = explicit_step_limit(sim)
     mean_h = args.duration / c["steps"]
-    row = {"scene": args.scene, "simulated_s": args.duration, "wall_s": wall,
-           "wall_s_per_simulated_s": wall / args.duration, "node_steps_per_s": node_steps / wall,
-           "steps": c["steps"], "rejected": c["rejected_steps"], "final_nodes": sim.n_nodes,
-           "explicit_limit_s": h_explicit, "mean_step_s": mean_h,
-           "mean_step_over_explicit_limit": mean_h / h_explicit}
+    row = {
+        "scene": args.scene,
+        "simulated_s": args.duration,
+        "wall_s": wall,
+        "wall_s_per_simulated_s": wall / args.duration,
+        "node_steps_per_s": node_steps / wall,
+        "steps": c["steps"],
+        "rejected": c["rejected_steps"],
+        "final_nodes": sim.n_nodes,
+        "explicit_limit_s": h_explicit,
+        "mean_step_s": mean_h,
+        "mean_step_over_explicit_limit": mean_h / h_explicit,
+    }
     for k, v in row.items():
         print(f"{k:>30}: {v:.4g}" if isinstance(v, float) else f"{k:>30}: {v}")
     print("wrote", write_csv(f"default_{args.scene}", [row]))

@@ -17,8 +17,14 @@ from bathprint import Simulation
 from bathprint import layout as L
 from bathprint.effects import drag, elasticity, end_load, floor, gravity, inertia
 
-KERNELS = {"elasticity": elasticity, "drag": drag, "gravity": gravity, "floor": floor,
-           "inertia": inertia, "end_load": end_load}
+KERNELS = {
+    "elasticity": elasticity,
+    "drag": drag,
+    "gravity": gravity,
+    "floor": floor,
+    "inertia": inertia,
+    "end_load": end_load,
+}
 
 
 def kernel_costs() -> list[dict]:
@@ -32,25 +38,49 @@ def kernel_costs() -> list[dict]:
     work = np.zeros(400)
     rows = []
     for name, mod in KERNELS.items():
+
         def call(mod=mod) -> None:
             for _ in range(200):
-                mod.accumulate(sim.pos, sim.vel, acc, n, sim.seg_rest, sim.seg_mat,
-                               sim.model.params, sim.t, 1.0, 100.0, 1e4, force, sim.band, work,
-                               True)
+                mod.accumulate(
+                    sim.pos,
+                    sim.vel,
+                    acc,
+                    n,
+                    sim.seg_rest,
+                    sim.seg_mat,
+                    sim.model.params,
+                    sim.t,
+                    1.0,
+                    100.0,
+                    1e4,
+                    force,
+                    sim.band,
+                    work,
+                    True,
+                )
+
         call()
         per_call = best_of(call, 5) / 200
-        rows.append({"effect": name, "nodes": n, "us_per_call": 1e6 * per_call,
-                     "ns_per_node": 1e9 * per_call / n})
+        rows.append(
+            {
+                "effect": name,
+                "nodes": n,
+                "us_per_call": 1e6 * per_call,
+                "ns_per_node": 1e9 * per_call / n,
+            }
+        )
         print(f"{name:>10}: {1e6 * per_call:8.1f} us per call ({1e9 * per_call / n:6.1f} ns/node)")
     return rows
 
 
 def run_costs() -> list[dict]:
     base_effects = ["elasticity", "drag"]
-    variants = {"elasticity+drag": base_effects,
-                "+gravity": base_effects + ["gravity"],
-                "+floor": base_effects + ["gravity", "floor"],
-                "+inertia": base_effects + ["gravity", "inertia"]}
+    variants = {
+        "elasticity+drag": base_effects,
+        "+gravity": base_effects + ["gravity"],
+        "+floor": base_effects + ["gravity", "floor"],
+        "+inertia": base_effects + ["gravity", "inertia"],
+    }
     rows = []
     base = None
     for label, effects in variants.items():

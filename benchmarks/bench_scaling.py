@@ -21,9 +21,15 @@ def _make(n: int) -> Simulation:
     spacing_mm = 0.5
     return Simulation(
         "paper_simulation",
-        {"flow.q_outer_ml_min": 0.0, "initial.length_mm": n * spacing_mm,
-         "numerics.node_spacing_mm": spacing_mm, "needle.direction": [1.0, 0.0, 0.0],
-         "initial.perturbation_mm": 1.0, "numerics.time_step_s": 2e-3, "duration_s": 100.0},
+        {
+            "flow.q_outer_ml_min": 0.0,
+            "initial.length_mm": n * spacing_mm,
+            "numerics.node_spacing_mm": spacing_mm,
+            "needle.direction": [1.0, 0.0, 0.0],
+            "initial.perturbation_mm": 1.0,
+            "numerics.time_step_s": 2e-3,
+            "duration_s": 100.0,
+        },
     )
 
 
@@ -51,14 +57,22 @@ def main() -> None:
         newton_per_step = c["newton_iterations"] / c["steps"]
         per_step = wall / steps
         base = base or per_step
-        rows.append({"nodes": n, "us_per_step": 1e6 * per_step,
-                     "newton_per_step": newton_per_step,
-                     "us_per_newton_per_node": 1e6 * per_step / newton_per_step / n,
-                     "cost_ratio_vs_100": per_step / base, "linear_ratio": n / 100})
+        rows.append(
+            {
+                "nodes": n,
+                "us_per_step": 1e6 * per_step,
+                "newton_per_step": newton_per_step,
+                "us_per_newton_per_node": 1e6 * per_step / newton_per_step / n,
+                "cost_ratio_vs_100": per_step / base,
+                "linear_ratio": n / 100,
+            }
+        )
         r = rows[-1]
-        print(f"N={n:>6}: {r['us_per_step']:10.1f} us/step, {newton_per_step:4.1f} Newton/step, "
-              f"{r['us_per_newton_per_node']:.3f} us per Newton iteration per node, "
-              f"cost x{r['cost_ratio_vs_100']:.1f} vs N=100 (linear: x{n / 100:.0f})")
+        print(
+            f"N={n:>6}: {r['us_per_step']:10.1f} us/step, {newton_per_step:4.1f} Newton/step, "
+            f"{r['us_per_newton_per_node']:.3f} us per Newton iteration per node, "
+            f"cost x{r['cost_ratio_vs_100']:.1f} vs N=100 (linear: x{n / 100:.0f})"
+        )
     print("wrote", write_csv("scaling", rows))
 
 

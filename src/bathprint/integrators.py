@@ -58,6 +58,7 @@ from bathprint.layout import (
     P_STRETCH_LIMIT,
     P_TOLERANCE,
     STATUS_CAPACITY,
+    STATUS_ERROR,
     STATUS_NAN,
     STATUS_NEWTON,
     STATUS_OK,
@@ -677,7 +678,7 @@ def advance(
             if fstate[1] < h_min:
                 info[0] = t
                 info[2] = fstate[1]
-                return STATUS_NEWTON
+                return STATUS_NEWTON if err < 0.0 else STATUS_ERROR
             continue
         t += h_taken
         steps += 1

@@ -90,10 +90,12 @@ STATUS_NAN = 2
 STATUS_NEWTON = 3  # Newton failed at the smallest allowed step
 STATUS_STRETCH = 4
 STATUS_STEP_LIMIT = 5  # step budget of this call used up; call again
+STATUS_ERROR = 6  # the error estimate stays above tolerance down to the smallest step
 STATUS_MESSAGES = {
     STATUS_NAN: "non-finite position or velocity",
     STATUS_NEWTON: "Newton iteration failed to converge at the smallest allowed time step",
     STATUS_STRETCH: "segment stretch beyond the allowed bound",
+    STATUS_ERROR: "local error above tolerance even at the smallest allowed time step",
 }
 
 # --- integer counters (``counters[C_*]``) ----------------------------------------------

@@ -17,7 +17,7 @@ from bathprint import layout as L
 from bathprint.assemble import assemble
 from bathprint.errors import SimulationError
 from bathprint.extrusion import exit_material, extruded_length, needle_state, set_boundary
-from bathprint.integrators import N_VECS, advance
+from bathprint.integrators import N_VECS, V_POS0, V_VEL0, _explicit_step, advance
 from bathprint.model import Model, compile_model
 from bathprint.scene import Scene, load_scene
 
@@ -68,10 +68,17 @@ class Simulation:
         perp = _perpendicular(d)
         amp = sc.initial.perturbation_mm * 1e-3
         pos = self.pos.reshape(-1, 3)
+        # a straight rod, or one bent in the first clamped-free mode shape
+        # w(s) = amp (1 - cos(pi s / 2 L)), built segment by segment from the tip so that
+        # every segment keeps its rest length (no stretching transient at t = 0)
+        pos[n_seg] = p
+        for i in range(n_seg - 1, -1, -1):
+            s_mid = length0 - (i + 0.5) * seg_len  # arclength from the tip
+            slope = amp * 0.5 * math.pi / length0 * math.sin(0.5 * math.pi * s_mid / length0)
+            angle = math.atan(slope)
+            pos[i] = pos[i + 1] + seg_len * (math.cos(angle) * d + math.sin(angle) * perp)
         for i in range(n_seg + 1):
-            dist = length0 - i * seg_len  # distance from the tip along the needle axis
-            pos[i] = p + dist * d + amp * (1.0 - math.cos(0.5 * math.pi * dist / length0)) * perp
-            self.node_s[i] = -dist
+            self.node_s[i] = -(length0 - i * seg_len)
         row = np.empty(L.N_MAT)
         exit_material(0.0, m.params, m.flow, row)
         row[L.MAT_BIRTH_TIME] = -sc.initial.age_s
@@ -93,8 +100,24 @@ class Simulation:
             m.params,
             self.work,
         )
+        if m.params[L.P_INERTIA] == 0.0:
+            self._consistent_velocity()
         self.initial_volume = float(np.sum(self.seg_rest[:n_seg]) * m.needle_area)
         self.initial_length = float(length0)
+
+    def _consistent_velocity(self) -> None:
+        """Overdamped scenes start with the velocity the forces give (D v = F), not zero,
+        so that error estimates that use the previous velocity are right from step one."""
+        m = self.model
+        n3 = 3 * self.n_nodes
+        self.vecs[V_POS0, :n3] = self.pos[:n3]
+        self.vecs[V_VEL0, :n3] = self.vel[:n3]
+        _explicit_step(0.0, 0.0, self.n_nodes, self.pos, self.vel, self.node_s, self.seg_rest,
+                       self.seg_mat, m.params, m.enabled, m.flow, m.flow_cum, m.needle,
+                       self.vecs, self.band, self.piv, self.work, self.calls, self.counters,
+                       self.energies, self.info)
+        if not np.isfinite(self.vel[:n3]).all():
+            self.vel[:n3] = 0.0
 
     def _alloc(self, cap: int) -> None:
         self.pos = np.zeros(3 * cap)
@@ -254,7 +277,7 @@ class Simulation:
         detail = ""
         if status == L.STATUS_STRETCH:
             detail = f"strain {value:+.3g} beyond numerics.stretch_limit"
-        elif status == L.STATUS_NEWTON:
+        elif status in (L.STATUS_NEWTON, L.STATUS_ERROR):
             detail = (
                 f"integrator {self.scene.numerics.integrator}, "
                 f"step {self.fstate[1]:.3g} s, min step {self.scene.numerics.min_step_s:g} s"
