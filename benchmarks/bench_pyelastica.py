@@ -1,6 +1,6 @@
 """bathprint against PyElastica on the cantilever in water: wall time at equal error.
 
-    python benchmarks/bench_pyelastica.py            # full sweep (about 10 min on 2 cores)
+    python benchmarks/bench_pyelastica.py            # full sweep (about 7 min on 2 cores)
     python benchmarks/bench_pyelastica.py --quick    # reduced sweep (under 2 min)
 
 The problem

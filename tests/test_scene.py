@@ -45,7 +45,8 @@ def test_paper_simulation_has_the_papers_parameters() -> None:
     ],
 )
 def test_overrides_by_dotted_key(key: str, value: float) -> None:
-    s = load_scene("paper_simulation", {key: value})
+    extra = {"effects": ["elasticity", "drag", "inclusions"]} if "inner" in key else {}
+    s = load_scene("paper_simulation", {key: value, **extra})
     obj = s
     for part in key.split("."):
         obj = getattr(obj, part)

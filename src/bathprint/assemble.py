@@ -19,6 +19,7 @@ from bathprint.layout import (
     E_GRAVITY,
     E_INERTIA,
 )
+from bathprint.topology import free_nodes
 
 
 @njit(cache=True)
@@ -47,7 +48,7 @@ def assemble(
     for k in range(3 * n_nodes):
         force[k] = 0.0
     if do_jac:
-        band_clear(band, 3 * (n_nodes - 2))
+        band_clear(band, 3 * free_nodes(n_nodes, params))
     args = (pos, vel, acc, n_nodes, seg_rest, seg_mat, params, t, cx, cv, ca, force, band, work)
     if enabled[E_ELASTICITY]:
         calls[E_ELASTICITY] += 1

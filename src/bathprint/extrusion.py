@@ -10,7 +10,7 @@ printed length: printed volume = A (S(t) - S(0)) + initial volume, exactly.
 
 Tables (all SI):
 - ``flow``: (K, 3) rows [t_s, q_outer_m3_s, q_inner_m3_s], linear between knots, held
-  constant outside; ``flow_cum``: (K,) S at each knot.
+  constant outside; ``flow_cum``: (K, 2) rows [S, inner volume] at each knot (m, m^3).
 - ``needle``: (M, 7) rows [t_s, x, y, z, dx, dy, dz], position linear, direction linear
   then normalised.
 """
@@ -22,21 +22,37 @@ import math
 import numpy as np
 from numba import njit
 
+from bathprint.composite import stiffness_factors
 from bathprint.layout import (
+    MAT_BEND_FACTOR,
     MAT_BIRTH_TIME,
     MAT_DENSITY,
+    MAT_INCLUSION_SIZE,
+    MAT_INCLUSION_SPACING,
     MAT_INNER_FRACTION,
     MAT_KAPPA_X,
     MAT_RADIUS,
+    MAT_STRETCH_FACTOR,
     MAT_YOUNGS_MODULUS,
     N_MAT,
+    P_CLAMPED,
+    P_CURVATURE_COEFFICIENT,
     P_EXIT_DENSITY,
     P_EXIT_RADIUS,
     P_EXIT_YOUNGS_MODULUS,
+    P_GEL_FINAL_MODULUS,
+    P_GEL_INITIAL_MODULUS,
+    P_GEL_RATE,
+    P_GELATION,
     P_IMPERFECTION,
+    P_INCLUSION_OFFSET,
+    P_INCLUSIONS,
+    P_INNER_DENSITY,
     P_NEEDLE_AREA,
     P_NODE_SPACING,
+    P_OFFSET_ANGLE,
     P_SEED,
+    P_SLUG_FRACTION,
 )
 
 
@@ -72,10 +88,20 @@ def extruded_length(flow: np.ndarray, flow_cum: np.ndarray, area: float, t: floa
     """S(t) = int_0^t (Q_o + Q_i)/A dt (m), exact for the piecewise-linear table."""
     k = _interval(flow, t)
     if k < 0:
-        return flow_cum[0] - (flow[0, 0] - t) * (flow[0, 1] + flow[0, 2]) / area
+        return flow_cum[0, 0] - (flow[0, 0] - t) * (flow[0, 1] + flow[0, 2]) / area
     qo, qi = flow_rate(flow, t)
     qk = flow[k, 1] + flow[k, 2]
-    return flow_cum[k] + 0.5 * (qk + qo + qi) * (t - flow[k, 0]) / area
+    return flow_cum[k, 0] + 0.5 * (qk + qo + qi) * (t - flow[k, 0]) / area
+
+
+@njit(cache=True)
+def inner_volume(flow: np.ndarray, flow_cum: np.ndarray, t: float) -> float:
+    """int_0^t Q_i dt (m^3), exact for the piecewise-linear table."""
+    k = _interval(flow, t)
+    if k < 0:
+        return flow_cum[0, 1] - (flow[0, 0] - t) * flow[0, 2]
+    _, qi = flow_rate(flow, t)
+    return flow_cum[k, 1] + 0.5 * (flow[k, 2] + qi) * (t - flow[k, 0])
 
 
 @njit(cache=True)
@@ -87,11 +113,13 @@ def time_at_extruded_length(
         return t_hi
     width = 1.0
     t_lo = t_hi - width
-    for _ in range(60):
+    for _ in range(40):
         if extruded_length(flow, flow_cum, area, t_lo) <= s:
             break
         width *= 2.0
         t_lo = t_hi - width
+    else:
+        return t_hi - width  # never extruded that far back (no flow before t = 0): ~-1e12 s
     for _ in range(80):
         mid = 0.5 * (t_lo + t_hi)
         if extruded_length(flow, flow_cum, area, mid) < s:
@@ -138,7 +166,12 @@ def set_boundary(
     params: np.ndarray,
     work: np.ndarray,
 ) -> None:
-    """Place the needle tip and the ghost node at time t and grow the inlet segment."""
+    """Place the needle tip and the ghost node at time t and grow the inlet segment.
+
+    Does nothing once the filament has been released from the needle.
+    """
+    if params[P_CLAMPED] <= 0.0:
+        return
     p = work[0:3]
     d = work[3:6]
     v = work[6:9]
@@ -162,15 +195,91 @@ def set_boundary(
 
 
 @njit(cache=True)
-def exit_material(t: float, params: np.ndarray, flow: np.ndarray, row: np.ndarray) -> None:
-    """Material record of gel leaving the needle at time t (pure alginate here)."""
+def material_row(
+    phi: float,
+    birth: float,
+    t_now: float,
+    direction: np.ndarray,
+    params: np.ndarray,
+    row: np.ndarray,
+) -> None:
+    """Material record of gel with inner fraction phi born at ``birth`` (s), seen at t_now.
+
+    ``direction`` is the needle's unit direction at birth (for the offset's plane).
+    Pure gel unless the inclusions effect is on; modulus from the gelation law if it is on.
+    """
     for c in range(N_MAT):
         row[c] = 0.0
-    row[MAT_BIRTH_TIME] = t
-    row[MAT_YOUNGS_MODULUS] = params[P_EXIT_YOUNGS_MODULUS]
-    row[MAT_RADIUS] = params[P_EXIT_RADIUS]
-    row[MAT_DENSITY] = params[P_EXIT_DENSITY]
-    row[MAT_INNER_FRACTION] = 0.0
+    row[MAT_BIRTH_TIME] = birth
+    if params[P_GELATION] > 0.0:
+        e0 = params[P_GEL_INITIAL_MODULUS]
+        e1 = params[P_GEL_FINAL_MODULUS]
+        row[MAT_YOUNGS_MODULUS] = e1 - (e1 - e0) * math.exp(
+            -params[P_GEL_RATE] * max(t_now - birth, 0.0)
+        )
+    else:
+        row[MAT_YOUNGS_MODULUS] = params[P_EXIT_YOUNGS_MODULUS]
+    r = params[P_EXIT_RADIUS]
+    row[MAT_RADIUS] = r
+    if params[P_INCLUSIONS] <= 0.0:
+        phi = 0.0
+    bend, stretch, n, m = stiffness_factors(phi, params[P_SLUG_FRACTION])
+    row[MAT_INNER_FRACTION] = phi
+    row[MAT_DENSITY] = (1.0 - phi) * params[P_EXIT_DENSITY] + phi * params[P_INNER_DENSITY]
+    row[MAT_BEND_FACTOR] = bend
+    row[MAT_STRETCH_FACTOR] = stretch
+    row[MAT_INCLUSION_SIZE] = n * r
+    row[MAT_INCLUSION_SPACING] = m * r
+    mag = params[P_CURVATURE_COEFFICIENT] * params[P_INCLUSION_OFFSET] * phi / r
+    if mag != 0.0:
+        d0, d1, d2 = direction[0], direction[1], direction[2]
+        # e1 = d x (least-aligned axis), e2 = d x e1: the offset's frame around the needle
+        if abs(d0) < 0.9:
+            e10, e11, e12 = 0.0, d2, -d1
+        else:
+            e10, e11, e12 = -d2, 0.0, d0
+        ne = math.sqrt(e10 * e10 + e11 * e11 + e12 * e12)
+        e10, e11, e12 = e10 / ne, e11 / ne, e12 / ne
+        e20, e21, e22 = d1 * e12 - d2 * e11, d2 * e10 - d0 * e12, d0 * e11 - d1 * e10
+        ca = math.cos(params[P_OFFSET_ANGLE])
+        sa = math.sin(params[P_OFFSET_ANGLE])
+        u0, u1, u2 = ca * e10 + sa * e20, ca * e11 + sa * e21, ca * e12 + sa * e22
+        # binormal t_up x u with t_up = -d, the segment's edge direction at birth
+        row[MAT_KAPPA_X] = mag * (-(d1 * u2 - d2 * u1))
+        row[MAT_KAPPA_X + 1] = mag * (-(d2 * u0 - d0 * u2))
+        row[MAT_KAPPA_X + 2] = mag * (-(d0 * u1 - d1 * u0))
+
+
+@njit(cache=True)
+def segment_material(
+    s_a: float,
+    s_b: float,
+    t_now: float,
+    flow: np.ndarray,
+    flow_cum: np.ndarray,
+    needle: np.ndarray,
+    params: np.ndarray,
+    row: np.ndarray,
+    work: np.ndarray,
+) -> None:
+    """Material record of the gel that left the needle between extruded lengths s_a < s_b.
+
+    Its inner fraction is the inner volume extruded in that interval over the total, so
+    the inner volume of all segments adds up to int Q_i dt exactly.
+    """
+    area = params[P_NEEDLE_AREA]
+    t_a = time_at_extruded_length(flow, flow_cum, area, s_a, t_now)
+    t_b = time_at_extruded_length(flow, flow_cum, area, s_b, t_now)
+    t_mid = time_at_extruded_length(flow, flow_cum, area, 0.5 * (s_a + s_b), t_now)
+    phi = 0.0
+    if params[P_INCLUSIONS] > 0.0 and s_b > s_a:
+        dv_in = inner_volume(flow, flow_cum, t_b) - inner_volume(flow, flow_cum, t_a)
+        phi = min(max(dv_in / (area * (s_b - s_a)), 0.0), 1.0)
+    d = work[30:33]
+    p = work[33:36]
+    v = work[36:39]
+    needle_state(needle, t_mid, p, d, v)
+    material_row(phi, t_mid, t_now, d, params, row)
 
 
 @njit(cache=True)
@@ -250,15 +359,13 @@ def split_inlet(
         pos[3 * new] += r1 * ux + r2 * wx
         pos[3 * new + 1] += r1 * uy + r2 * wy
         pos[3 * new + 2] += r1 * uz + r2 * wz
-    area = params[P_NEEDLE_AREA]
     seg_rest[out] = s_new - s_out
     seg_rest[new] = s_tip - s_new
-    seg_mat[out, MAT_BIRTH_TIME] = time_at_extruded_length(
-        flow, flow_cum, area, 0.5 * (s_out + s_new), t
-    )
-    row = work[20 : 20 + N_MAT]
-    t_birth_new = time_at_extruded_length(flow, flow_cum, area, 0.5 * (s_new + s_tip), t)
-    exit_material(t_birth_new, params, flow, row)
+    row = work[40 : 40 + N_MAT]
+    segment_material(s_out, s_new, t, flow, flow_cum, needle, params, row, work)
+    for c in range(N_MAT):
+        seg_mat[out, c] = row[c]
+    segment_material(s_new, s_tip, t, flow, flow_cum, needle, params, row, work)
     for c in range(N_MAT):
         seg_mat[new, c] = row[c]
         seg_mat[new + 1, c] = row[c]  # the ghost mirrors the inlet's material
@@ -266,15 +373,38 @@ def split_inlet(
 
 
 @njit(cache=True)
+def refresh_inlet_material(
+    node_s: np.ndarray,
+    seg_mat: np.ndarray,
+    n_nodes: int,
+    t: float,
+    flow: np.ndarray,
+    flow_cum: np.ndarray,
+    needle: np.ndarray,
+    params: np.ndarray,
+    work: np.ndarray,
+) -> None:
+    """Re-derive the growing inlet segment's record from everything extruded into it."""
+    if params[P_CLAMPED] <= 0.0:
+        return
+    out = n_nodes - 3
+    row = work[40 : 40 + N_MAT]
+    segment_material(node_s[out], node_s[n_nodes - 2], t, flow, flow_cum, needle, params, row, work)
+    for c in range(N_MAT):
+        seg_mat[out, c] = row[c]
+        seg_mat[out + 1, c] = row[c]
+
+
+@njit(cache=True)
 def transport_curvature(
-    pos_old: np.ndarray, pos_new: np.ndarray, n_nodes: int, seg_mat: np.ndarray
+    pos_old: np.ndarray, pos_new: np.ndarray, n_seg: int, seg_mat: np.ndarray
 ) -> None:
     """Carry each segment's natural-curvature vector with the rotation of its tangent.
 
     The minimal rotation taking the old tangent to the new one (parallel transport in
     time), applied after each accepted step: curvature set in the material rotates with it.
     """
-    for j in range(n_nodes - 2):
+    for j in range(n_seg):
         kx = seg_mat[j, MAT_KAPPA_X]
         ky = seg_mat[j, MAT_KAPPA_X + 1]
         kz = seg_mat[j, MAT_KAPPA_X + 2]

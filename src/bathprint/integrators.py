@@ -27,9 +27,11 @@ from numba import njit
 
 from bathprint.assemble import assemble
 from bathprint.banded import band_lu, band_matvec, band_solve
+from bathprint.effects import gelation
 from bathprint.extrusion import (
     extruded_length,
     flow_rate,
+    refresh_inlet_material,
     set_boundary,
     split_inlet,
     transport_curvature,
@@ -41,10 +43,13 @@ from bathprint.layout import (
     C_REJECTED,
     C_SPLITS,
     C_STEPS,
+    E_GELATION,
+    E_INCLUSIONS,
     INTEGRATOR_EXPLICIT,
     INTEGRATOR_IMPLICIT_EULER,
     KL,
     KU,
+    P_CLAMPED,
     P_FIXED_STEP,
     P_INERTIA,
     P_MAX_INLET_GROWTH,
@@ -65,6 +70,7 @@ from bathprint.layout import (
     STATUS_STEP_LIMIT,
     STATUS_STRETCH,
 )
+from bathprint.topology import filament_segments, free_nodes
 
 GAMMA = 1.0 - 1.0 / math.sqrt(2.0)
 
@@ -121,7 +127,7 @@ def _stage_solve(
     info,
 ) -> bool:
     """Newton solve of one implicit stage for the free node positions ``pos``."""
-    nd = 3 * (n_nodes - 2)
+    nd = 3 * free_nodes(n_nodes, params)
     inertial = params[P_INERTIA] > 0.0
     sx = vecs[V_SX]
     sv = vecs[V_SV]
@@ -209,7 +215,7 @@ def _filtered_norm(
     which a split or an imperfection excites, are scaled by D/K << 1 instead of forcing
     the step down to their time scale.
     """
-    nd = 3 * (n_nodes - 2)
+    nd = 3 * free_nodes(n_nodes, params)
     inertial = params[P_INERTIA] > 0.0
     evec = vecs[V_ERR]
     rhs = vecs[V_RHS]
@@ -271,7 +277,7 @@ def _implicit_step(
     info,
 ) -> float:
     """One SDIRK2 (or backward Euler) step; returns the scaled error norm, or -1 on failure."""
-    nd = 3 * (n_nodes - 2)
+    nd = 3 * free_nodes(n_nodes, params)
     pos0 = vecs[V_POS0]
     vel0 = vecs[V_VEL0]
     sx = vecs[V_SX]
@@ -417,7 +423,7 @@ def _explicit_step(
     info,
 ) -> float:
     """Forward Euler (overdamped) or symplectic Euler (inertial); returns 0, or -1."""
-    nd = 3 * (n_nodes - 2)
+    nd = 3 * free_nodes(n_nodes, params)
     inertial = params[P_INERTIA] > 0.0
     acc = vecs[V_ACC]
     force = vecs[V_FORCE]
@@ -497,13 +503,14 @@ def _explicit_step(
 
 
 @njit(cache=True)
-def _max_strain_change(pos0, pos, seg_rest, n_nodes) -> float:
+def _max_strain_change(pos0, pos, seg_rest, n_nodes, params) -> float:
     """Largest change of a segment's length over the step, relative to its rest length.
 
     The inlet segment is left out: its rest length grows during the step.
     """
     worst = 0.0
-    for j in range(n_nodes - 3):
+    n_check = filament_segments(n_nodes, params) - (1 if params[P_CLAMPED] > 0.0 else 0)
+    for j in range(n_check):
         a = 0.0
         b = 0.0
         for c in range(3):
@@ -518,14 +525,14 @@ def _max_strain_change(pos0, pos, seg_rest, n_nodes) -> float:
 @njit(cache=True)
 def _check_state(pos, vel, seg_rest, n_nodes, params, info) -> int:
     """Non-finite values or stretch past the bound: a status code, with the node in info."""
-    nd = 3 * (n_nodes - 2)
+    nd = 3 * free_nodes(n_nodes, params)
     for k in range(nd):
         if not (np.isfinite(pos[k]) and np.isfinite(vel[k])):
             info[1] = k // 3
             info[2] = pos[k]
             return STATUS_NAN
     limit = params[P_STRETCH_LIMIT]
-    for j in range(n_nodes - 2):
+    for j in range(filament_segments(n_nodes, params)):
         ex = pos[3 * j + 3] - pos[3 * j]
         ey = pos[3 * j + 4] - pos[3 * j + 1]
         ez = pos[3 * j + 5] - pos[3 * j + 2]
@@ -595,7 +602,7 @@ def advance(
             h = min(fstate[1], h_max)
             qo, qi = flow_rate(flow, t)
             v_exit = (qo + qi) / area
-            if v_exit > 0.0:
+            if v_exit > 0.0 and params[P_CLAMPED] > 0.0:
                 h = min(h, params[P_MAX_INLET_GROWTH] * dl / v_exit)
         h_taken = min(h, t_end - t)
         if t_end - t - h_taken < 1e-3 * h_taken:
@@ -657,7 +664,10 @@ def advance(
             )
         if err >= 0.0 and fixed <= 0.0:
             # a jump in strain means Newton found a spurious (folded) branch: step back
-            jump = _max_strain_change(pos0, pos, seg_rest, n_nodes) / params[P_MAX_STRAIN_CHANGE]
+            jump = (
+                _max_strain_change(pos0, pos, seg_rest, n_nodes, params)
+                / params[P_MAX_STRAIN_CHANGE]
+            )
             if jump > 1.0:
                 err = max(err, 16.0 * jump)
         if err < 0.0 or (fixed <= 0.0 and err > 1.0):
@@ -689,11 +699,15 @@ def advance(
             fstate[0] = t
             istate[0] = n_nodes
             return status
-        transport_curvature(pos0, pos, n_nodes, seg_mat)
+        transport_curvature(pos0, pos, filament_segments(n_nodes, params), seg_mat)
         if fixed <= 0.0 and h_taken >= 0.999 * h:
             fstate[1] = h * min(5.0, 0.9 / math.sqrt(max(err, 1e-10)))
         s_tip = extruded_length(flow, flow_cum, area, t)
-        while s_tip - node_s[n_nodes - 3] >= 2.0 * dl and n_nodes + 1 <= capacity:
+        while (
+            params[P_CLAMPED] > 0.0
+            and s_tip - node_s[n_nodes - 3] >= 2.0 * dl
+            and n_nodes + 1 <= capacity
+        ):
             set_boundary(
                 pos, vel, node_s, seg_rest, n_nodes, t, flow, flow_cum, needle, params, work
             )
@@ -714,7 +728,13 @@ def advance(
             )
             istate[1] += 1
             counters[C_SPLITS] += 1
+            if enabled[E_INCLUSIONS]:
+                calls[E_INCLUSIONS] += 1
         set_boundary(pos, vel, node_s, seg_rest, n_nodes, t, flow, flow_cum, needle, params, work)
+        refresh_inlet_material(node_s, seg_mat, n_nodes, t, flow, flow_cum, needle, params, work)
+        if enabled[E_GELATION]:
+            calls[E_GELATION] += 1
+            gelation.update(t, n_nodes, pos, seg_rest, seg_mat, params, work)
     fstate[0] = t_end
     istate[0] = n_nodes
     return STATUS_OK

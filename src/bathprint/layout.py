@@ -16,7 +16,11 @@ MAT_KAPPA_X = 4  # natural curvature vector, 1/m (lab frame, transported with th
 MAT_KAPPA_Y = 5
 MAT_KAPPA_Z = 6
 MAT_INNER_FRACTION = 7  # volume fraction of co-extruded inner fluid (0 for pure gel)
-N_MAT = 8
+MAT_BEND_FACTOR = 8  # -, bending stiffness / that of pure gel of the same modulus and radius
+MAT_STRETCH_FACTOR = 9  # -, stretching stiffness / that of pure gel
+MAT_INCLUSION_SIZE = 10  # m, equivalent diameter n of the droplets (0: none)
+MAT_INCLUSION_SPACING = 11  # m, centre-to-centre spacing m of the droplets along the filament
+N_MAT = 12
 
 MATERIAL_COLUMNS = (
     "birth_time_s",
@@ -27,6 +31,10 @@ MATERIAL_COLUMNS = (
     "natural_curvature_y_1_m",
     "natural_curvature_z_1_m",
     "inner_volume_fraction",
+    "bend_stiffness_factor",
+    "stretch_stiffness_factor",
+    "inclusion_size_m",
+    "inclusion_spacing_m",
 )
 
 # --- scalar parameters (``params[P_*]``) -------------------------------------------
@@ -64,7 +72,19 @@ P_SEED = 30  # -, seed of the (counter-based, chunking-independent) imperfection
 P_INITIAL_AGE = 31  # s, age of the material of the initial filament at t = 0
 P_MAX_STRAIN_CHANGE = 32  # -, adaptive steps changing a segment's strain more are rejected
 P_MAX_INLET_GROWTH = 33  # -, node spacings the inlet may grow in one adaptive step
-N_PARAMS = 34
+P_CLAMPED = 34  # 1: the filament hangs from the needle (tip and ghost prescribed); 0: free
+P_GELATION = 35  # 1 when the gelation effect is listed
+P_GEL_INITIAL_MODULUS = 36  # Pa, E of gel at age 0
+P_GEL_FINAL_MODULUS = 37  # Pa, E of fully set gel
+P_GEL_RATE = 38  # 1/s, k
+P_CURVATURE_MEMORY = 39  # 1: natural curvature follows the current one as the gel sets
+P_INCLUSIONS = 40  # 1 when the inclusions effect is listed
+P_INNER_DENSITY = 41  # kg/m^3
+P_INCLUSION_OFFSET = 42  # -, Delta = (r1 - r2) / r
+P_OFFSET_ANGLE = 43  # rad, direction of the offset around the needle axis
+P_CURVATURE_COEFFICIENT = 44  # -, kappa0 = C Delta phi / r
+P_SLUG_FRACTION = 45  # -, droplets wider than this fraction of the filament diameter are slugs
+N_PARAMS = 46
 
 # --- effects ------------------------------------------------------------------------
 E_ELASTICITY = 0
@@ -73,9 +93,20 @@ E_GRAVITY = 2
 E_FLOOR = 3
 E_INERTIA = 4
 E_END_LOAD = 5
-N_EFFECTS = 6
+E_GELATION = 6  # a material effect: updates modulus and natural curvature after each step
+E_INCLUSIONS = 7  # a material effect: composite properties of material at its birth
+N_EFFECTS = 8
 
-EFFECT_NAMES = ("elasticity", "drag", "gravity", "floor", "inertia", "end_load")
+EFFECT_NAMES = (
+    "elasticity",
+    "drag",
+    "gravity",
+    "floor",
+    "inertia",
+    "end_load",
+    "gelation",
+    "inclusions",
+)
 
 # --- integrators ----------------------------------------------------------------------
 INTEGRATOR_IMPLICIT = 0  # SDIRK2, Newton on the banded Jacobian

@@ -13,8 +13,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from bathprint import layout as L
+from bathprint.composite import INNER_FLUIDS
 from bathprint.errors import SceneError
-from bathprint.scene import Scene
+from bathprint.scene import Scene, flow_rows
 
 ML_MIN = 1e-6 / 60.0  # m^3/s per ml/min
 MM = 1e-3  # m per mm
@@ -28,7 +29,7 @@ class Model:
     params: np.ndarray  # (N_PARAMS,) float64
     enabled: np.ndarray  # (N_EFFECTS,) int64, 1 for the effects the scene lists
     flow: np.ndarray  # (K, 3): t_s, q_outer_m3_s, q_inner_m3_s
-    flow_cum: np.ndarray  # (K,): extruded length S at each knot, m
+    flow_cum: np.ndarray  # (K, 2): extruded length S (m) and inner volume (m^3) at each knot
     needle: np.ndarray  # (M, 7): t_s, position (m), direction
     integrator: int
 
@@ -77,19 +78,21 @@ def slender_body_coefficient(scene: Scene, radius: float) -> float:
 
 
 def _flow_table(scene: Scene) -> np.ndarray:
-    rows = scene.flow.schedule or [[0.0, scene.flow.q_outer_ml_min, scene.flow.q_inner_ml_min]]
-    table = np.array(rows, dtype=np.float64).reshape(-1, 3)
+    table = np.array(flow_rows(scene), dtype=np.float64).reshape(-1, 3)
     table[:, 1:] *= ML_MIN
     return table
 
 
-def _flow_cumulative(flow: np.ndarray, area: float) -> np.ndarray:
-    """S at each knot with S(0) = 0 (constant rate before the first knot)."""
+def flow_cumulative(flow: np.ndarray, area: float, start: tuple[float, float] | None = None):
+    """[S, inner volume] at each knot; S(0) = 0 and a constant rate before the first knot,
+    unless ``start`` gives the values at the first knot."""
     q = flow[:, 1] + flow[:, 2]
-    cum = np.empty(len(flow))
-    cum[0] = flow[0, 0] * q[0] / area
+    cum = np.empty((len(flow), 2))
+    cum[0] = start if start is not None else (flow[0, 0] * q[0] / area, flow[0, 0] * flow[0, 2])
     for k in range(len(flow) - 1):
-        cum[k + 1] = cum[k] + 0.5 * (q[k] + q[k + 1]) * (flow[k + 1, 0] - flow[k, 0]) / area
+        dt = flow[k + 1, 0] - flow[k, 0]
+        cum[k + 1, 0] = cum[k, 0] + 0.5 * (q[k] + q[k + 1]) * dt / area
+        cum[k + 1, 1] = cum[k, 1] + 0.5 * (flow[k, 2] + flow[k + 1, 2]) * dt
     return cum
 
 
@@ -138,6 +141,28 @@ def compile_model(scene: Scene) -> Model:
     p[L.P_STRETCH_LIMIT] = scene.numerics.stretch_limit
     p[L.P_MAX_STRAIN_CHANGE] = scene.numerics.max_strain_change
     p[L.P_MAX_INLET_GROWTH] = scene.numerics.max_inlet_growth
+    p[L.P_CLAMPED] = 1.0
+    gel = scene.gelation
+    if "gelation" in scene.effects and gel.final_modulus_pa < gel.initial_modulus_pa:
+        raise SceneError(
+            f"gelation.final_modulus_pa = {gel.final_modulus_pa!r} is below "
+            f"gelation.initial_modulus_pa = {gel.initial_modulus_pa!r}; gel only stiffens"
+        )
+    p[L.P_GELATION] = 1.0 if "gelation" in scene.effects else 0.0
+    p[L.P_GEL_INITIAL_MODULUS] = gel.initial_modulus_pa
+    p[L.P_GEL_FINAL_MODULUS] = gel.final_modulus_pa
+    p[L.P_GEL_RATE] = gel.rate_1_s
+    p[L.P_CURVATURE_MEMORY] = 1.0 if gel.curvature_memory else 0.0
+    inc = scene.inclusions
+    p[L.P_INCLUSIONS] = 1.0 if "inclusions" in scene.effects else 0.0
+    fluid = INNER_FLUIDS[inc.fluid]
+    p[L.P_INNER_DENSITY] = (
+        inc.ferrofluid_density_kg_m3 if inc.fluid == "ferrofluid" else fluid.density_kg_m3
+    )
+    p[L.P_INCLUSION_OFFSET] = inc.offset
+    p[L.P_OFFSET_ANGLE] = math.radians(inc.offset_angle_deg)
+    p[L.P_CURVATURE_COEFFICIENT] = inc.curvature_coefficient
+    p[L.P_SLUG_FRACTION] = inc.slug_fraction
     p[L.P_NEWTON_TOL] = scene.numerics.newton_tolerance
     p[L.P_MAX_NEWTON] = scene.numerics.max_newton_iterations
     p[L.P_INERTIA] = 1.0 if "inertia" in scene.effects else 0.0
@@ -151,7 +176,7 @@ def compile_model(scene: Scene) -> Model:
         params=p,
         enabled=enabled,
         flow=flow,
-        flow_cum=_flow_cumulative(flow, area),
+        flow_cum=flow_cumulative(flow, area),
         needle=_needle_table(scene),
         integrator=L.INTEGRATOR_NAMES.index(scene.numerics.integrator),
     )

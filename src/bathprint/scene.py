@@ -21,6 +21,7 @@ from importlib import resources
 from pathlib import Path
 from typing import Any
 
+from bathprint.composite import INNER_FLUIDS
 from bathprint.errors import SceneError
 from bathprint.layout import EFFECT_NAMES, INTEGRATOR_NAMES
 
@@ -64,6 +65,7 @@ class Needle:
     imperfection_um: float = _num(
         1.0, 0.0, 1e3, doc="transverse offset given to each node born at the needle"
     )
+    release_s: float = _num(0.0, 0.0, 1e6, doc="> 0: cut the filament free at this time")
 
 
 @dataclass
@@ -84,6 +86,39 @@ class Flow:
     schedule: list = field(
         default_factory=list,
         metadata={"doc": "optional [[t_s, q_outer_ml_min, q_inner_ml_min], ...], times rising"},
+    )
+    schedule_csv: str = field(
+        default="",
+        metadata={"doc": "CSV with columns t_s, q_outer_ml_min, q_inner_ml_min (header row)"},
+    )
+
+
+@dataclass
+class Gelation:
+    """Modulus growing with material age; optional curvature memory (effect 'gelation')."""
+
+    initial_modulus_pa: float = _num(300.0, 1.0, 1e7, lo_open=True, doc="E at age 0")
+    final_modulus_pa: float = _num(30000.0, 1.0, 1e8, lo_open=True, doc="E of set gel")
+    rate_1_s: float = _num(1.0 / 60.0, 1e-6, 1e4, lo_open=True, doc="crosslinking rate k")
+    curvature_memory: bool = True
+
+
+@dataclass
+class Inclusions:
+    """Co-extruded inner fluid (effect 'inclusions'); its flow is flow.q_inner_ml_min."""
+
+    fluid: str = field(default="silicone_oil", metadata={"choices": tuple(INNER_FLUIDS)})
+    ferrofluid_density_kg_m3: float = _num(1210.0, 500.0, 5000.0, lo_open=True)
+    offset: float = _num(0.0, -1.0, 1.0, doc="Delta = (r1 - r2) / r of the inclusions")
+    offset_angle_deg: float = _num(0.0, -360.0, 360.0, doc="direction of the offset")
+    curvature_coefficient: float = _num(
+        0.1, 0.0, 10.0, doc="C in kappa0 = C Delta phi / r (phenomenological)"
+    )
+    max_inner_fraction: float = _num(
+        0.9, 0.01, 0.99, lo_open=True, doc="largest Q_i / (Q_o + Q_i) the needle allows"
+    )
+    slug_fraction: float = _num(
+        0.8, 0.1, 1.0, lo_open=True, doc="drops wider than this x 2r run as slugs"
     )
 
 
@@ -173,6 +208,8 @@ class Scene:
     material: Material = field(default_factory=Material)
     flow: Flow = field(default_factory=Flow)
     drag: Drag = field(default_factory=Drag)
+    gelation: Gelation = field(default_factory=Gelation)
+    inclusions: Inclusions = field(default_factory=Inclusions)
     floor: Floor = field(default_factory=Floor)
     inertia: Inertia = field(default_factory=Inertia)
     end_load: EndLoad = field(default_factory=EndLoad)
@@ -273,9 +310,13 @@ def _check_tables(scene: Scene) -> None:
     d = scene.needle.direction
     if math.hypot(*d) < 1e-6:
         raise SceneError(f"needle.direction = {list(d)!r} must be a non-zero vector")
-    rows = scene.flow.schedule
-    if rows:
-        _check_schedule("flow.schedule", rows, 3, (1000.0, 1000.0))
+    if scene.flow.schedule and scene.flow.schedule_csv:
+        raise SceneError("flow.schedule and flow.schedule_csv are both set; give one of them")
+    rows = flow_rows(scene)
+    key = "flow.schedule_csv" if scene.flow.schedule_csv else "flow.schedule"
+    if len(rows) > 1 or scene.flow.schedule or scene.flow.schedule_csv:
+        _check_schedule(key, rows, 3, (1000.0, 1000.0))
+    _check_inner_flow(scene, rows, key)
     if scene.needle.path:
         _check_schedule("needle.path", scene.needle.path, 7, None)
     if scene.bath.density_bottom_kg_m3 and scene.bath.density_bottom_kg_m3 < 500.0:
@@ -294,6 +335,57 @@ def _check_tables(scene: Scene) -> None:
             f"numerics.node_spacing_mm = {scene.numerics.node_spacing_mm!r} is below 0.2 times "
             f"the filament radius ({r_mm:g} mm); a rod model needs segments at least that long"
         )
+
+
+def flow_rows(scene: Scene) -> list[list[float]]:
+    """The flow schedule as rows [t_s, q_outer_ml_min, q_inner_ml_min] (from the table, the
+    CSV file, or the constant rates)."""
+    if scene.flow.schedule_csv:
+        path = Path(scene.flow.schedule_csv)
+        if not path.exists():
+            raise SceneError(f"flow.schedule_csv = {str(path)!r} does not exist")
+        import csv
+
+        with path.open(newline="") as f:
+            reader = csv.DictReader(f)
+            need = ["t_s", "q_outer_ml_min", "q_inner_ml_min"]
+            if reader.fieldnames is None or any(c not in reader.fieldnames for c in need):
+                raise SceneError(
+                    f"flow.schedule_csv = {str(path)!r} has columns {reader.fieldnames!r}; "
+                    f"allowed: a header with {', '.join(need)}"
+                )
+            rows = []
+            for k, rec in enumerate(reader):
+                try:
+                    rows.append([float(rec[c]) for c in need])
+                except (TypeError, ValueError) as exc:
+                    raise SceneError(
+                        f"flow.schedule_csv = {str(path)!r} row {k + 1}: {rec!r} is not numeric"
+                    ) from exc
+        if not rows:
+            raise SceneError(f"flow.schedule_csv = {str(path)!r} holds no rows")
+        return rows
+    if scene.flow.schedule:
+        return [list(r) for r in scene.flow.schedule]
+    return [[0.0, scene.flow.q_outer_ml_min, scene.flow.q_inner_ml_min]]
+
+
+def _check_inner_flow(scene: Scene, rows: list, key: str) -> None:
+    phi_max = scene.inclusions.max_inner_fraction
+    for k, (_, qo, qi) in enumerate(rows):
+        where = f"{key}[{k}]" if len(rows) > 1 or key != "flow.schedule" else "flow.q_inner_ml_min"
+        if qi > 0 and "inclusions" not in scene.effects:
+            raise SceneError(
+                f"{where}: q_inner_ml_min = {qi!r} > 0 but effects = {scene.effects!r} does not "
+                "list 'inclusions'; allowed: add 'inclusions', or set the inner flow to 0"
+            )
+        if qi > 0 and qi > phi_max / (1.0 - phi_max) * qo:
+            raise SceneError(
+                f"{where}: q_inner_ml_min = {qi!r} is more than the needle allows with "
+                f"q_outer_ml_min = {qo!r}: the inner fluid may take at most "
+                f"{phi_max:g} of the flow (inclusions.max_inner_fraction), i.e. "
+                f"q_inner_ml_min <= {phi_max / (1.0 - phi_max) * qo:.4g}"
+            )
 
 
 def _check_schedule(key: str, rows: list, width: int, limits: tuple | None) -> None:

@@ -16,7 +16,14 @@ import numpy as np
 from bathprint import layout as L
 from bathprint.assemble import assemble
 from bathprint.errors import SimulationError
-from bathprint.extrusion import exit_material, extruded_length, needle_state, set_boundary
+from bathprint.extrusion import (
+    extruded_length,
+    flow_rate,
+    material_row,
+    needle_state,
+    set_boundary,
+)
+from bathprint.extrusion import inner_volume as inner_volume_at
 from bathprint.integrators import N_VECS, V_POS0, V_VEL0, _explicit_step, advance
 from bathprint.model import Model, compile_model
 from bathprint.scene import Scene, load_scene
@@ -80,8 +87,9 @@ class Simulation:
         for i in range(n_seg + 1):
             self.node_s[i] = -(length0 - i * seg_len)
         row = np.empty(L.N_MAT)
-        exit_material(0.0, m.params, m.flow, row)
-        row[L.MAT_BIRTH_TIME] = -sc.initial.age_s
+        qo, qi = flow_rate(m.flow, 0.0)
+        phi0 = qi / (qo + qi) if qo + qi > 0 else 0.0
+        material_row(phi0, -sc.initial.age_s, 0.0, d, m.params, row)
         self.seg_mat[: n_seg + 1] = row
         self.seg_rest[:n_seg] = seg_len
         self.istate[:] = (n_nodes, 0)
@@ -112,10 +120,29 @@ class Simulation:
         n3 = 3 * self.n_nodes
         self.vecs[V_POS0, :n3] = self.pos[:n3]
         self.vecs[V_VEL0, :n3] = self.vel[:n3]
-        _explicit_step(0.0, 0.0, self.n_nodes, self.pos, self.vel, self.node_s, self.seg_rest,
-                       self.seg_mat, m.params, m.enabled, m.flow, m.flow_cum, m.needle,
-                       self.vecs, self.band, self.piv, self.work, self.calls, self.counters,
-                       self.energies, self.info)
+        _explicit_step(
+            0.0,
+            0.0,
+            self.n_nodes,
+            self.pos,
+            self.vel,
+            self.node_s,
+            self.seg_rest,
+            self.seg_mat,
+            m.params,
+            m.enabled,
+            m.flow,
+            m.flow_cum,
+            m.needle,
+            self.vecs,
+            self.band,
+            self.piv,
+            self.work,
+            self.calls,
+            self.counters,
+            self.energies,
+            self.info,
+        )
         if not np.isfinite(self.vel[:n3]).all():
             self.vel[:n3] = 0.0
 
@@ -163,21 +190,100 @@ class Simulation:
     def capacity(self) -> int:
         return self.pos.shape[0] // 3
 
+    @property
+    def clamped(self) -> bool:
+        """True while the filament hangs from the needle; False once released."""
+        return bool(self.model.params[L.P_CLAMPED] > 0.0)
+
+    @property
+    def n_segments(self) -> int:
+        """Filament segments (the ghost segment inside the needle excluded)."""
+        return self.n_nodes - 2 if self.clamped else self.n_nodes - 1
+
     def centerline(self) -> np.ndarray:
         """Filament node positions (m), free end first, needle tip last: shape (n, 3)."""
-        return self.pos[: 3 * (self.n_nodes - 1)].reshape(-1, 3).copy()
+        return self.pos[: 3 * (self.n_segments + 1)].reshape(-1, 3).copy()
 
     def velocities(self) -> np.ndarray:
-        """Node velocities (m/s) of the free nodes and the tip."""
-        return self.vel[: 3 * (self.n_nodes - 1)].reshape(-1, 3).copy()
+        """Node velocities (m/s) along the centreline."""
+        return self.vel[: 3 * (self.n_segments + 1)].reshape(-1, 3).copy()
 
     def material(self) -> np.ndarray:
         """Per-segment material records (columns: :data:`bathprint.layout.MATERIAL_COLUMNS`)."""
-        return self.seg_mat[: self.n_nodes - 2].copy()
+        return self.seg_mat[: self.n_segments].copy()
 
     def rest_lengths(self) -> np.ndarray:
         """Rest length of each filament segment (m)."""
-        return self.seg_rest[: self.n_nodes - 2].copy()
+        return self.seg_rest[: self.n_segments].copy()
+
+    def release(self) -> None:
+        """Cut the filament from the needle: the ghost node goes, every node moves freely."""
+        if not self.clamped:
+            return
+        self.model.params[L.P_CLAMPED] = 0.0
+        ghost = self.n_nodes - 1
+        self.pos[3 * ghost : 3 * ghost + 3] = 0.0
+        self.vel[3 * ghost : 3 * ghost + 3] = 0.0
+        self.seg_rest[ghost - 1 :] = 0.0
+        self.seg_mat[ghost - 1 :] = 0.0
+        self.istate[0] = ghost
+
+    def set_flow(self, q_outer_m3_s: float, q_inner_m3_s: float = 0.0) -> None:
+        """Set the flow rates (m^3/s) from now on (a step change; the API environments use).
+
+        Past knots stay (birth times and inner fractions of the material already out are
+        derived from them); the schedule is held constant after the new knot.
+        """
+        for name, q in (("q_outer_m3_s", q_outer_m3_s), ("q_inner_m3_s", q_inner_m3_s)):
+            if not math.isfinite(q) or q < 0:
+                raise ValueError(f"{name} = {q!r}; allowed: a finite number >= 0")
+        if q_inner_m3_s > 0 and self.model.params[L.P_INCLUSIONS] <= 0:
+            raise ValueError(f"q_inner_m3_s = {q_inner_m3_s!r} > 0 needs the 'inclusions' effect")
+        phi_max = self.scene.inclusions.max_inner_fraction
+        if q_inner_m3_s > phi_max / (1 - phi_max) * q_outer_m3_s + 1e-30:
+            raise ValueError(
+                f"q_inner_m3_s = {q_inner_m3_s!r} is more than the needle allows with "
+                f"q_outer_m3_s = {q_outer_m3_s!r} (inner fraction at most {phi_max:g})"
+            )
+        from bathprint.model import flow_cumulative
+
+        m = self.model
+        t = self.t
+        flow = m.flow
+        keep = flow[:, 0] < t
+        qo_now, qi_now = flow_rate(flow, t)
+        rows = [flow[keep]] if keep.any() else []
+        rows.append(np.array([[t, qo_now, qi_now]]))
+        # a 1 us ramp keeps knot times strictly rising; the flow is the new one after it
+        rows.append(np.array([[t + 1e-6, q_outer_m3_s, q_inner_m3_s]]))
+        new = np.concatenate(rows)
+        if len(new) > 64:  # keep the table short: older knots are summarised in flow_cum
+            new = new[-64:]
+        first = new[0, 0]
+        start = (
+            float(extruded_length(flow, m.flow_cum, m.needle_area, first)),
+            float(inner_volume_at(flow, m.flow_cum, first)),
+        )
+        m.flow = np.ascontiguousarray(new)
+        m.flow_cum = flow_cumulative(m.flow, m.needle_area, start)
+
+    def set_inclusion_offset(self, offset: float) -> None:
+        """Set the inclusions' offset Delta = (r1 - r2) / r, in [-1, 1], from now on."""
+        if not math.isfinite(offset) or abs(offset) > 1:
+            raise ValueError(f"offset = {offset!r}; allowed: a number in [-1, 1]")
+        self.model.params[L.P_INCLUSION_OFFSET] = offset
+
+    def inner_volume(self) -> float:
+        """Inner-fluid volume in the printed filament (m^3), from the segments' records."""
+        mat = self.material()
+        return float(
+            np.sum(
+                self.rest_lengths()
+                * math.pi
+                * mat[:, L.MAT_RADIUS] ** 2
+                * mat[:, L.MAT_INNER_FRACTION]
+            )
+        )
 
     def printed_volume(self) -> float:
         """Volume of gel out of the needle (m^3), from the segments' rest lengths."""
@@ -231,6 +337,13 @@ class Simulation:
         """Integrate to ``t_end`` (s). Raises :class:`SimulationError` on divergence."""
         if not math.isfinite(t_end):
             raise ValueError(f"t_end = {t_end!r} must be finite")
+        release = self.scene.needle.release_s
+        if self.clamped and release > 0.0 and t_end > release:
+            if self.t < release:
+                self.advance(release, max_steps)
+                if self.t < release:
+                    return  # step budget used up before the release
+            self.release()
         m = self.model
         budget = max_steps
         while True:

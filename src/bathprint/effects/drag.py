@@ -16,6 +16,7 @@ from numba import njit
 
 from bathprint.effects._band import add_block
 from bathprint.layout import P_FLOW_X, P_MU_S
+from bathprint.topology import filament_segments, free_nodes
 
 
 @njit(cache=True)
@@ -23,13 +24,14 @@ def accumulate(
     pos, vel, acc, n_nodes, seg_rest, seg_mat, params, t, cx, cv, ca, force, band, work, do_jac
 ) -> float:
     """Add drag forces (and -cv dF/dv - cx dF/dx); return the dissipation rate (W)."""
-    n_free = n_nodes - 2
+    n_free = free_nodes(n_nodes, params)
+    n_seg = filament_segments(n_nodes, params)
     mu_s = params[P_MU_S]
     fx, fy, fz = params[P_FLOW_X], params[P_FLOW_X + 1], params[P_FLOW_X + 2]
     blk_v = work[100:109].reshape((3, 3))
     blk_x = work[110:119].reshape((3, 3))
     power = 0.0
-    for j in range(n_nodes - 2):
+    for j in range(n_seg):
         ex = pos[3 * j + 3] - pos[3 * j]
         ey = pos[3 * j + 4] - pos[3 * j + 1]
         ez = pos[3 * j + 5] - pos[3 * j + 2]

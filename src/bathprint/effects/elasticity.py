@@ -4,7 +4,8 @@ Stretching, per segment j:  E_s = 1/2 (E A / l0) (l - l0)^2.
 Bending, per interior node i (between segments i-1 and i):
     E_b = 1/2 (B / dl) |kb - dl kappa0|^2,  kb = 2 e1 x e2 / (|e1||e2| + e1.e2),
 the discrete curvature binormal of discrete elastic rods (Bergou et al. 2008), with
-B = E pi r^4 / 4 averaged over the two segments, dl their mean rest length and kappa0
+B = f_B E pi r^4 / 4 averaged over the two segments (f_B, f_S: composite factors), dl
+their mean rest length and kappa0
 the natural curvature vector (1/m). Exact gradients and Hessians (no twist, so no
 reference frame is needed); at the needle the ghost segment clamps the tangent.
 """
@@ -17,13 +18,20 @@ import numpy as np
 from numba import njit
 
 from bathprint.effects._band import add_block
-from bathprint.layout import MAT_KAPPA_X, MAT_RADIUS, MAT_YOUNGS_MODULUS
+from bathprint.layout import (
+    MAT_BEND_FACTOR,
+    MAT_KAPPA_X,
+    MAT_RADIUS,
+    MAT_STRETCH_FACTOR,
+    MAT_YOUNGS_MODULUS,
+)
+from bathprint.topology import filament_segments, free_nodes
 
 
 @njit(cache=True, inline="always")
 def _bending_stiffness(seg_mat: np.ndarray, j: int) -> float:
     r = seg_mat[j, MAT_RADIUS]
-    return seg_mat[j, MAT_YOUNGS_MODULUS] * math.pi * r**4 / 4.0
+    return seg_mat[j, MAT_YOUNGS_MODULUS] * seg_mat[j, MAT_BEND_FACTOR] * math.pi * r**4 / 4.0
 
 
 @njit(cache=True, inline="always")
@@ -143,16 +151,16 @@ def accumulate(
     pos, vel, acc, n_nodes, seg_rest, seg_mat, params, t, cx, cv, ca, force, band, work, do_jac
 ) -> float:
     """Add stretching and bending forces (and cx * Hessian); return the elastic energy (J)."""
-    n_free = n_nodes - 2
-    n_fil = n_nodes - 2  # filament segments 0..n_nodes-3; segment n_nodes-2 is the ghost
+    n_free = free_nodes(n_nodes, params)
+    n_seg = filament_segments(n_nodes, params)
     do_jac = do_jac and cx != 0.0  # elasticity has no velocity or acceleration dependence
     energy = 0.0
     blk = work[100:109].reshape((3, 3))
     # --- stretching ---
-    for j in range(n_fil):
+    for j in range(n_seg):
         l0 = seg_rest[j]
         r = seg_mat[j, MAT_RADIUS]
-        ks = seg_mat[j, MAT_YOUNGS_MODULUS] * math.pi * r * r / l0
+        ks = seg_mat[j, MAT_YOUNGS_MODULUS] * seg_mat[j, MAT_STRETCH_FACTOR] * math.pi * r * r / l0
         ex = pos[3 * j + 3] - pos[3 * j]
         ey = pos[3 * j + 4] - pos[3 * j + 1]
         ez = pos[3 * j + 5] - pos[3 * j + 2]
@@ -186,7 +194,7 @@ def accumulate(
     scratch = work[200:300]
     for i in range(1, n_nodes - 1):
         ja = i - 1
-        jb = i if i < n_nodes - 2 else i - 1  # ghost segment carries the inlet's material
+        jb = i if i < n_seg else i - 1  # the ghost segment carries the inlet's material
         dl = 0.5 * (seg_rest[i - 1] + seg_rest[i])
         bend = 0.5 * (_bending_stiffness(seg_mat, ja) + _bending_stiffness(seg_mat, jb))
         k = bend / dl

@@ -21,6 +21,7 @@ from bathprint.layout import (
     P_FRICTION_COEFFICIENT,
     P_FRICTION_VELOCITY,
 )
+from bathprint.topology import filament_segments, free_nodes
 
 
 @njit(cache=True)
@@ -28,7 +29,8 @@ def accumulate(
     pos, vel, acc, n_nodes, seg_rest, seg_mat, params, t, cx, cv, ca, force, band, work, do_jac
 ) -> float:
     """Add contact and friction forces (with Jacobian); return the contact energy (J)."""
-    n_free = n_nodes - 2
+    n_free = free_nodes(n_nodes, params)
+    n_seg = filament_segments(n_nodes, params)
     zf = params[P_FLOOR_Z]
     kf = params[P_FLOOR_STIFFNESS]
     mu_f = params[P_FRICTION_COEFFICIENT]
@@ -36,9 +38,10 @@ def accumulate(
     blk = work[100:109].reshape((3, 3))
     energy = 0.0
     for i in range(n_free):
-        jl = i - 1 if i > 0 else 0
-        r = 0.5 * (seg_mat[jl, MAT_RADIUS] + seg_mat[i, MAT_RADIUS])
-        dl = 0.5 * seg_rest[i] + (0.5 * seg_rest[i - 1] if i > 0 else 0.0)
+        ja = i - 1 if i > 0 else i  # the node's segments (one at either end)
+        jb = i if i < n_seg else i - 1
+        r = 0.5 * (seg_mat[ja, MAT_RADIUS] + seg_mat[jb, MAT_RADIUS])
+        dl = (0.5 * seg_rest[i] if i < n_seg else 0.0) + (0.5 * seg_rest[i - 1] if i > 0 else 0.0)
         p = zf + r - pos[3 * i + 2]
         if p <= 0.0:
             continue

@@ -21,6 +21,7 @@ from bathprint.layout import (
     P_BATH_SURFACE_Z,
     P_GRAVITY,
 )
+from bathprint.topology import filament_segments, free_nodes
 
 
 @njit(cache=True, inline="always")
@@ -36,13 +37,14 @@ def accumulate(
     pos, vel, acc, n_nodes, seg_rest, seg_mat, params, t, cx, cv, ca, force, band, work, do_jac
 ) -> float:
     """Add net weight (and its z-Jacobian); return the gravitational potential energy (J)."""
-    n_free = n_nodes - 2
+    n_free = free_nodes(n_nodes, params)
+    n_seg = filament_segments(n_nodes, params)
     g = params[P_GRAVITY]
     grad = params[P_BATH_DENSITY_GRADIENT]
     rho_top = params[P_BATH_DENSITY_TOP]
     zs = params[P_BATH_SURFACE_Z]
     energy = 0.0
-    for j in range(n_nodes - 2):
+    for j in range(n_seg):
         r = seg_mat[j, MAT_RADIUS]
         half_vol = 0.5 * math.pi * r * r * seg_rest[j]
         rho = seg_mat[j, MAT_DENSITY]

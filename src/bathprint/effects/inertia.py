@@ -15,6 +15,7 @@ from numba import njit
 from bathprint.effects._band import add_block
 from bathprint.effects.gravity import bath_density
 from bathprint.layout import MAT_DENSITY, MAT_RADIUS, P_ADDED_MASS_COEFFICIENT
+from bathprint.topology import filament_segments, free_nodes
 
 
 @njit(cache=True)
@@ -22,11 +23,12 @@ def accumulate(
     pos, vel, acc, n_nodes, seg_rest, seg_mat, params, t, cx, cv, ca, force, band, work, do_jac
 ) -> float:
     """Add -M a (and ca * M); return the kinetic energy 1/2 v.M v (J)."""
-    n_free = n_nodes - 2
+    n_free = free_nodes(n_nodes, params)
+    n_seg = filament_segments(n_nodes, params)
     c_a = params[P_ADDED_MASS_COEFFICIENT]
     blk = work[100:109].reshape((3, 3))
     kinetic = 0.0
-    for j in range(n_nodes - 2):
+    for j in range(n_seg):
         ex = pos[3 * j + 3] - pos[3 * j]
         ey = pos[3 * j + 4] - pos[3 * j + 1]
         ez = pos[3 * j + 5] - pos[3 * j + 2]
