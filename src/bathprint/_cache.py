@@ -1,7 +1,7 @@
 """Keep numba's on-disk cache consistent with the kernel sources.
 
 numba invalidates a cached function only when its own file changes, not when a kernel
-it calls (in another module) does. At import we hash every kernel source file and wipe
+it calls (in another module) does. At import we hash the kernel source files and wipe
 the package's cached machine code when the hash differs from the one stored beside it,
 so an edited or upgraded install never runs stale kernels.
 """
@@ -16,10 +16,14 @@ _STAMP = _PACKAGE / "__pycache__" / "kernel_sources.sha1"
 
 
 def _sources_hash() -> str:
+    """Hash of the kernel sources: modules with numba functions, and the index layout
+    (its constants are compiled into the kernels). Other modules do not invalidate."""
     h = hashlib.sha1()
     for path in sorted(_PACKAGE.rglob("*.py")):
-        h.update(path.relative_to(_PACKAGE).as_posix().encode())
-        h.update(path.read_bytes())
+        text = path.read_bytes()
+        if b"njit" in text or path.name == "layout.py":
+            h.update(path.relative_to(_PACKAGE).as_posix().encode())
+            h.update(text)
     return h.hexdigest()
 
 

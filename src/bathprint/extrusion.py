@@ -388,6 +388,8 @@ def refresh_inlet_material(
     if params[P_CLAMPED] <= 0.0:
         return
     out = n_nodes - 3
+    if node_s[n_nodes - 2] <= max(node_s[out], 0.0):
+        return  # nothing extruded into it yet: it is still initial material
     row = work[40 : 40 + N_MAT]
     segment_material(node_s[out], node_s[n_nodes - 2], t, flow, flow_cum, needle, params, row, work)
     for c in range(N_MAT):

@@ -78,16 +78,38 @@ def load_trajectory(path: str | Path) -> tuple[np.ndarray, list[np.ndarray], np.
         return z["time_s"], frames, z["material"]
 
 
-def integrated_flow_volume(sim: Simulation, t: float) -> float:
-    """int_0^t (Q_o + Q_i) dt (m^3) by the trapezoid rule on a fine grid through the knots.
+def _gelation_summary(sim: Simulation, v: float) -> dict[str, Any] | None:
+    """The paper's scaled gelation rate k d / v, and the modulus range along the filament."""
+    if "gelation" not in sim.scene.effects:
+        return None
+    k = sim.scene.gelation.rate_1_s
+    d = sim.scene.needle.inner_diameter_mm * 1e-3
+    e = sim.material()[:, L.MAT_YOUNGS_MODULUS]
+    return {
+        "rate_1_s": k,
+        "scaled_rate_kd_over_v": k * d / v if v > 0 else None,
+        "modulus_min_pa": float(e.min()),
+        "modulus_max_pa": float(e.max()),
+    }
+
+
+def integrated_flow_volume(sim: Simulation, t: float, inner_only: bool = False) -> float:
+    """int_0^t (Q_o + Q_i) dt (or Q_i alone) (m^3), trapezoid rule on a fine grid through the
+    knots.
 
     Independent of the simulator's own bookkeeping; exact for piecewise-linear schedules.
     """
-    flow = sim.model.flow
-    knots = flow[:, 0][(flow[:, 0] > 0) & (flow[:, 0] < t)]
-    grid = np.unique(np.concatenate([np.linspace(0.0, t, 2001), knots]))
-    q = np.interp(grid, flow[:, 0], flow[:, 1] + flow[:, 2])
-    return float(np.sum(0.5 * (q[1:] + q[:-1]) * np.diff(grid)))
+    m = sim.model
+    flow = m.flow
+    t0 = max(0.0, float(flow[0, 0]))
+    # history before the table's first knot (trimmed by set_flow) is carried in flow_cum
+    before = 0.0
+    if flow[0, 0] > 0.0 and len(m.flow_cum):
+        before = float(m.flow_cum[0, 1] if inner_only else m.flow_cum[0, 0] * m.needle_area)
+    knots = flow[:, 0][(flow[:, 0] > t0) & (flow[:, 0] < t)]
+    grid = np.unique(np.concatenate([np.linspace(t0, t, 2001), knots]))
+    q = np.interp(grid, flow[:, 0], flow[:, 2] if inner_only else flow[:, 1] + flow[:, 2])
+    return before + float(np.sum(0.5 * (q[1:] + q[:-1]) * np.diff(grid)))
 
 
 def summarize(sim: Simulation, wall_s: float) -> dict[str, Any]:
@@ -112,7 +134,10 @@ def summarize(sim: Simulation, wall_s: float) -> dict[str, Any]:
             "printed_volume_ml": printed * 1e6,
             "expected_volume_ml": expected * 1e6,
             "relative_error": (printed - expected) / expected if expected > 0 else 0.0,
+            "inner_volume_ml": sim.inner_volume() * 1e6,
+            "expected_inner_volume_ml": integrated_flow_volume(sim, sim.t, inner_only=True) * 1e6,
         },
+        "gelation": _gelation_summary(sim, v),
         "effects": list(sim.scene.effects),
         "effect_calls": sim.effect_calls(),
         "exit_speed_m_s": v,

@@ -40,7 +40,9 @@ class Bath:
     """The CaCl2 bath: viscosity, density (optionally a linear gradient with depth)."""
 
     viscosity_pa_s: float = _num(1e-3, 1e-5, 1e2, lo_open=True, doc="dynamic viscosity mu")
-    density_kg_m3: float = _num(1051.0, 500.0, 3000.0, doc="density at the free surface")
+    density_kg_m3: float = _num(
+        1051.0, 0.5, 3000.0, doc="density at the free surface (air, ~1.2, for lab tests)"
+    )
     density_bottom_kg_m3: float = _num(
         0.0, 0.0, 3000.0, doc="density at the floor; 0 means uniform (no gradient)"
     )

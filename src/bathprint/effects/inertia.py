@@ -37,7 +37,7 @@ def accumulate(
         r = seg_mat[j, MAT_RADIUS]
         half_vol = 0.5 * math.pi * r * r * seg_rest[j]
         rho = seg_mat[j, MAT_DENSITY]
-        rho_b = bath_density(params, 0.5 * (pos[3 * j + 2] + pos[3 * j + 5]))
+        rho_b, _ = bath_density(params, 0.5 * (pos[3 * j + 2] + pos[3 * j + 5]), r)
         for a in range(3):
             for b in range(3):
                 eye = 1.0 if a == b else 0.0

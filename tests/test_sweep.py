@@ -1,0 +1,262 @@
+"""Parameter sweeps: grid, run ids, results file, resume, failures, backends, CLI parsing."""
+
+from __future__ import annotations
+
+import csv
+import json
+
+import numpy as np
+import pytest
+
+from bathprint import sweep
+from bathprint.sweep import (
+    expand_grid,
+    latest_rows,
+    parse_grid_arg,
+    read_results,
+    rows_to_csv,
+    run_id,
+    run_sweep,
+)
+
+SCENE = "drag_coiling_22G"
+TINY = {"duration_s": 0.05, "outputs.plot": False}
+
+
+def _lines(path) -> list[bytes]:
+    return path.read_bytes().splitlines(keepends=True)
+
+
+def _check_ok_row(row: dict) -> None:
+    assert row["status"] == "ok" and row["error"] is None
+    assert row["scene"] == SCENE
+    assert row["wall_time_s"] > 0
+    res = row["result"]
+    assert res["steps"] > 0 and res["rejected_steps"] >= 0
+    assert res["wall_time_s"] > 0 and res["final_length_m"] > 0
+
+
+def test_expand_grid_order_and_run_id_stability() -> None:
+    grid = expand_grid({"a": [1, 2], "b.c": ["x", "y", "z"], "d": 0.5})
+    assert grid == [
+        {"a": a, "b.c": c, "d": 0.5} for a in (1, 2) for c in ("x", "y", "z")
+    ]  # first key slowest
+    assert expand_grid({}) == [{}]
+    arr = expand_grid({"a": np.array([0.5, 1.0]), "b": range(2)})
+    assert arr == [{"a": 0.5, "b": 0}, {"a": 0.5, "b": 1}, {"a": 1.0, "b": 0}, {"a": 1.0, "b": 1}]
+    assert type(arr[0]["a"]) is float
+    assert expand_grid([{"a": 1}, {"a": 2, "b": [1, 0]}]) == [{"a": 1}, {"a": 2, "b": [1, 0]}]
+    with pytest.raises(ValueError):
+        expand_grid({"a": []})
+
+    rid = run_id(SCENE, {"flow.q_outer_ml_min": 1.0, "duration_s": 0.1, "v": [1, 0]})
+    assert rid == run_id(SCENE, {"v": [1, 0], "duration_s": 0.1, "flow.q_outer_ml_min": 1.0})
+    assert rid == run_id(SCENE, {"v": (1, 0), "duration_s": 0.1, "flow.q_outer_ml_min": 1.0})
+    assert len(rid) == 16 and int(rid, 16) >= 0
+    assert rid != run_id(
+        "rope_coiling_18G", {"v": [1, 0], "duration_s": 0.1, "flow.q_outer_ml_min": 1.0}
+    )
+    assert rid != run_id(SCENE, {"v": [1, 0], "duration_s": 0.1, "flow.q_outer_ml_min": 2.0})
+
+
+def test_parse_grid_arg_values() -> None:
+    assert parse_grid_arg("flow.q_outer_ml_min=0.5,1,2e-1") == (
+        "flow.q_outer_ml_min",
+        [0.5, 1, 0.2],
+    )
+    assert parse_grid_arg("bath.fluid=water, glycerol") == ("bath.fluid", ["water", "glycerol"])
+    assert parse_grid_arg('name="a,b","c"') == ("name", ["a,b", "c"])
+    assert parse_grid_arg("outputs.plot=true,false") == ("outputs.plot", [True, False])
+    lists = ("needle.direction", [[1, 0, 0], [0, 1, 0]])
+    assert parse_grid_arg("needle.direction=[1,0,0];[0,1,0]") == lists
+    assert parse_grid_arg("needle.direction=[1,0,0],[0,1,0]") == lists
+    assert parse_grid_arg("needle.direction=[1,0,0]") == ("needle.direction", [[1, 0, 0]])
+    for bad in ("novalue", "=1,2", "a=1,,2"):
+        with pytest.raises(sweep.SceneError):
+            parse_grid_arg(bad)
+
+
+def test_main_parses_grid_and_set(tmp_path, monkeypatch, capsys) -> None:
+    seen = {}
+
+    def fake_run_sweep(scene, grid, results_path, **kw):
+        seen.update(scene=scene, grid=grid, path=results_path, **kw)
+        return [
+            {"run_id": run_id(scene, {**kw["base_overrides"], **p}), "status": "ok", "overrides": p}
+            for p in expand_grid(grid)
+        ]
+
+    monkeypatch.setattr(sweep, "run_sweep", fake_run_sweep)
+    out = tmp_path / "r.jsonl"
+    code = sweep.main(
+        [
+            SCENE,
+            "--grid",
+            "flow.q_outer_ml_min=0.5,1.5",
+            "--grid",
+            "needle.direction=[0,0,-1];[1,0,-1]",
+            "--grid",
+            "bath.name=a,'b c'",
+            "--set",
+            "duration_s=0.1",
+            "--set",
+            "outputs.plot=false",
+            "--out",
+            str(out),
+            "--workers",
+            "3",
+            "--scheduler",
+            "local-dask",
+            "--no-progress",
+        ]
+    )
+    assert code == 0
+    assert seen["scene"] == SCENE and str(seen["path"]) == str(out)
+    assert seen["grid"] == {
+        "flow.q_outer_ml_min": [0.5, 1.5],
+        "needle.direction": [[0, 0, -1], [1, 0, -1]],
+        "bath.name": ["a", "b c"],
+    }
+    assert seen["base_overrides"] == {"duration_s": 0.1, "outputs.plot": False}
+    assert seen["workers"] == 3 and seen["scheduler"] == "local-dask"
+    assert seen["progress"] is False and seen["retry_failed"] is False
+    assert "8 points" in capsys.readouterr().out
+    assert sweep.main([SCENE, "--grid", "a=1", "--grid", "a=2", "--out", str(out)]) == 2
+
+
+def test_sweep_writes_one_ok_row_per_point_and_csv(tmp_path) -> None:
+    out = tmp_path / "sub" / "results.jsonl"
+    grid = {"flow.q_outer_ml_min": [0.5, 1.0]}
+    rows = run_sweep(SCENE, grid, out, workers=2, progress=False, base_overrides=TINY)
+    on_disk = read_results(out)
+    assert len(on_disk) == 2 and len(_lines(out)) == 2
+    assert {r["run_id"] for r in rows} == {r["run_id"] for r in on_disk}
+    assert [r["overrides"]["flow.q_outer_ml_min"] for r in rows] == [0.5, 1.0]  # grid order
+    for row in on_disk:
+        _check_ok_row(row)
+        assert row["overrides"] == {
+            **TINY,
+            "flow.q_outer_ml_min": row["overrides"]["flow.q_outer_ml_min"],
+        }
+        assert row["run_id"] == run_id(SCENE, row["overrides"])
+    by_q = {r["overrides"]["flow.q_outer_ml_min"]: r["result"] for r in on_disk}
+    assert by_q[1.0]["final_length_m"] > by_q[0.5]["final_length_m"]  # twice the flow
+
+    assert rows_to_csv(out, tmp_path / "results.csv") == 2
+    with open(tmp_path / "results.csv", newline="") as f:
+        table = list(csv.DictReader(f))
+    assert {t["overrides.flow.q_outer_ml_min"] for t in table} == {"0.5", "1.0"}
+    assert all(t["status"] == "ok" and int(t["result.steps"]) > 0 for t in table)
+    assert table[0]["overrides.outputs.plot"] == "false"
+
+
+def test_failing_run_is_recorded_and_the_sweep_goes_on(tmp_path) -> None:
+    out = tmp_path / "results.jsonl"
+    grid = [{"flow.q_outer_ml_min": -1}, {"flow.q_outer_ml_min": 0.5}, {"flow.q_outer_ml_min": 0.7}]
+    rows = run_sweep(SCENE, grid, out, workers=2, progress=False, base_overrides=TINY)
+    assert [r["status"] for r in rows] == ["failed", "ok", "ok"]
+    assert len(read_results(out)) == 3
+    failed = rows[0]
+    assert failed["error"]["type"] == "SceneError"
+    assert "flow.q_outer_ml_min" in failed["error"]["message"] and failed["result"] is None
+    # failed points are recorded, not retried ...
+    assert run_sweep(SCENE, grid, out, workers=2, progress=False, base_overrides=TINY) == rows
+    assert len(_lines(out)) == 3
+    # ... unless asked to: the retry appends a row for that run_id (still failing here)
+    again = run_sweep(
+        SCENE, grid, out, workers=2, progress=False, base_overrides=TINY, retry_failed=True
+    )
+    assert len(_lines(out)) == 4 and again[0]["run_id"] == failed["run_id"]
+    assert len(latest_rows(read_results(out))) == 3
+
+
+def test_resume_skips_recorded_points_and_reruns_a_truncated_one(tmp_path) -> None:
+    out = tmp_path / "results.jsonl"
+    qs = [0.4, 0.5, 0.6, 0.7]
+    grid = {"flow.q_outer_ml_min": qs}
+    ids = [run_id(SCENE, {**TINY, "flow.q_outer_ml_min": q}) for q in qs]
+
+    def fake_row(k: int, status: str) -> bytes:
+        row = {
+            "run_id": ids[k],
+            "scene": SCENE,
+            "overrides": {**TINY, "flow.q_outer_ml_min": qs[k]},
+            "status": status,
+            "error": None,
+            "wall_time_s": 1.0,
+            "result": {"marker": "pre-written"},
+        }
+        return (json.dumps(row) + "\n").encode()
+
+    pre = [fake_row(0, "ok"), fake_row(1, "failed")]
+    truncated = fake_row(2, "ok")[:57]  # a crash in the middle of writing point 2
+    out.write_bytes(b"".join(pre) + truncated)
+
+    with pytest.warns(RuntimeWarning, match="truncated"):
+        rows = run_sweep(SCENE, grid, out, workers=2, progress=False, base_overrides=TINY)
+    lines = _lines(out)
+    assert lines[:2] == pre  # byte-identical: recorded points were not rerun or rewritten
+    assert len(lines) == 4 and all(line.endswith(b"\n") for line in lines)
+    on_disk = read_results(out)
+    assert sorted(r["run_id"] for r in on_disk) == sorted(ids)  # none lost, none repeated
+    assert [r["run_id"] for r in rows] == ids
+    assert [r["result"].get("marker") for r in rows[:1]] == ["pre-written"]
+    for row in on_disk[2:]:
+        _check_ok_row(row)
+        assert "marker" not in row["result"]
+
+    # a complete sweep has nothing left to run
+    assert run_sweep(SCENE, grid, out, workers=2, progress=False, base_overrides=TINY) == rows
+    assert _lines(out) == lines
+
+
+def test_ctrl_c_keeps_written_rows_and_resume_completes(tmp_path) -> None:
+    out = tmp_path / "results.jsonl"
+    grid = {"flow.q_outer_ml_min": [0.4, 0.5, 0.6]}
+    calls = []
+
+    def interrupting_extract(summary):
+        calls.append(1)
+        if len(calls) == 2:
+            raise KeyboardInterrupt
+        return sweep.default_extract(summary)
+
+    with pytest.raises(KeyboardInterrupt):
+        run_sweep(
+            SCENE,
+            grid,
+            out,
+            workers=2,
+            progress=False,
+            base_overrides=TINY,
+            extract=interrupting_extract,
+        )
+    assert len(read_results(out)) == 1
+    rows = run_sweep(SCENE, grid, out, workers=2, progress=False, base_overrides=TINY)
+    assert len(read_results(out)) == 3 and all(r["status"] == "ok" for r in rows)
+
+
+def test_one_writer_per_results_file(tmp_path) -> None:
+    out = tmp_path / "results.jsonl"
+    first = sweep._ResultsFile(out)
+    try:
+        with pytest.raises(RuntimeError, match="another sweep"):
+            sweep._ResultsFile(out)
+    finally:
+        first.close()
+    (tmp_path / "scene.toml").write_text('name = "x"\nduration_s = 1.0\n')
+    with pytest.raises(ValueError, match="not a bathprint sweep results file"):
+        run_sweep(SCENE, {}, tmp_path / "scene.toml", progress=False)
+
+
+def test_local_dask_sweep_writes_rows(tmp_path) -> None:
+    pytest.importorskip("distributed")
+    out = tmp_path / "results.jsonl"
+    grid = {"flow.q_outer_ml_min": [0.5, 1.0]}
+    rows = run_sweep(
+        SCENE, grid, out, scheduler="local-dask", workers=2, progress=False, base_overrides=TINY
+    )
+    on_disk = read_results(out)
+    assert len(on_disk) == 2 and {r["run_id"] for r in on_disk} == {r["run_id"] for r in rows}
+    for row in on_disk:
+        _check_ok_row(row)
