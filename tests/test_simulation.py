@@ -184,18 +184,26 @@ def test_moving_needle_is_followed_by_the_clamp() -> None:
 def test_implicit_agrees_with_the_explicit_reference() -> None:
     # a bent cantilever relaxing under its weight: the explicit integrator at half its
     # stability limit is the reference; implicit SDIRK2 and backward Euler must match it
-    over = {**CANTILEVER, "initial.perturbation_mm": 1.0, "numerics.node_spacing_mm": 1.0,
-            "duration_s": 0.002}
+    over = {
+        **CANTILEVER,
+        "initial.perturbation_mm": 1.0,
+        "numerics.node_spacing_mm": 1.0,
+        "duration_s": 0.002,
+    }
     probe = Simulation("paper_simulation", over)
     h_explicit = explicit_step_limit(probe)
-    ref = Simulation("paper_simulation", {**over, "numerics.integrator": "explicit",
-                                           "numerics.time_step_s": 0.5 * h_explicit})
+    ref = Simulation(
+        "paper_simulation",
+        {**over, "numerics.integrator": "explicit", "numerics.time_step_s": 0.5 * h_explicit},
+    )
     ref.advance(0.002)
     travel = np.abs(ref.centerline() - probe.centerline()).max()
     # (tolerance, how many times fewer steps than the explicit reference at least)
     for integrator, tol, fewer in (("implicit", 1e-6, 100), ("implicit_euler", 1e-7, 20)):
-        sim = Simulation("paper_simulation", {**over, "numerics.integrator": integrator,
-                                               "numerics.tolerance": tol})
+        sim = Simulation(
+            "paper_simulation",
+            {**over, "numerics.integrator": integrator, "numerics.tolerance": tol},
+        )
         sim.advance(0.002)
         diff = np.abs(sim.centerline() - ref.centerline()).max()
         assert diff < 2e-3 * travel, (integrator, diff, travel)
