@@ -60,6 +60,26 @@ def _cmd_validate(args: argparse.Namespace) -> int:
     return 0 if all(c.passed for c in checks) else 1
 
 
+def _cmd_composites(args: argparse.Namespace) -> int:
+    from bathprint.reproduce import fig3
+
+    res = fig3.run(args.out, quick=args.quick)
+    print(f"{'flow ratio':>10} {'phi':>6} {'E_c/E_alg':>10} {'rho_c (kg/m^3)':>15}")
+    for r in res["composites"]:
+        print(
+            f"{r['flow_ratio']:>10.3f} {r['inner_volume_fraction']:>6.3f} "
+            f"{r['E_c_over_E_alg']:>10.4f} {r['density_kg_m3']:>15.1f}"
+        )
+    print("settling in the gradient column (height in mm, surface at 0):")
+    for r in res["settling"]:
+        print(
+            f"  filament {r['filament']} ({r['density_kg_m3']:.0f} kg/m^3): simulated "
+            f"{1e3 * r['settled_height_m']:8.3f}, expected {1e3 * r['expected_height_m']:8.3f}"
+        )
+    print(f"wrote {args.out}/fig3df_composites.png/.csv, fig3e_settling.png/.csv")
+    return 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(
         prog="bathprint",
@@ -91,10 +111,28 @@ def build_parser() -> argparse.ArgumentParser:
     sh.set_defaults(func=_cmd_show)
     v = sub.add_parser("validate", help="run the analytic checks and print the table")
     v.set_defaults(func=_cmd_validate)
+    sub.add_parser("theory", help="scaling laws and linear stability: bathprint theory [--json]")
+    from bathprint import sweep
+
+    sw = sub.add_parser("sweep", help="run a grid of scenes; resumable; process pool or Dask")
+    sweep.add_arguments(sw)
+    sw.set_defaults(func=sweep.run_args)
+    co = sub.add_parser(
+        "composites",
+        help="Fig. 3 curves: composite stiffness, density, settling in the gradient column",
+    )
+    co.add_argument("--out", default="runs/fig3")
+    co.add_argument("--quick", action="store_true")
+    co.set_defaults(func=_cmd_composites)
     return p
 
 
 def main(argv: list[str] | None = None) -> int:
+    argv = sys.argv[1:] if argv is None else argv
+    if argv[:1] == ["theory"]:  # the theory module parses its own options
+        from bathprint import theory
+
+        return theory.main(argv[1:])
     args = build_parser().parse_args(argv)
     try:
         return int(args.func(args))

@@ -11,7 +11,8 @@ Rules (each stated with its source; SI units):
   the viscosity ratio, Tomotika 1935, shifts it by tens of percent and is neglected).
   Droplet volume pi r_i^2 lambda gives the equivalent diameter n = (6 r_i^2 lambda)^(1/3)
   = 3.78 r_i and the spacing m = lambda. When n exceeds ``slug_fraction`` x 2r the drops
-  cannot fit: the inner fluid runs as slugs (a fluid core of radius r_i).
+  cannot fit: the inner fluid runs as slugs (a fluid core of radius r_i); between
+  (slug_fraction - 0.2) x 2r and that, the two estimates below are blended linearly.
 - **Stiffness.** Drops (n small): Mori-Tanaka estimate (Mori & Tanaka 1973; Benveniste 1987)
   for incompressible inclusions with no shear stiffness in an incompressible matrix,
   E_c / E_m = (1 - phi) / (1 + 2 phi / 3), for bending and stretching alike. Liquid drops
@@ -79,10 +80,13 @@ def stiffness_factors(phi: float, slug_fraction: float) -> tuple[float, float, f
     ri = math.sqrt(phi)  # in units of r
     n = DROP_DIAMETER * ri
     m = RAYLEIGH_WAVELENGTH * ri
-    if n <= 2.0 * slug_fraction:
-        f = (1.0 - phi) / (1.0 + 2.0 * phi / 3.0)
-        return f, f, n, m
-    return 1.0 - phi * phi, 1.0 - phi, n, m
+    f_mt = (1.0 - phi) / (1.0 + 2.0 * phi / 3.0)
+    # drops elongate into slugs as they approach the tube's width: blend linearly over
+    # n / 2r in [slug_fraction - 0.2, slug_fraction] so the properties stay continuous
+    w = min(max((0.5 * n - (slug_fraction - 0.2)) / 0.2, 0.0), 1.0)
+    bend = (1.0 - w) * f_mt + w * (1.0 - phi * phi)
+    stretch = (1.0 - w) * f_mt + w * (1.0 - phi)
+    return bend, stretch, n, m
 
 
 def composite_properties(
@@ -104,6 +108,6 @@ def composite_properties(
         "stretch_stiffness_factor": stretch,
         "inclusion_size_m": n * radius,
         "inclusion_spacing_m": m * radius,
-        "slugs": bool(n > 2.0 * slug_fraction),
+        "slugs": bool(n > 2.0 * slug_fraction),  # fully slugs (blended just below)
         "natural_curvature_1_m": curvature_coefficient * offset * phi / radius,
     }

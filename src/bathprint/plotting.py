@@ -14,6 +14,8 @@ from mpl_toolkits.mplot3d.art3d import Line3DCollection  # noqa: E402
 
 from bathprint.layout import MAT_BIRTH_TIME  # noqa: E402
 
+__all__ = ["plot_filament", "plt"]
+
 
 def plot_filament(
     centerline_m: np.ndarray,

@@ -1,0 +1,1 @@
+"""Reproductions of the paper's figures from the simulator (PNG + CSV each)."""
