@@ -110,3 +110,17 @@ def test_toml_file_scene(tmp_path) -> None:
 def test_scene_round_trips_through_a_dict() -> None:
     s = load_scene("drag_coiling_22G")
     assert load_scene(s.to_dict()) == s
+
+
+def test_accuracy_presets_set_tolerance_growth_and_resolution() -> None:
+    from bathprint.model import compile_model, effective_numerics
+
+    base = load_scene("drag_coiling_22G")
+    draft = load_scene("drag_coiling_22G", {"numerics.accuracy": "draft"})
+    fine = load_scene("drag_coiling_22G", {"numerics.accuracy": "fine"})
+    assert effective_numerics(base)["tolerance"] == base.numerics.tolerance  # custom: raw keys
+    assert effective_numerics(draft)["tolerance"] > effective_numerics(fine)["tolerance"]
+    assert effective_numerics(draft)["node_spacing_mm"] == 2 * base.numerics.node_spacing_mm
+    assert compile_model(fine).node_spacing == pytest.approx(0.5e-3 * base.numerics.node_spacing_mm)
+    with pytest.raises(SceneError, match="numerics.accuracy"):
+        load_scene("drag_coiling_22G", {"numerics.accuracy": "perfect"})

@@ -15,6 +15,8 @@ def _cmd_simulate(args: argparse.Namespace) -> int:
     from bathprint.scene import parse_override
 
     overrides = dict(parse_override(s) for s in args.set or [])
+    if args.accuracy:
+        overrides["numerics.accuracy"] = args.accuracy
     out = Path(args.out or f"runs/{Path(args.scene).stem}")
     result = simulate(args.scene, overrides, out_dir=out, progress=not args.quiet)
     s = result.summary
@@ -102,6 +104,11 @@ def build_parser() -> argparse.ArgumentParser:
     )
     s.add_argument("--out", help="output directory (default runs/SCENE)")
     s.add_argument("--quiet", action="store_true", help="no progress bar")
+    s.add_argument(
+        "--accuracy",
+        choices=("draft", "balanced", "fine", "custom"),
+        help="accuracy preset (same as --set numerics.accuracy=...)",
+    )
     s.set_defaults(func=_cmd_simulate)
     sc = sub.add_parser("scenes", help="list the built-in scenes")
     sc.set_defaults(func=_cmd_scenes)
@@ -117,6 +124,11 @@ def build_parser() -> argparse.ArgumentParser:
     sw = sub.add_parser("sweep", help="run a grid of scenes; resumable; process pool or Dask")
     sweep.add_arguments(sw)
     sw.set_defaults(func=sweep.run_args)
+    from bathprint.reproduce import cli as reproduce_cli
+
+    rp = sub.add_parser("reproduce", help="the paper's figures: fig1c|fig2|fig3|stability|all")
+    reproduce_cli.add_arguments(rp)
+    rp.set_defaults(func=reproduce_cli.run_args)
     co = sub.add_parser(
         "composites",
         help="Fig. 3 curves: composite stiffness, density, settling in the gradient column",

@@ -15,7 +15,7 @@ import numpy as np
 from bathprint import layout as L
 from bathprint.composite import INNER_FLUIDS
 from bathprint.errors import SceneError
-from bathprint.scene import Scene, flow_rows
+from bathprint.scene import ACCURACY_PRESETS, Scene, flow_rows
 
 ML_MIN = 1e-6 / 60.0  # m^3/s per ml/min
 MM = 1e-3  # m per mm
@@ -109,6 +109,23 @@ def _needle_table(scene: Scene) -> np.ndarray:
     return table
 
 
+def effective_numerics(scene: Scene) -> dict[str, float]:
+    """Tolerance, inlet growth and node spacing after the accuracy preset (if any)."""
+    n = scene.numerics
+    if n.accuracy == "custom":
+        return {
+            "tolerance": n.tolerance,
+            "max_inlet_growth": n.max_inlet_growth,
+            "node_spacing_mm": n.node_spacing_mm,
+        }
+    tol, growth, factor = ACCURACY_PRESETS[n.accuracy]
+    return {
+        "tolerance": tol,
+        "max_inlet_growth": growth,
+        "node_spacing_mm": n.node_spacing_mm * factor,
+    }
+
+
 def compile_model(scene: Scene) -> Model:
     """Turn a validated scene into the arrays of a :class:`Model`."""
     p = np.zeros(L.N_PARAMS)
@@ -129,18 +146,19 @@ def compile_model(scene: Scene) -> Model:
     p[L.P_FRICTION_VELOCITY] = scene.floor.friction_velocity_mm_s * MM
     p[L.P_ADDED_MASS_COEFFICIENT] = scene.inertia.added_mass_coefficient
     p[L.P_END_LOAD_X : L.P_END_LOAD_X + 3] = scene.end_load.force_n
-    p[L.P_NODE_SPACING] = scene.numerics.node_spacing_mm * MM
+    num = effective_numerics(scene)
+    p[L.P_NODE_SPACING] = num["node_spacing_mm"] * MM
     p[L.P_NEEDLE_AREA] = area
     p[L.P_EXIT_YOUNGS_MODULUS] = scene.material.youngs_modulus_pa
     p[L.P_EXIT_RADIUS] = radius
     p[L.P_EXIT_DENSITY] = scene.material.density_kg_m3
-    p[L.P_TOLERANCE] = scene.numerics.tolerance
+    p[L.P_TOLERANCE] = num["tolerance"]
     p[L.P_FIXED_STEP] = scene.numerics.time_step_s
     p[L.P_MIN_STEP] = scene.numerics.min_step_s
     p[L.P_MAX_STEP] = scene.numerics.max_step_s
     p[L.P_STRETCH_LIMIT] = scene.numerics.stretch_limit
     p[L.P_MAX_STRAIN_CHANGE] = scene.numerics.max_strain_change
-    p[L.P_MAX_INLET_GROWTH] = scene.numerics.max_inlet_growth
+    p[L.P_MAX_INLET_GROWTH] = num["max_inlet_growth"]
     p[L.P_CLAMPED] = 1.0
     gel = scene.gelation
     if "gelation" in scene.effects and gel.final_modulus_pa < gel.initial_modulus_pa:

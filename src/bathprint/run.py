@@ -22,7 +22,7 @@ import numpy as np
 
 from bathprint import layout as L
 from bathprint.extrusion import extruded_length
-from bathprint.model import ML_MIN
+from bathprint.model import ML_MIN, effective_numerics
 from bathprint.scene import Scene
 from bathprint.simulation import Simulation
 
@@ -139,6 +139,11 @@ def summarize(sim: Simulation, wall_s: float) -> dict[str, Any]:
         },
         "gelation": _gelation_summary(sim, v),
         "effects": list(sim.scene.effects),
+        "numerics": {
+            "accuracy": sim.scene.numerics.accuracy,
+            "integrator": sim.scene.numerics.integrator,
+            **effective_numerics(sim.scene),
+        },
         "effect_calls": sim.effect_calls(),
         "exit_speed_m_s": v,
         "slender_body_coefficient_pa_s": m.mu_s,
@@ -147,6 +152,23 @@ def summarize(sim: Simulation, wall_s: float) -> dict[str, Any]:
         "q_outer_ml_min_at_end": float(np.interp(sim.t, m.flow[:, 0], m.flow[:, 1]) / ML_MIN),
         "measurements": {},
     }
+
+
+def measure_run(sim: Simulation, frames: list[np.ndarray], times: np.ndarray) -> dict[str, Any]:
+    """The Fig. 2 measurements of a run (:mod:`bathprint.measure`), for summary.json."""
+    from bathprint.measure import measure_all
+
+    needle = sim.model.needle
+    z_floor = float(sim.model.params[L.P_FLOOR_Z]) if "floor" in sim.scene.effects else None
+    return measure_all(
+        frames,
+        times,
+        needle[0, 1:4].copy(),
+        needle[0, 4:7].copy(),
+        sim.model.node_spacing,
+        sim.model.radius,
+        z_floor=z_floor,
+    )
 
 
 def _node_steps(sim: Simulation) -> float:
@@ -189,6 +211,7 @@ def simulate(
     wall = time.perf_counter() - wall0
     sim._node_steps = node_steps
     summary = summarize(sim, wall)
+    summary["measurements"] = measure_run(sim, frames, np.array(t_out))
     result = Result(sc, np.array(t_out), frames, sim.material(), summary)
     if out_dir is not None:
         result.save(out_dir, plot=sc.outputs.plot)

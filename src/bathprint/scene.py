@@ -25,6 +25,14 @@ from bathprint.composite import INNER_FLUIDS
 from bathprint.errors import SceneError
 from bathprint.layout import EFFECT_NAMES, INTEGRATOR_NAMES
 
+# accuracy presets: (tolerance, max_inlet_growth, node spacing factor); "custom" uses the
+# raw numerics keys as given. Measured error and cost of each: README, "Accuracy".
+ACCURACY_PRESETS: dict[str, tuple[float, float, float]] = {
+    "draft": (1e-2, 2.0, 2.0),
+    "balanced": (1e-3, 0.5, 1.0),
+    "fine": (1e-5, 0.25, 0.5),
+}
+
 
 def _num(default: float, lo: float, hi: float, *, lo_open: bool = False, doc: str = "") -> Any:
     """A float field with its allowed range [lo, hi] (or (lo, hi] when lo_open)."""
@@ -171,6 +179,13 @@ class Initial:
 class Numerics:
     """Resolution and time stepping."""
 
+    accuracy: str = field(
+        default="custom",
+        metadata={
+            "choices": ("custom", *ACCURACY_PRESETS),
+            "doc": "a preset sets tolerance, inlet growth and scales the node spacing",
+        },
+    )
     node_spacing_mm: float = _num(0.5, 1e-3, 100.0, lo_open=True, doc="segment rest length")
     integrator: str = field(default="implicit", metadata={"choices": INTEGRATOR_NAMES})
     tolerance: float = _num(1e-3, 1e-10, 1.0, lo_open=True, doc="local error / node spacing")

@@ -137,25 +137,40 @@ def column_growth_rate(load_ratio: float, n_segments: int = 40) -> float:
     return _lateral_growth_rate(sim, 1.0)
 
 
-def extruded_rod_growth_rate(beta: float, n_segments: int = 40) -> float:
-    """Growth rate (1/s) of a perturbation of the extruded rod at beta = mu_s v L^3 / B."""
-    length_mm = 10.0
+def extruded_rod_growth_rate_for(
+    beta: float,
+    youngs_modulus_pa: float = 5e4,
+    diameter_mm: float = 1.0,
+    n_segments: int = 40,
+    length_mm: float = 10.0,
+) -> tuple[float, float, float]:
+    """(growth rate 1/s, its scale B / (mu_s L^4) in 1/s, speed v m/s) of a perturbation of
+    the extruded rod at beta = mu_s v L^3 / B, for a given modulus and diameter."""
     overrides: dict[str, Any] = {
         **CANTILEVER,
         "effects": ["elasticity", "drag"],
         "drag.model": "constant",
         "needle.direction": [0.0, 0.0, -1.0],
+        "needle.inner_diameter_mm": diameter_mm,
+        "material.youngs_modulus_pa": youngs_modulus_pa,
         "initial.length_mm": length_mm,
-        "initial.perturbation_mm": 1e-4,
+        "initial.perturbation_mm": 1e-5 * length_mm,
         "numerics.node_spacing_mm": length_mm / n_segments,
         "numerics.tolerance": 1e-6,
-        "duration_s": 1.0,
+        "duration_s": 1e3,
     }
     sim = Simulation("paper_simulation", overrides)
     m = sim.model
-    v = beta * m.bending_stiffness / (m.mu_s * (length_mm * 1e-3) ** 3)
+    length = length_mm * 1e-3
+    scale = m.bending_stiffness / (m.mu_s * length**4)
+    v = beta * m.bending_stiffness / (m.mu_s * length**3)
     m.params[5:8] = (0.0, 0.0, v)  # P_FLOW_X..Z: from the free end toward the needle
-    return _lateral_growth_rate(sim, 0.4)
+    return _lateral_growth_rate(sim, 10.0 / scale), scale, v
+
+
+def extruded_rod_growth_rate(beta: float, n_segments: int = 40) -> float:
+    """Growth rate (1/s) of a perturbation of the extruded rod at beta = mu_s v L^3 / B."""
+    return extruded_rod_growth_rate_for(beta, n_segments=n_segments)[0]
 
 
 def onset_beta(lo: float = 3.0, hi: float = 4.0, n_segments: int = 40) -> float:
