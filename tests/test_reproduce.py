@@ -11,7 +11,7 @@ from bathprint.theory import beta_critical
 
 def test_reproduce_quick_writes_every_figure_with_sane_numbers(tmp_path) -> None:
     assert main(["reproduce", "all", "--quick", "--out", str(tmp_path), "--workers", "2"]) == 0
-    for name in ("stability", "fig3df_composites", "fig3e_settling", "fig2", "fig1c"):
+    for name in ("stability", "fig3df_composites", "fig3e_settling", "coils", "fig2", "fig1c"):
         assert (tmp_path / f"{name}.png").stat().st_size > 10_000, name
         assert (tmp_path / f"{name}.csv").stat().st_size > 50, name
     report = json.loads((tmp_path / "reproduce.json").read_text())

@@ -1,4 +1,4 @@
-"""``bathprint reproduce fig1c|fig2|fig3|stability|all --out DIR [--quick]``."""
+"""``bathprint reproduce fig1c|fig2|fig3|stability|coils|all --out DIR [--quick]``."""
 
 from __future__ import annotations
 
@@ -7,11 +7,12 @@ import json
 import time
 from pathlib import Path
 
-FIGURES = ("stability", "fig3", "fig2", "fig1c")
+FIGURES = ("stability", "fig3", "coils", "fig2", "fig1c")
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
-    p.add_argument("figure", choices=(*FIGURES, "all"))
+    p.add_argument("figure", choices=(*FIGURES, "all"),
+                   help="coils: steady coiling over 20+ turns, with and without gelation")
     p.add_argument("--out", default="runs/reproduce", help="output directory")
     p.add_argument("--quick", action="store_true", help="small grids: about 2 minutes in all")
     p.add_argument("--workers", type=int, default=None, help="parallel runs (default: cores)")
@@ -23,7 +24,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def run_args(args: argparse.Namespace) -> int:
-    from bathprint.reproduce import fig1c, fig2, fig3, stability
+    from bathprint.reproduce import coils, fig1c, fig2, fig3, stability
 
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
@@ -36,6 +37,8 @@ def run_args(args: argparse.Namespace) -> int:
             result = stability.run(out, args.quick)
         elif name == "fig3":
             result = fig3.run(out, args.quick)
+        elif name == "coils":
+            result = coils.run(out, args.quick)
         elif name == "fig2":
             result = fig2.run(out, args.quick, args.workers, args.scheduler)
         else:

@@ -2,8 +2,9 @@
 
 Each run's resolution follows the physics it has to resolve: the node spacing is a tenth
 of the drag buckling scale (B/(mu v))^(1/3) (at least 0.2 filament radii, at most 0.5 mm)
-and the duration covers several coiling periods 2 pi / omega with omega from the paper's
-scaling law. Runs go through :func:`bathprint.sweep.run_sweep`, so they are resumable,
+and the duration covers the onset (50 scale lengths of extrusion) and several coiling
+periods 2 pi / omega with omega from the paper's scaling law. The gel sets (gelation from
+2.7 kPa to 30 kPa at 0.5 /s, with curvature memory), as in the experiments. Runs go through :func:`bathprint.sweep.run_sweep`, so they are resumable,
 run in parallel, and failed runs are recorded rather than lost.
 """
 
@@ -36,21 +37,27 @@ def run_overrides(
     omega = theory.coil_frequency(b, MU, v)
     spacing = min(max(scale / 10.0, 0.2 * r * 1.0001), 0.5e-3)
     period = 2 * math.pi / omega
-    startup = 15.0 * scale / v  # extrude well past the onset length before counting turns
+    startup = 50.0 * scale / v  # extrude well past the onset before counting turns
     duration = min(startup + turns * period, max_duration_s)
     over: dict[str, Any] = {
+        # the gel sets as in the experiments (coils stay regular instead of unravelling);
+        # at the buckling point it is still at E_THEORY, the modulus the scalings use
+        "effects": ["elasticity", "drag", "gravity", "gelation"],
+        "gelation.initial_modulus_pa": E_THEORY,
+        "gelation.final_modulus_pa": 30000.0,
+        "gelation.rate_1_s": 0.5,
         "needle.imperfection_um": 20.0,
         "needle.inner_diameter_mm": diameter_mm,
         "flow.q_outer_ml_min": q_ml_min,
-        "material.youngs_modulus_pa": E_THEORY,
+
         "numerics.node_spacing_mm": round(spacing * 1e3, 6),
-        "numerics.tolerance": 1e-2,
+        "numerics.tolerance": 3e-3,
         "duration_s": round(duration, 4),
         "outputs.frame_interval_s": round(min(duration / 60.0, period / 12.0), 6),
         "outputs.plot": False,
     }
     if height_mm is not None:
-        over["effects"] = ["elasticity", "drag", "gravity", "floor"]
+        over["effects"] = ["elasticity", "drag", "gravity", "floor", "gelation"]
         over["needle.position_mm"] = [0.0, 0.0, -125.0 + height_mm]
     return over
 
