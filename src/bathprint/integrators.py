@@ -54,6 +54,7 @@ from bathprint.layout import (
     P_INERTIA,
     P_MAX_INLET_GROWTH,
     P_MAX_NEWTON,
+    P_NEWTON_REUSE,
     P_MAX_STEP,
     P_MAX_STRAIN_CHANGE,
     P_MIN_STEP,
@@ -69,6 +70,7 @@ from bathprint.layout import (
     STATUS_OK,
     STATUS_STEP_LIMIT,
     STATUS_STRETCH,
+    W_LU_VALID,
 )
 from bathprint.topology import filament_segments, free_nodes
 
@@ -136,6 +138,9 @@ def _stage_solve(
     rhs = vecs[V_RHS]
     scale = params[P_TOLERANCE] * params[P_NODE_SPACING]
     ca = 1.0 / (hg * hg) if inertial else 0.0
+    modified = params[P_NEWTON_REUSE] > 0.0
+    refresh = False
+    previous = np.inf
     for _it in range(int(params[P_MAX_NEWTON])):
         set_boundary(
             pos, vel, node_s, seg_rest, n_nodes, t_stage, flow, flow_cum, needle, params, work
@@ -143,6 +148,9 @@ def _stage_solve(
         for k in range(nd):
             vel[k] = (pos[k] - sx[k]) / hg
             acc[k] = (vel[k] - sv[k]) / hg if inertial else 0.0
+        # full Newton, or modified Newton: factorise once per step (both stages share
+        # h gamma) and again only when the iteration stops contracting fast
+        need_jac = (not modified) or work[W_LU_VALID] == 0.0 or refresh
         assemble(
             pos,
             vel,
@@ -158,16 +166,20 @@ def _stage_solve(
             force,
             band,
             work,
-            True,
+            need_jac,
             enabled,
             calls,
             energies,
         )
         for k in range(nd):
             rhs[k] = force[k]
-        if band_lu(band, nd, KL, KU, piv) != 0:
-            info[1] = _worst_node(force, nd)
-            return False
+        if need_jac:
+            work[W_LU_VALID] = 0.0
+            if band_lu(band, nd, KL, KU, piv) != 0:
+                info[1] = _worst_node(force, nd)
+                return False
+            work[W_LU_VALID] = 1.0
+            refresh = False
         band_solve(band, nd, KL, KU, piv, rhs)
         counters[C_NEWTON_ITERATIONS] += 1
         norm = 0.0
@@ -179,6 +191,9 @@ def _stage_solve(
             return False
         for k in range(nd):
             pos[k] += rhs[k]
+        if modified and not need_jac and norm > 0.3 * previous:
+            refresh = True
+        previous = norm
         if norm < params[P_NEWTON_TOL]:
             for k in range(nd):
                 vel[k] = (pos[k] - sx[k]) / hg
@@ -288,6 +303,7 @@ def _implicit_step(
     scale = params[P_TOLERANCE] * params[P_NODE_SPACING]
     gamma = 1.0 if integrator == INTEGRATOR_IMPLICIT_EULER else GAMMA
     hg = h * gamma
+    work[W_LU_VALID] = 0.0  # a new h gamma: the factorised Jacobian is stale
     for k in range(nd):
         sx[k] = pos0[k]
         sv[k] = vel0[k]

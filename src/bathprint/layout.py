@@ -84,7 +84,8 @@ P_INCLUSION_OFFSET = 42  # -, Delta = (r1 - r2) / r
 P_OFFSET_ANGLE = 43  # rad, direction of the offset around the needle axis
 P_CURVATURE_COEFFICIENT = 44  # -, kappa0 = C Delta phi / r
 P_SLUG_FRACTION = 45  # -, droplets wider than this fraction of the filament diameter are slugs
-N_PARAMS = 46
+P_NEWTON_REUSE = 46  # 1: modified Newton (reuse the factorised Jacobian within a step)
+N_PARAMS = 47
 
 # --- effects ------------------------------------------------------------------------
 E_ELASTICITY = 0
@@ -145,3 +146,6 @@ N_COUNTERS = 6
 KL = 8
 KU = 8
 BAND_WIDTH = 2 * KL + KU + 1
+
+# slot of the scratch array ``work`` that says the LU in ``band`` matches the current h gamma
+W_LU_VALID = 390

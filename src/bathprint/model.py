@@ -183,6 +183,7 @@ def compile_model(scene: Scene) -> Model:
     p[L.P_SLUG_FRACTION] = inc.slug_fraction
     p[L.P_NEWTON_TOL] = scene.numerics.newton_tolerance
     p[L.P_MAX_NEWTON] = scene.numerics.max_newton_iterations
+    p[L.P_NEWTON_REUSE] = 1.0 if scene.numerics.newton == "modified" else 0.0
     p[L.P_INERTIA] = 1.0 if "inertia" in scene.effects else 0.0
     p[L.P_IMPERFECTION] = scene.needle.imperfection_um * 1e-6
     p[L.P_SEED] = scene.seed

@@ -199,6 +199,13 @@ class Numerics:
     max_inlet_growth: float = _num(
         0.5, 1e-3, 100.0, lo_open=True, doc="node spacings extruded per adaptive step, at most"
     )
+    newton: str = field(
+        default="modified",
+        metadata={
+            "choices": ("modified", "full"),
+            "doc": "modified: factorise the Jacobian once per step; full: every iteration",
+        },
+    )
     max_newton_iterations: int = field(default=12, metadata={"range": (1, 100)})
     newton_tolerance: float = _num(0.01, 1e-8, 1.0, lo_open=True, doc="in units of tolerance")
 
