@@ -11,8 +11,11 @@ FIGURES = ("stability", "fig3", "coils", "fig2", "fig1c")
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
-    p.add_argument("figure", choices=(*FIGURES, "all"),
-                   help="coils: steady coiling over 20+ turns, with and without gelation")
+    p.add_argument(
+        "figure",
+        choices=(*FIGURES, "all"),
+        help="coils: steady coiling over 20+ turns, with and without gelation",
+    )
     p.add_argument("--out", default="runs/reproduce", help="output directory")
     p.add_argument("--quick", action="store_true", help="small grids: about 2 minutes in all")
     p.add_argument("--workers", type=int, default=None, help="parallel runs (default: cores)")

@@ -30,8 +30,7 @@ def run(out_dir: str | Path, quick: bool = False) -> dict:
     out.mkdir(parents=True, exist_ok=True)
     duration = 3.0 if quick else 8.0
     rows, summary = [], {}
-    fig, axes = plt.subplots(1, 3, figsize=(14, 4.2),
-                             gridspec_kw={"width_ratios": [1.2, 1.2, 1.0]})
+    fig, axes = plt.subplots(1, 3, figsize=(14, 4.2), gridspec_kw={"width_ratios": [1.2, 1.2, 1.0]})
     for label, (scene, over) in CASES.items():
         sim = Simulation(scene, {**over, "duration_s": duration})
         sim.advance(duration)
@@ -48,11 +47,11 @@ def run(out_dir: str | Path, quick: bool = False) -> dict:
             "core_turns": len(core),
             "median_radius_m": float(np.median(core)) if len(core) else None,
             "radius_spread": float((core.max() - core.min()) / np.median(core))
-            if len(core) else None,
+            if len(core)
+            else None,
         }
         axes[0].plot(np.arange(1, len(radii) + 1), radii * 1e3, "o-", ms=3, label=label)
-        axes[1].plot(np.arange(1, len(pitches) + 1), np.abs(pitches) * 1e3, "o-", ms=3,
-                     label=label)
+        axes[1].plot(np.arange(1, len(pitches) + 1), np.abs(pitches) * 1e3, "o-", ms=3, label=label)
         axes[2].plot(c[:, 0] * 1e3, c[:, 2] * 1e3, lw=0.8, label=label)
     axes[0].set_xlabel("turn (counted from the needle)")
     axes[0].set_ylabel("coil radius (mm)")

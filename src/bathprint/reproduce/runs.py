@@ -4,8 +4,9 @@ Each run's resolution follows the physics it has to resolve: the node spacing is
 of the drag buckling scale (B/(mu v))^(1/3) (at least 0.2 filament radii, at most 0.5 mm)
 and the duration covers the onset (50 scale lengths of extrusion) and several coiling
 periods 2 pi / omega with omega from the paper's scaling law. The gel sets (gelation from
-2.7 kPa to 30 kPa at 0.5 /s, with curvature memory), as in the experiments. Runs go through :func:`bathprint.sweep.run_sweep`, so they are resumable,
-run in parallel, and failed runs are recorded rather than lost.
+2.7 kPa to 30 kPa at 0.5 /s, with curvature memory), as in the experiments. Runs go
+through :func:`bathprint.sweep.run_sweep`, so they are resumable, run in parallel, and
+failed runs are recorded rather than lost.
 """
 
 from __future__ import annotations
@@ -49,7 +50,6 @@ def run_overrides(
         "needle.imperfection_um": 20.0,
         "needle.inner_diameter_mm": diameter_mm,
         "flow.q_outer_ml_min": q_ml_min,
-
         "numerics.node_spacing_mm": round(spacing * 1e3, 6),
         "numerics.tolerance": 3e-3,
         "duration_s": round(duration, 4),
