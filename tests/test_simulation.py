@@ -208,3 +208,14 @@ def test_implicit_agrees_with_the_explicit_reference() -> None:
         diff = np.abs(sim.centerline() - ref.centerline()).max()
         assert diff < 2e-3 * travel, (integrator, diff, travel)
         assert sim.counts()["steps"] * fewer < ref.counts()["steps"]
+
+
+def test_floor_contact_does_not_lock_modified_newton() -> None:
+    # regression: contacts switching made the reused Jacobian fail every step (h ~ 1e-6 s
+    # forever); after a Newton failure the stepper now uses full Newton for a while
+    from bathprint.reproduce.runs import run_overrides
+
+    sim = Simulation("drag_coiling_22G", run_overrides(0.41, 0.2, 30.0, 6.0, 6.0))
+    sim.advance(3.0, max_steps=3000)
+    assert sim.t == pytest.approx(3.0)
+    assert sim.centerline()[:, 2].min() < -0.124  # it did reach the floor

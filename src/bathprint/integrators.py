@@ -70,6 +70,7 @@ from bathprint.layout import (
     STATUS_OK,
     STATUS_STEP_LIMIT,
     STATUS_STRETCH,
+    W_FULL_NEWTON_STEPS,
     W_LU_VALID,
 )
 from bathprint.topology import filament_segments, free_nodes
@@ -138,7 +139,8 @@ def _stage_solve(
     rhs = vecs[V_RHS]
     scale = params[P_TOLERANCE] * params[P_NODE_SPACING]
     ca = 1.0 / (hg * hg) if inertial else 0.0
-    modified = params[P_NEWTON_REUSE] > 0.0
+    # after a Newton failure (e.g. contacts switching) full Newton for a while
+    modified = params[P_NEWTON_REUSE] > 0.0 and work[W_FULL_NEWTON_STEPS] <= 0.0
     refresh = False
     previous = np.inf
     for _it in range(int(params[P_MAX_NEWTON])):
@@ -693,6 +695,7 @@ def advance(
             counters[C_REJECTED] += 1
             if err < 0.0:
                 counters[C_NEWTON_FAILURES] += 1
+                work[W_FULL_NEWTON_STEPS] = 20.0
             if fixed > 0.0:
                 info[0] = t
                 counters[C_FAIL_NODE] = int(info[1])
@@ -708,6 +711,8 @@ def advance(
             continue
         t += h_taken
         steps += 1
+        if work[W_FULL_NEWTON_STEPS] > 0.0:
+            work[W_FULL_NEWTON_STEPS] -= 1.0
         counters[C_STEPS] += 1
         info[0] = t
         status = _check_state(pos, vel, seg_rest, n_nodes, params, info)

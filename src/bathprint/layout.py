@@ -149,3 +149,5 @@ BAND_WIDTH = 2 * KL + KU + 1
 
 # slot of the scratch array ``work`` that says the LU in ``band`` matches the current h gamma
 W_LU_VALID = 390
+# slot counting accepted steps still to take with full Newton after a Newton failure
+W_FULL_NEWTON_STEPS = 391

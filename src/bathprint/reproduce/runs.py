@@ -1,9 +1,10 @@
 """Runs for the paper's Figs. 1C and 2: one scene per (needle diameter, flow rate).
 
 Each run's resolution follows the physics it has to resolve: the node spacing is a tenth
-of the drag buckling scale (B/(mu v))^(1/3) (at least 0.2 filament radii, at most 0.5 mm)
+of the drag buckling scale (B/(mu v))^(1/3) (at least 0.1 mm and 0.2 radii, at most 0.5 mm)
 and the duration covers the onset (50 scale lengths of extrusion) and several coiling
-periods 2 pi / omega with omega from the paper's scaling law. The gel sets (gelation from
+periods 2 pi / omega (omega from the paper's scaling law), or 600 segments of filament,
+whichever is shorter. The gel sets (gelation from
 2.7 kPa to 30 kPa at 0.5 /s, with curvature memory), as in the experiments. Runs go
 through :func:`bathprint.sweep.run_sweep`, so they are resumable, run in parallel, and
 failed runs are recorded rather than lost.
@@ -36,10 +37,12 @@ def run_overrides(
     b = theory.bending_stiffness(E_THEORY, r)
     scale = theory.buckling_length_scale(b, MU, v)
     omega = theory.coil_frequency(b, MU, v)
-    spacing = min(max(scale / 10.0, 0.2 * r * 1.0001), 0.5e-3)
+    spacing = min(max(scale / 10.0, 0.2 * r * 1.0001, 0.1e-3), 0.5e-3)
     period = 2 * math.pi / omega
     startup = 50.0 * scale / v  # extrude well past the onset before counting turns
-    duration = min(startup + turns * period, max_duration_s)
+    # at most ~600 segments of filament: fast, thin jets are cut short rather than
+    # letting one point of a phase diagram cost minutes
+    duration = min(startup + turns * period, max_duration_s, 600.0 * spacing / v)
     over: dict[str, Any] = {
         # the gel sets as in the experiments (coils stay regular instead of unravelling);
         # at the buckling point it is still at E_THEORY, the modulus the scalings use
