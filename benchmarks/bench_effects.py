@@ -84,7 +84,9 @@ def run_costs() -> list[dict]:
         "+inertia": {"effects": base_effects + ["gravity", "inertia"]},
         "+gelation": {"effects": base_effects + ["gravity", "gelation"]},
         "+inclusions (Q_i = 2 ml/min)": {
-            "effects": base_effects + ["gravity", "inclusions"], "flow.q_inner_ml_min": 2.0},
+            "effects": base_effects + ["gravity", "inclusions"],
+            "flow.q_inner_ml_min": 2.0,
+        },
     }
     rows = []
     base = None
@@ -101,10 +103,19 @@ def run_costs() -> list[dict]:
         newton = sims[0].counts()["newton_iterations"]
         per_it = wall / newton
         base = base or per_it
-        rows.append({"effects": label, "wall_s": wall, "newton_iterations": newton,
-                     "us_per_newton_iteration": 1e6 * per_it, "ratio_per_iteration": per_it / base})
-        print(f"{label:>30}: {wall:.3f} s for 1 s, {newton} Newton iterations, "
-              f"{1e6 * per_it:7.1f} us each (x{per_it / base:.2f})")
+        rows.append(
+            {
+                "effects": label,
+                "wall_s": wall,
+                "newton_iterations": newton,
+                "us_per_newton_iteration": 1e6 * per_it,
+                "ratio_per_iteration": per_it / base,
+            }
+        )
+        print(
+            f"{label:>30}: {wall:.3f} s for 1 s, {newton} Newton iterations, "
+            f"{1e6 * per_it:7.1f} us each (x{per_it / base:.2f})"
+        )
     return rows
 
 

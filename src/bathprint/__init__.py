@@ -7,10 +7,13 @@ ensure_fresh_cache()
 # ruff: noqa: E402
 
 from bathprint import layout
+from bathprint.envs import register_envs
 from bathprint.errors import SceneError, SimulationError
 from bathprint.run import Result, simulate
 from bathprint.scene import Scene, builtin_scene_names, load_scene
 from bathprint.simulation import Simulation
+
+register_envs()  # gymnasium.make("bathprint/CoilRadius-v0"), WriteShape-v0, BuoyantLayers-v0
 
 __version__ = "0.1.0"
 

@@ -119,6 +119,7 @@ def build_parser() -> argparse.ArgumentParser:
     v = sub.add_parser("validate", help="run the analytic checks and print the table")
     v.set_defaults(func=_cmd_validate)
     sub.add_parser("theory", help="scaling laws and linear stability: bathprint theory [--json]")
+    sub.add_parser("play", help="one episode of an environment to a GIF: bathprint play ENV ...")
     from bathprint import sweep
 
     sw = sub.add_parser("sweep", help="run a grid of scenes; resumable; process pool or Dask")
@@ -145,6 +146,10 @@ def main(argv: list[str] | None = None) -> int:
         from bathprint import theory
 
         return theory.main(argv[1:])
+    if argv[:1] == ["play"]:  # so does the environments' player
+        from bathprint.envs import play_main
+
+        return play_main(argv[1:])
     args = build_parser().parse_args(argv)
     try:
         return int(args.func(args))

@@ -149,7 +149,9 @@ class Floor:
 
     stiffness_pa: float = _num(1e4, 1.0, 1e9, lo_open=True, doc="contact force/length/depth")
     friction_coefficient: float = _num(0.3, 0.0, 10.0, doc="Coulomb mu_f")
-    friction_velocity_mm_s: float = _num(0.1, 1e-6, 1e3, lo_open=True, doc="regularisation")
+    friction_velocity_mm_s: float = _num(
+        1.0, 1e-6, 1e3, lo_open=True, doc="regularisation (smaller: sharper, harder for Newton)"
+    )
 
 
 @dataclass

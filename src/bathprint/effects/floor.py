@@ -1,10 +1,12 @@
 """Floor: penalty contact with the container floor and regularised Coulomb friction.
 
 A node of radius r whose centre is below z_floor + r is pushed up with N = k dl p
-(p the penetration, k the contact stiffness in Pa, dl the node's rest Voronoi length;
-energy 1/2 k dl p^2, so the force is continuous). Tangential friction opposes the
-sliding velocity: F = -mu_f N u / sqrt(|u|^2 + u_eps^2), a smooth Coulomb law that
-keeps the implicit Jacobian finite at rest. Rope coiling on the floor needs both.
+(p the penetration, k the contact stiffness in Pa, dl the node's rest Voronoi length),
+smoothed over the first 0.02 r of penetration (N = k dl p^2 / (0.04 r) there) so that
+force and stiffness switch on continuously and Newton does not cycle at contact.
+Tangential friction opposes the sliding velocity: F = -mu_f N u / sqrt(|u|^2 + u_eps^2),
+a smooth Coulomb law that keeps the implicit Jacobian finite at rest. Rope coiling on the
+floor needs both.
 """
 
 from __future__ import annotations
@@ -45,9 +47,18 @@ def accumulate(
         p = zf + r - pos[3 * i + 2]
         if p <= 0.0:
             continue
-        kn = kf * dl
-        normal = kn * p
-        energy += 0.5 * kn * p * p
+        # C1 penalty: quadratic over the first `band_width` of penetration, linear beyond,
+        # so the contact stiffness switches on continuously and Newton does not cycle
+        width = 0.02 * r
+        k_full = kf * dl
+        if p < width:
+            normal = 0.5 * k_full * p * p / width
+            kn = k_full * p / width
+            energy += k_full * p * p * p / (6.0 * width)
+        else:
+            normal = k_full * (p - 0.5 * width)
+            kn = k_full
+            energy += k_full * (0.5 * p * p - 0.5 * width * p + width * width / 6.0)
         force[3 * i + 2] += normal
         if do_jac:
             add_diag(band, n_free, i, 2, cx * kn)

@@ -1,0 +1,107 @@
+"""Gymnasium environments for printing filaments in a bath.
+
+>>> import gymnasium, bathprint.envs
+>>> bathprint.envs.register_envs()          # idempotent; ``import bathprint`` will call it
+>>> env = gymnasium.make("bathprint/CoilRadius-v0", accuracy="draft")
+>>> obs, info = env.reset(seed=0)
+>>> obs, reward, terminated, truncated, info = env.step(env.action_space.sample())
+
+=============================  ===========================================================
+id                             task
+=============================  ===========================================================
+``bathprint/CoilRadius-v0``    track a schedule of coil radius (and pitch) along the length
+``bathprint/WriteShape-v0``    write a 3D curve: helices, straight pieces, arcs, float/sink
+``bathprint/BuoyantLayers-v0`` parts that settle at target heights in a gradient bath
+=============================  ===========================================================
+
+Specs (scene, ranges, targets, metric) live in ``envs/*.toml``; the metric is in
+:mod:`bathprint.envs.metric`. ``bathprint play`` is :func:`play_main`.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from typing import Any
+
+NAMESPACE = "bathprint"
+
+#: id -> entry point (module:class); max_episode_steps is left to the environments, which
+#: terminate by themselves when the target's length has been printed.
+ENV_ENTRY_POINTS: dict[str, str] = {
+    "bathprint/CoilRadius-v0": "bathprint.envs.coil_radius:CoilRadiusEnv",
+    "bathprint/WriteShape-v0": "bathprint.envs.write_shape:WriteShapeEnv",
+    "bathprint/BuoyantLayers-v0": "bathprint.envs.buoyant_layers:BuoyantLayersEnv",
+}
+ENV_IDS: tuple[str, ...] = tuple(ENV_ENTRY_POINTS)
+
+
+def register_envs() -> list[str]:
+    """Register the environments with Gymnasium (namespace ``bathprint``); idempotent.
+
+    Returns the ids. Cheap: the environment modules are imported only when one is made.
+    """
+    import gymnasium
+
+    for env_id, entry_point in ENV_ENTRY_POINTS.items():
+        if env_id not in gymnasium.registry:
+            gymnasium.register(id=env_id, entry_point=entry_point)
+    return list(ENV_IDS)
+
+
+def resolve_id(name: str) -> str:
+    """Full id of an environment given as ``bathprint/CoilRadius-v0``, ``CoilRadius-v0`` or
+    ``CoilRadius`` (case-insensitive)."""
+    key = name.lower().removeprefix(f"{NAMESPACE}/")
+    for env_id in ENV_IDS:
+        short = env_id.removeprefix(f"{NAMESPACE}/").lower()
+        if key in (short, short.removesuffix("-v0")):
+            return env_id
+    raise ValueError(f"unknown environment {name!r}; known: {', '.join(ENV_IDS)}")
+
+
+def make(env_id: str, **kwargs: Any) -> Any:
+    """``gymnasium.make`` after :func:`register_envs` (accepts short names, see
+    :func:`resolve_id`). Picklable by reference, so ``functools.partial(make, id, ...)`` is a
+    safe env factory for subprocess vector envs started with spawn or forkserver."""
+    import gymnasium
+
+    register_envs()
+    return gymnasium.make(resolve_id(env_id), **kwargs)
+
+
+def make_from_config(config: dict[str, Any]) -> Any:
+    """An environment from a plain dict (e.g. sent to a Ray worker)::
+
+        {"id": "bathprint/CoilRadius-v0", "kwargs": {"accuracy": "draft"}}
+
+    Keys: ``id`` (required), ``kwargs`` (dict, optional), ``max_episode_steps`` (optional).
+    """
+    if not isinstance(config, dict) or "id" not in config:
+        raise ValueError(f"config = {config!r}: a dict with at least the key 'id'")
+    unknown = set(config) - {"id", "kwargs", "max_episode_steps"}
+    if unknown:
+        raise ValueError(
+            f"config: unknown keys {sorted(unknown)}; allowed: id, kwargs, max_episode_steps"
+        )
+    kwargs = dict(config.get("kwargs") or {})
+    if config.get("max_episode_steps") is not None:
+        kwargs["max_episode_steps"] = int(config["max_episode_steps"])
+    return make(str(config["id"]), **kwargs)
+
+
+def play_main(argv: Sequence[str] | None = None) -> int:
+    """``bathprint play ENV --policy random|constant|zero --out DIR``; see
+    :mod:`bathprint.envs.play`."""
+    from bathprint.envs.play import main
+
+    return main(argv)
+
+
+__all__ = [
+    "ENV_IDS",
+    "make",
+    "make_from_config",
+    "play_main",
+    "register_envs",
+    "resolve_id",
+]

@@ -1,0 +1,72 @@
+"""Accuracy presets of the environments: named sets of ``numerics.*`` scene overrides.
+
+The environments' ``accuracy`` argument picks one. They trade the simulator's fidelity for
+speed; the task (control interval, target, metric) is the same under every preset.
+
+=========  =================  =========  ===============  ============  ===========
+preset     integrator         tolerance  node spacing mm  inlet growth  Newton tol.
+=========  =================  =========  ===============  ============  ===========
+draft      implicit (SDIRK2)  0.1        0.8              4             0.1 (full)
+balanced   implicit (SDIRK2)  0.03       0.6              4             0.1 (full)
+fine       implicit (SDIRK2)  1e-3       0.3              0.5           0.01
+=========  =================  =========  ===============  ============  ===========
+
+(tolerance: local error per step relative to the node spacing; inlet growth: node spacings
+extruded per adaptive step at most; see the README's Scenes table; "(full)": full Newton
+where the core offers the choice, ``numerics.newton``; fine keeps the core's default.)
+``fine`` is the built-in scenes' own resolution. Coil radius of CoilRadius-v0 at constant
+Q_o = 0.5 / 1 / 2 ml/min (median over the scored part): fine 3.71 / 2.76 / 2.11 mm,
+balanced within 2 %, draft 2-11 % too large. Measured costs: ``benchmarks/bench_envs.py``.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from typing import Any
+
+ACCURACY_PRESETS: dict[str, dict[str, Any]] = {
+    "draft": {
+        "numerics.integrator": "implicit",
+        "numerics.tolerance": 0.1,
+        "numerics.newton_tolerance": 0.1,
+        "numerics.node_spacing_mm": 0.8,
+        "numerics.max_inlet_growth": 4.0,
+        "numerics.min_step_s": 1e-7,
+    },
+    "balanced": {
+        "numerics.integrator": "implicit",
+        "numerics.tolerance": 0.03,
+        "numerics.newton_tolerance": 0.1,
+        "numerics.node_spacing_mm": 0.6,
+        "numerics.max_inlet_growth": 4.0,
+        "numerics.min_step_s": 1e-8,
+    },
+    "fine": {
+        "numerics.integrator": "implicit",
+        "numerics.tolerance": 1e-3,
+        "numerics.newton_tolerance": 0.01,
+        "numerics.node_spacing_mm": 0.3,
+        "numerics.max_inlet_growth": 0.5,
+    },
+}
+
+
+def accuracy_overrides(accuracy: str) -> dict[str, Any]:
+    """Scene overrides of a preset (a copy). Raises ValueError for an unknown name."""
+    if accuracy not in ACCURACY_PRESETS:
+        raise ValueError(
+            f"accuracy = {accuracy!r}; allowed: " + ", ".join(repr(k) for k in ACCURACY_PRESETS)
+        )
+    out = dict(ACCURACY_PRESETS[accuracy])
+    # Keys of newer cores: keep the core's own preset switch on "custom" (the raw keys above
+    # are what runs); draft and balanced use full Newton (a factorisation per iteration):
+    # modified Newton fails to converge on about every other step at their loose tolerances
+    # and 4-spacing steps (2.5x slower on CoilRadius-v0 draft), while at fine it is 2x faster.
+    from bathprint.scene import Numerics
+
+    fields = {f.name for f in dataclasses.fields(Numerics)}
+    if "accuracy" in fields:
+        out["numerics.accuracy"] = "custom"
+    if "newton" in fields and accuracy in ("draft", "balanced"):
+        out["numerics.newton"] = "full"
+    return out

@@ -1,0 +1,76 @@
+"""``bathprint/BuoyantLayers-v0``: print parts that settle at target heights in a gradient bath."""
+
+from __future__ import annotations
+
+from bathprint.envs.core import BathprintEnv
+
+
+class BuoyantLayersEnv(BathprintEnv):
+    """
+    ## Description
+
+    The paper's density-gradient column (Fig. 3E): the bath's density rises linearly from
+    1010 kg/m^3 at the surface to 1050 kg/m^3 at the floor, 125 mm down (0.32 kg/m^3 per
+    mm). Co-extruded silicone oil (910 kg/m^3) at inner fraction phi = Q_i / (Q_o + Q_i)
+    gives the composite density rho_c = (1 - phi) 1054 + phi 910, so each part of the
+    filament settles where the bath is as dense as it is: z = -(rho_c - 1010) / 0.32 mm
+    (parts lighter than 1010 float at the surface, parts denser than 1050 rest on the floor).
+    The target is 2-4 equal layers along 60 mm of filament, each with a settling height from
+    -115 to -15 mm in 10 mm steps (phi from 0.05 to 0.27); the agent sets Q_o and Q_i.
+    Settling itself takes minutes and is not simulated: the metric uses the height each part
+    will settle at, from its density (exact, per segment, from the simulator's material
+    records). The task is close to open loop, the simplest of the three and a sanity check
+    for agents: phi = (1054 - rho_target) / 144 follows from the target ahead; what is left is
+    to switch at the right printed length (the growing inlet segment averages the density
+    over up to two node spacings) with Q_o and Q_i together, since the exit speed (and so the
+    time a step takes) depends on both.
+
+    Scene: ``gelation_coiling_22G`` with ``inclusions`` (silicone oil) and the gradient bath
+    (``bath.density_kg_m3 = 1010``, ``bath.density_bottom_kg_m3 = 1050``,
+    ``bath.depth_mm = 125``), needle at z = -10 mm; spec ``envs/buoyant_layers.toml``.
+
+    ## Action Space
+
+    ``Box(-1, 1, (2,), float32)`` (plus 3 or 2 needle-velocity components with
+    ``needle_velocity``), mapped affinely and clipped; a NaN raises ``ValueError``:
+
+    | index | control | physical range |
+    |-------|---------|----------------|
+    | 0 | Q_o, alginate flow rate | 0.3 - 1.0 ml/min |
+    | 1 | Q_i, oil flow rate | 0 - 0.6 ml/min (phi up to 0.67) |
+    | 2-4 | needle velocity (optional) | +-10 mm/s |
+
+    A step holds these for the time that prints 1 mm of filament.
+
+    ## Observation Space
+
+    ``Box(-10, 10, (94,), float32)``: the shared layout (see ``CoilRadiusEnv`` and
+    ``bathprint.envs.core.OBS_LAYOUT``); here the useful parts are the printed density
+    (slice 54-59) and the target's density aim (every third entry of slice 60-83).
+
+    ## Rewards
+
+    Decrease of the metric (``bathprint.envs.metric``) with only its density term: the
+    distance of each sample's settling density (clipped to the bath's 1010-1050 range) to
+    the target's, / 8 kg/m^3 (25 mm of height), RMS over the target; samples within 3 mm of
+    the needle (still in the growing inlet segment) count ``missing_error`` = 4 (100 mm), and
+    no sample counts more. Return = 4 - M_final.
+
+    ## Starting State
+
+    30 mm of pure alginate printed at Q_o = 0.5 ml/min (one of 2 cached warm-ups); the
+    target drawn from ``np_random`` (training), the evaluation set, or a file.
+
+    ## Episode End
+
+    Terminated after 60 + 3 mm printed (63 steps); truncated if the simulation diverges
+    (``info["sim_error"]``).
+
+    ## Arguments
+
+    As ``CoilRadiusEnv``: ``render_mode``, ``accuracy``, ``needle_velocity``,
+    ``target_set``, ``target_index``, ``target_file``, ``scene_overrides``,
+    ``spec_overrides``, ``spec_file``.
+    """
+
+    env_id = "bathprint/BuoyantLayers-v0"

@@ -1,0 +1,166 @@
+"""The shape metric: ONE number for how far a printed filament is from its target, used as
+the reward (its decrease per step) and for evaluation alike.
+
+Both curves are sampled at the same printed arclengths s_j = j h, j = 0..N-1 (h: the
+target's spacing; the printed curve by its material arclength, so the comparison is
+arclength-matched). Only *scored* samples count as printed: those at least
+``settle_length_mm`` of material away from the needle tip (the stem near the needle has not
+taken its shape yet). Per scored sample j the error is
+
+    e_j^2 = w_shape (d_j / ell)^2 + w_curvature (ell dkappa_j)^2 + w_density (drho_j / rho_s)^2
+
+- d_j (mm): RMS distance between the printed and the target samples of the window of
+  arclength ``window_mm`` centred on s_j (cut to the scored range), after the optimal rigid
+  alignment of the window (Kabsch; with ``allow_reflection`` also mirror images, since the
+  handedness of drag coiling is a spontaneous choice). A window as long as the target gives
+  the classic global Kabsch RMSD; a shorter one compares local shape and ignores slow drift.
+- dkappa_j (1/mm): difference of the discrete curvatures, each from the circle through the
+  samples ``curvature_span_mm`` before and after s_j (same operator on both curves).
+- drho_j (kg/m^3): distance of the printed density to the target's band [lo_j, hi_j]; in a
+  density-gradient bath the printed density is first clipped to the bath's range (a part
+  lighter than the surface floats at the surface, a denser one rests on the floor).
+
+``ell`` = ``length_scale_mm``, ``rho_s`` = ``density_scale_kg_m3``. Samples not yet scored
+have e_j = ``missing_error``, and e_j is capped there (a printed sample is never worse than a
+missing one, so ending an episode early never pays). The metric is
+
+    M = sqrt( mean_j e_j^2 )   over all N target samples,
+
+so M = missing_error before anything is printed and M is the target's RMS error at the end.
+The reward of a step is M_before - M_after; an episode's return is M_0 - M_final.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from bathprint.envs.targets import Target, discrete_curvature
+
+
+@dataclass(frozen=True)
+class MetricParams:
+    """Parameters of the metric (the ``[metric]`` table of an environment spec)."""
+
+    window_mm: float = 20.0
+    length_scale_mm: float = 3.0
+    curvature_span_mm: float = 1.0
+    density_scale_kg_m3: float = 10.0
+    w_shape: float = 1.0
+    w_curvature: float = 0.5
+    w_density: float = 0.0
+    missing_error: float = 2.0
+    allow_reflection: bool = True
+
+    @classmethod
+    def from_dict(cls, d: dict[str, Any]) -> MetricParams:
+        return cls(**{k: (bool(v) if k == "allow_reflection" else float(v)) for k, v in d.items()})
+
+
+@dataclass(frozen=True)
+class PrintedSamples:
+    """The printed filament sampled at the target's arclengths (scored samples only)."""
+
+    points_mm: np.ndarray  # (J, 3), J = number of scored samples
+    density_kg_m3: np.ndarray  # (J,)
+
+
+@dataclass(frozen=True)
+class MetricValue:
+    """The metric and its parts (RMS over the scored samples; 0 when none is scored)."""
+
+    value: float
+    shape_rms_mm: float
+    curvature_rms_1_mm: float
+    density_rms_kg_m3: float
+    scored_fraction: float
+    errors: np.ndarray  # (N,) per-sample e_j (missing_error where not scored)
+
+    def as_info(self) -> dict[str, float]:
+        return {
+            "metric": self.value,
+            "shape_rms_mm": self.shape_rms_mm,
+            "curvature_rms_1_mm": self.curvature_rms_1_mm,
+            "density_rms_kg_m3": self.density_rms_kg_m3,
+            "scored_fraction": self.scored_fraction,
+        }
+
+
+def windowed_kabsch_rmsd(
+    p: np.ndarray, q: np.ndarray, half_width: int, allow_reflection: bool
+) -> np.ndarray:
+    """RMS distance (after optimal rigid alignment) of p and q (both (J, 3)) over the window
+    [j - half_width, j + half_width] (cut to [0, J)) of every sample j; O(J) via prefix sums
+    (compiled: :func:`bathprint.envs._kernels.windowed_kabsch`)."""
+    from bathprint.envs._kernels import windowed_kabsch
+
+    out = np.zeros(len(p))
+    if len(p):
+        windowed_kabsch(
+            np.ascontiguousarray(p, np.float64),
+            np.ascontiguousarray(q, np.float64),
+            int(half_width),
+            bool(allow_reflection),
+            out,
+        )
+    return out
+
+
+def settle_density(rho: np.ndarray, bath_range: tuple[float, float] | None) -> np.ndarray:
+    """Density as it decides where a part settles: clipped to the bath's [top, bottom] range
+    in a gradient bath (None: uniform bath, unchanged)."""
+    if bath_range is None:
+        return rho
+    return np.clip(rho, bath_range[0], bath_range[1])
+
+
+def evaluate(
+    target: Target,
+    printed: PrintedSamples,
+    params: MetricParams,
+    bath_range: tuple[float, float] | None = None,
+) -> MetricValue:
+    """The metric of ``printed`` (its first J samples scored) against ``target``."""
+    n_all = target.n_samples
+    n_sc = min(len(printed.points_mm), n_all)
+    err2 = np.full(n_all, params.missing_error**2)
+    shape = curv = dens = 0.0
+    if n_sc > 0:
+        h = target.spacing_mm
+        q = target.points_mm[:n_sc]
+        pts = printed.points_mm[:n_sc]
+        e2 = np.zeros(n_sc)
+        if params.w_shape > 0:
+            half = max(1, int(round(0.5 * params.window_mm / h)))
+            d = windowed_kabsch_rmsd(pts, q, half, params.allow_reflection)
+            e2 += params.w_shape * (d / params.length_scale_mm) ** 2
+            shape = float(np.sqrt(np.mean(d * d)))
+        if params.w_curvature > 0:
+            k = max(1, int(round(params.curvature_span_mm / h)))
+            key = f"curvature_{k}"
+            if key not in target._cache:
+                target._cache[key] = discrete_curvature(target.points_mm, k)
+            dk = discrete_curvature(pts, k) - target._cache[key][:n_sc]
+            if n_sc < 2 * k + 1:
+                dk = np.zeros(n_sc)
+            e2 += params.w_curvature * (params.length_scale_mm * dk) ** 2
+            curv = float(np.sqrt(np.mean(dk * dk)))
+        if params.w_density > 0:
+            rho = settle_density(printed.density_kg_m3[:n_sc], bath_range)
+            lo = target.density_lo_kg_m3[:n_sc]
+            hi = target.density_hi_kg_m3[:n_sc]
+            dr = np.maximum(lo - rho, 0.0) + np.maximum(rho - hi, 0.0)
+            e2 += params.w_density * (dr / params.density_scale_kg_m3) ** 2
+            dens = float(np.sqrt(np.mean(dr * dr)))
+        err2[:n_sc] = np.minimum(e2, params.missing_error**2)
+    err2 = np.where(np.isfinite(err2), err2, params.missing_error**2)
+    return MetricValue(
+        value=float(np.sqrt(np.mean(err2))),
+        shape_rms_mm=shape,
+        curvature_rms_1_mm=curv,
+        density_rms_kg_m3=dens,
+        scored_fraction=n_sc / n_all,
+        errors=np.sqrt(err2),
+    )

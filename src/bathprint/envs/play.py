@@ -1,0 +1,163 @@
+"""``bathprint play``: run a policy in an environment and write an animation and the metric.
+
+    bathprint play CoilRadius --policy random --episodes 1 --seed 0 --out runs/play
+
+writes ``DIR/episode_K.gif`` (with Pillow, which matplotlib already needs; ``--format mp4``
+needs ``imageio[ffmpeg]``): the filament being written beside its target, one frame per
+``--frame-every`` steps; and ``DIR/metrics.json``: per episode the final metric and its parts,
+the return, the steps and the target.
+
+Policies: ``random`` (uniform actions, seeded), ``zero`` (action 0: mid-range flows),
+``constant`` (the flows of the warm-up, held: Q_o = warm-up value, Q_i = 0, offset 0).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+POLICIES = ("random", "constant", "zero")
+
+
+def _parser() -> argparse.ArgumentParser:
+    ap = argparse.ArgumentParser(
+        prog="bathprint play", description="Run a policy and write an animation and the metric."
+    )
+    ap.add_argument("env", help="environment id or short name, e.g. CoilRadius")
+    ap.add_argument("--policy", choices=POLICIES, default="random")
+    ap.add_argument("--episodes", type=int, default=1)
+    ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--out", required=True, help="output directory")
+    ap.add_argument("--accuracy", default="draft", choices=("draft", "balanced", "fine"))
+    ap.add_argument("--target-set", default="eval", choices=("train", "eval"))
+    ap.add_argument("--target-index", type=int, default=None)
+    ap.add_argument("--target-file", default=None)
+    ap.add_argument("--needle-velocity", default="no", choices=("no", "xy", "xyz"))
+    ap.add_argument("--frame-every", type=int, default=2, help="render every Nth step")
+    ap.add_argument("--format", default="gif", choices=("gif", "mp4"))
+    ap.add_argument("--fps", type=float, default=None)
+    return ap
+
+
+def policy_action(name: str, env: Any, rng: np.random.Generator) -> np.ndarray:
+    """The action of a built-in policy."""
+    shape = env.action_space.shape
+    if name == "random":
+        return rng.uniform(-1.0, 1.0, shape).astype(np.float32)
+    if name == "zero":
+        return np.zeros(shape, np.float32)
+    u = env.unwrapped
+    a = u.controls_to_action(u.warmup_q_outer, 0.0)
+    if "inclusion_offset" in u.action_names:
+        lo, hi = u.offset_range
+        a[u.action_names.index("inclusion_offset")] = 0.0 if hi <= lo else (-lo - hi) / (hi - lo)
+    return a
+
+
+def write_animation(frames: list[np.ndarray], path: Path, fps: float) -> Path:
+    """GIF (Pillow) or MP4 (imageio with ffmpeg)."""
+    if path.suffix == ".mp4":
+        try:
+            import imageio.v2 as imageio
+        except ImportError as exc:
+            raise RuntimeError(
+                "--format mp4 needs imageio[ffmpeg] (pip install imageio[ffmpeg])"
+            ) from exc
+        imageio.mimsave(path, frames, fps=fps)
+        return path
+    from PIL import Image
+
+    images = [Image.fromarray(f) for f in frames]
+    images[0].save(path, save_all=True, append_images=images[1:], duration=int(1000 / fps), loop=0)
+    return path
+
+
+def run(args: argparse.Namespace) -> dict[str, Any]:
+    from bathprint.envs import make
+
+    kwargs: dict[str, Any] = {
+        "render_mode": "rgb_array",
+        "accuracy": args.accuracy,
+        "target_set": args.target_set,
+    }
+    if args.needle_velocity != "no":
+        kwargs["needle_velocity"] = args.needle_velocity
+    if args.target_file:
+        kwargs["target_file"] = args.target_file
+    env = make(args.env, **kwargs)
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    fps = args.fps or env.metadata["render_fps"]
+    rng = np.random.default_rng(args.seed)
+    episodes = []
+    for ep in range(args.episodes):
+        options = {}
+        if args.target_set == "eval":
+            index = args.target_index if args.target_index is not None else ep
+            options["target_index"] = index % env.unwrapped.sampler.eval_size
+        obs, info = env.reset(seed=args.seed + ep, options=options)
+        frames = [env.render()]
+        ret, steps, done = 0.0, 0, False
+        while not done:
+            obs, reward, terminated, truncated, info = env.step(
+                policy_action(args.policy, env, rng)
+            )
+            ret += reward
+            steps += 1
+            done = terminated or truncated
+            if steps % max(1, args.frame_every) == 0 or done:
+                frames.append(env.render())
+        path = write_animation(frames, out / f"episode_{ep}.{args.format}", fps)
+        record = {
+            "episode": ep,
+            "seed": args.seed + ep,
+            "steps": steps,
+            "return": ret,
+            "terminated": bool(terminated),
+            "truncated": bool(truncated),
+            "sim_error": info.get("sim_error"),
+            "animation": path.name,
+        }
+        for key in ("metric", "shape_rms_mm", "curvature_rms_1_mm", "density_rms_kg_m3"):
+            record[key] = float(info[key])
+        for key in ("scored_fraction", "printed_length_mm", "target_key", "target_index"):
+            record[key] = info[key]
+        episodes.append(record)
+        print(
+            f"episode {ep}: {steps} steps, return {ret:.4f}, metric {info['metric']:.4f} -> {path}"
+        )
+    env.close()
+    summary = {
+        "env": env.spec.id if env.spec else args.env,
+        "policy": args.policy,
+        "accuracy": args.accuracy,
+        "target_set": args.target_set,
+        "episodes": episodes,
+        "mean_metric": float(np.mean([e["metric"] for e in episodes])),
+    }
+    (out / "metrics.json").write_text(json.dumps(summary, indent=2))
+    return summary
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Entry point of ``bathprint play``; returns the exit code."""
+    args = _parser().parse_args(argv)
+    if args.episodes < 1:
+        print("bathprint play: --episodes must be >= 1", file=sys.stderr)
+        return 2
+    try:
+        run(args)
+    except (ValueError, RuntimeError, FileNotFoundError) as exc:
+        print(f"bathprint play: {exc}", file=sys.stderr)
+        return 2
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -1,0 +1,209 @@
+"""Environment specifications: one TOML file per environment in the repository's ``envs/``.
+
+A spec names the scene (a built-in scene plus dotted overrides), the controls and their
+physical ranges, the episode (warm-up, control interval, settling length), the target family
+and its held-out evaluation set, and the parameters of the shape metric. Files are looked up
+in ``$BATHPRINT_ENVS_DIR`` if set, else in ``envs/`` at the root of the source checkout.
+"""
+
+from __future__ import annotations
+
+import copy
+import os
+import tomllib
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+#: Environment id -> spec file name (in the specs directory).
+SPEC_FILES: dict[str, str] = {
+    "bathprint/CoilRadius-v0": "coil_radius.toml",
+    "bathprint/WriteShape-v0": "write_shape.toml",
+    "bathprint/BuoyantLayers-v0": "buoyant_layers.toml",
+}
+
+#: Allowed keys of each table (anything else is an error naming the key).
+_SCHEMA: dict[str, set[str]] = {
+    "": {"id", "entry_point", "summary", "scene", "control", "episode", "target", "metric"},
+    "scene": {"base", "overrides"},
+    "control": {
+        "actions",
+        "length_mm",
+        "q_outer_ml_min",
+        "q_inner_ml_min",
+        "inclusion_offset",
+        "needle_speed_mm_s",
+        "needle_box_mm",
+    },
+    "episode": {
+        "warmup_length_mm",
+        "warmup_q_outer_ml_min",
+        "settle_length_mm",
+        "start_states",
+        "max_substeps",
+    },
+    "target": {"family", "length_mm", "spacing_mm", "eval_size", "eval_seed", "params"},
+    "metric": {
+        "window_mm",
+        "length_scale_mm",
+        "curvature_span_mm",
+        "density_scale_kg_m3",
+        "w_shape",
+        "w_curvature",
+        "w_density",
+        "missing_error",
+        "allow_reflection",
+    },
+}
+
+ACTION_NAMES = ("q_outer", "q_inner", "inclusion_offset")
+
+
+class SpecError(ValueError):
+    """A spec file is missing, unreadable, or has an unknown or invalid key."""
+
+
+@dataclass(frozen=True)
+class EnvSpecData:
+    """A parsed, validated spec (plain dicts inside, as read from TOML)."""
+
+    id: str
+    entry_point: str
+    summary: str
+    scene: dict[str, Any]
+    control: dict[str, Any]
+    episode: dict[str, Any]
+    target: dict[str, Any]
+    metric: dict[str, Any]
+    path: str
+
+    def to_dict(self) -> dict[str, Any]:
+        """The spec as a nested dict (a deep copy)."""
+        return copy.deepcopy(
+            {
+                "id": self.id,
+                "entry_point": self.entry_point,
+                "summary": self.summary,
+                "scene": self.scene,
+                "control": self.control,
+                "episode": self.episode,
+                "target": self.target,
+                "metric": self.metric,
+            }
+        )
+
+
+def specs_dir() -> Path:
+    """Directory holding the spec files: ``$BATHPRINT_ENVS_DIR`` or the checkout's ``envs/``."""
+    env = os.environ.get("BATHPRINT_ENVS_DIR")
+    if env:
+        return Path(env)
+    # src/bathprint/envs/spec.py -> repository root is three levels above src/
+    return Path(__file__).resolve().parents[3] / "envs"
+
+
+def spec_path(env_id: str) -> Path:
+    """Path of the spec file of a registered environment id."""
+    if env_id not in SPEC_FILES:
+        raise SpecError(f"unknown environment {env_id!r}; known: {', '.join(SPEC_FILES)}")
+    path = specs_dir() / SPEC_FILES[env_id]
+    if not path.exists():
+        raise SpecError(
+            f"spec file {str(path)!r} of {env_id} does not exist; set BATHPRINT_ENVS_DIR to the "
+            "directory holding the envs/*.toml specs"
+        )
+    return path
+
+
+def deep_merge(base: dict[str, Any], extra: dict[str, Any] | None) -> dict[str, Any]:
+    """``base`` updated by ``extra`` recursively (tables merge, values replace); a copy."""
+    out = copy.deepcopy(base)
+    for key, value in (extra or {}).items():
+        if isinstance(value, dict) and isinstance(out.get(key), dict) and key != "overrides":
+            out[key] = deep_merge(out[key], value)
+        elif isinstance(value, dict) and isinstance(out.get(key), dict):
+            out[key] = {**out[key], **copy.deepcopy(value)}  # scene overrides: flat dotted keys
+        else:
+            out[key] = copy.deepcopy(value)
+    return out
+
+
+def _check_keys(data: dict[str, Any], where: str) -> None:
+    for table, allowed in _SCHEMA.items():
+        node = data if table == "" else data.get(table, {})
+        if not isinstance(node, dict):
+            raise SpecError(f"{where}: [{table}] must be a table")
+        for key in node:
+            if key not in allowed:
+                full = key if table == "" else f"{table}.{key}"
+                raise SpecError(
+                    f"{where}: unknown key {full!r}; allowed: " + ", ".join(sorted(allowed))
+                )
+
+
+def _range(control: dict[str, Any], key: str, where: str) -> tuple[float, float]:
+    value = control.get(key, [0.0, 0.0])
+    ok = isinstance(value, list | tuple) and len(value) == 2
+    if not ok or not all(isinstance(x, int | float) for x in value) or value[0] > value[1]:
+        raise SpecError(f"{where}: control.{key} = {value!r} must be [low, high] with low <= high")
+    return float(value[0]), float(value[1])
+
+
+def validate(data: dict[str, Any], where: str) -> EnvSpecData:
+    """Check a spec dict (after overrides) and return it frozen."""
+    _check_keys(data, where)
+    for table in ("scene", "control", "episode", "target", "metric"):
+        if table not in data:
+            raise SpecError(f"{where}: missing table [{table}]")
+    control = data["control"]
+    actions = control.get("actions", [])
+    if not actions or any(a not in ACTION_NAMES for a in actions) or actions[0] != "q_outer":
+        raise SpecError(
+            f"{where}: control.actions = {actions!r}; allowed: 'q_outer' first, then any of "
+            + ", ".join(ACTION_NAMES[1:])
+        )
+    q_lo, _ = _range(control, "q_outer_ml_min", where)
+    if q_lo <= 0:
+        raise SpecError(f"{where}: control.q_outer_ml_min must have a positive lower bound")
+    _range(control, "q_inner_ml_min", where)
+    off = _range(control, "inclusion_offset", where)
+    if off[0] < -1 or off[1] > 1:
+        raise SpecError(f"{where}: control.inclusion_offset must lie in [-1, 1]")
+    for key in ("length_mm",):
+        if not float(control.get(key, 0)) > 0:
+            raise SpecError(f"{where}: control.{key} must be > 0")
+    if not float(data["target"].get("spacing_mm", 0)) > 0:
+        raise SpecError(f"{where}: target.spacing_mm must be > 0")
+    return EnvSpecData(
+        id=str(data.get("id", "")),
+        entry_point=str(data.get("entry_point", "")),
+        summary=str(data.get("summary", "")),
+        scene=data["scene"],
+        control=control,
+        episode=data["episode"],
+        target=data["target"],
+        metric=data["metric"],
+        path=where,
+    )
+
+
+def read_spec_dict(env_id: str | None = None, path: str | Path | None = None) -> dict[str, Any]:
+    """Raw spec dict of an environment id (or of a file path)."""
+    p = Path(path) if path is not None else spec_path(str(env_id))
+    if not p.exists():
+        raise SpecError(f"spec file {str(p)!r} does not exist")
+    try:
+        return tomllib.loads(p.read_text())
+    except tomllib.TOMLDecodeError as exc:
+        raise SpecError(f"spec file {str(p)!r} is not valid TOML: {exc}") from exc
+
+
+def load_spec(
+    env_id: str | None = None,
+    path: str | Path | None = None,
+    overrides: dict[str, Any] | None = None,
+) -> EnvSpecData:
+    """The validated spec of ``env_id`` (or the file ``path``), updated by ``overrides``."""
+    where = str(path) if path is not None else str(spec_path(str(env_id)))
+    data = deep_merge(read_spec_dict(env_id, path), overrides)
+    return validate(data, where)

@@ -1,0 +1,75 @@
+"""``bathprint/WriteShape-v0``: write a target 3D curve with the filament."""
+
+from __future__ import annotations
+
+from bathprint.envs.core import BathprintEnv
+
+
+class WriteShapeEnv(BathprintEnv):
+    """
+    ## Description
+
+    The coiling gel filament of ``CoilRadius-v0`` used as a pen: the target is a 3D curve
+    made of 2-4 sections of 10, 15 or 20 mm, each a helix (radius 2.5-4.5 mm, pitch 0.5, 2
+    or 4 mm), a straight piece or a planar arc (radius 5, 8 or 12 mm), and each free, to
+    float or to sink (density below / above the bath's 1051 kg/m^3 by 2 kg/m^3). The agent
+    has the flow rates (coil size; co-extruded oil makes the filament lighter and softer), the
+    offset of the oil inclusions (which bends the filament: natural curvature
+    kappa0 = C Delta phi / r, up to 0.24 1/mm) and, with ``needle_velocity=True``, the
+    needle's velocity. Straight pieces and open pitches are out of reach of the flows alone:
+    a needle moving at a speed comparable to the extrusion speed lays the filament out (at
+    Q_o = 0.25 ml/min, v = 32 mm/s, moving the needle at 20 mm/s brings the median curvature
+    of the printed part from 0.18 to 0.12 1/mm in a quick check). Written shapes are
+    compared up to rigid motion, window by window.
+
+    Scene: ``gelation_coiling_22G`` with the ``inclusions`` effect (silicone oil, 910 kg/m^3,
+    curvature coefficient C = 0.1), needle at z = -10 mm; spec ``envs/write_shape.toml``.
+
+    ## Action Space
+
+    ``Box(-1, 1, (3,), float32)`` (``(6,)`` with ``needle_velocity=True``, ``(5,)`` with
+    ``"xy"``), mapped affinely and clipped; a NaN raises ``ValueError``:
+
+    | index | control | physical range |
+    |-------|---------|----------------|
+    | 0 | Q_o, alginate flow rate | 0.25 - 2.0 ml/min |
+    | 1 | Q_i, oil flow rate | 0 - 0.5 ml/min (inner fraction <= 0.9) |
+    | 2 | inclusion offset Delta = (r1 - r2) / r | -1 - 1 |
+    | 3-5 | needle velocity x, y, z (optional) | +-20 mm/s each |
+
+    The needle tip is kept in the box [-20, 20] x [-20, 20] x [-40, -3] mm.
+
+    A step holds these for the time that prints 1 mm of filament.
+
+    ## Observation Space
+
+    ``Box(-10, 10, (94,), float32)``: the layout shared by all bathprint environments, see
+    ``CoilRadiusEnv`` and ``bathprint.envs.core.OBS_LAYOUT`` (filament near the needle,
+    recent curvature and density, target curvature / torsion / density aim from 30 mm behind
+    to 20 mm ahead, current controls, progress).
+
+    ## Rewards
+
+    Decrease of the shape metric (``bathprint.envs.metric``): per target sample, windowed
+    (15 mm) Kabsch RMS distance / 3 mm, curvature difference x 3 mm (weight 0.5) and distance
+    of the density to the sample's band / 10 kg/m^3 (weight 0.5), RMS over the target;
+    unscored samples (closer than 20 mm to the needle) count 2. Return = 2 - M_final.
+
+    ## Starting State
+
+    30 mm printed at Q_o = 0.5 ml/min (one of 4 cached warm-ups, drawn from ``np_random``);
+    target drawn from ``np_random`` (training), the evaluation set, or a file.
+
+    ## Episode End
+
+    Terminated when the target (20-80 mm) plus 20 mm has been printed; truncated if the
+    simulation diverges (``info["sim_error"]``).
+
+    ## Arguments
+
+    As ``CoilRadiusEnv``: ``render_mode``, ``accuracy``, ``needle_velocity``,
+    ``target_set``, ``target_index``, ``target_file``, ``scene_overrides``,
+    ``spec_overrides``, ``spec_file``.
+    """
+
+    env_id = "bathprint/WriteShape-v0"
