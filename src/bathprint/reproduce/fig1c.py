@@ -55,8 +55,9 @@ def run(
         HEIGHT_MM,
         workers,
         scheduler,
-        turns=4.0 if quick else 8.0,
-        max_duration_s=1.5 if quick else 5.0,
+        turns=4.0 if quick else 6.0,
+        max_duration_s=1.5 if quick else 6.0,
+        max_segments=600.0 if quick else 1500.0,
     )
     table = []
     for row in rows:

@@ -44,7 +44,8 @@ def run(
         workers,
         scheduler,
         turns=4.0 if quick else 6.0,
-        max_duration_s=2.0 if quick else 4.0,
+        max_duration_s=2.0 if quick else 6.0,
+        max_segments=600.0 if quick else 4000.0,
     )
     table = []
     for row in rows:

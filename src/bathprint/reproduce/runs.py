@@ -3,8 +3,8 @@
 Each run's resolution follows the physics it has to resolve: the node spacing is a tenth
 of the drag buckling scale (B/(mu v))^(1/3) (at least 0.1 mm and 0.2 radii, at most 0.5 mm)
 and the duration covers the onset (50 scale lengths of extrusion) and several coiling
-periods 2 pi / omega (omega from the paper's scaling law), or 600 segments of filament,
-whichever is shorter. The gel sets (gelation from
+periods 2 pi / omega (omega from the paper's scaling law),
+or ``max_segments`` of filament, whichever is shorter. The gel sets (gelation from
 2.7 kPa to 30 kPa at 0.5 /s, with curvature memory), as in the experiments. Runs go
 through :func:`bathprint.sweep.run_sweep`, so they are resumable, run in parallel, and
 failed runs are recorded rather than lost.
@@ -29,6 +29,7 @@ def run_overrides(
     height_mm: float | None = None,
     turns: float = 6.0,
     max_duration_s: float = 4.0,
+    max_segments: float = 600.0,
 ) -> dict[str, Any]:
     """Scene overrides for one (d, Q) point of the phase diagram."""
     d = diameter_mm * 1e-3
@@ -40,9 +41,9 @@ def run_overrides(
     spacing = min(max(scale / 10.0, 0.2 * r * 1.0001, 0.1e-3), 0.5e-3)
     period = 2 * math.pi / omega
     startup = 50.0 * scale / v  # extrude well past the onset before counting turns
-    # at most ~600 segments of filament: fast, thin jets are cut short rather than
-    # letting one point of a phase diagram cost minutes
-    duration = min(startup + turns * period, max_duration_s, 600.0 * spacing / v)
+    # at most ``max_segments`` segments of filament: fast, thin jets are cut short rather
+    # than letting one point of a phase diagram cost minutes
+    duration = min(startup + turns * period, max_duration_s, max_segments * spacing / v)
     over: dict[str, Any] = {
         # the gel sets as in the experiments (coils stay regular instead of unravelling);
         # at the buckling point it is still at E_THEORY, the modulus the scalings use
@@ -74,9 +75,10 @@ def run_grid(
     progress: bool = True,
     turns: float = 6.0,
     max_duration_s: float = 4.0,
+    max_segments: float = 600.0,
 ) -> list[dict]:
     """Run (d_mm, Q_ml_min) points on the drag-coiling scene; return one row per point."""
-    grid = [run_overrides(d, q, height_mm, turns, max_duration_s) for d, q in points]
+    grid = [run_overrides(d, q, height_mm, turns, max_duration_s, max_segments) for d, q in points]
     run_sweep(
         "drag_coiling_22G", grid, results, workers=workers, scheduler=scheduler, progress=progress
     )
