@@ -85,14 +85,13 @@ def _flow_table(scene: Scene) -> np.ndarray:
 
 def flow_cumulative(flow: np.ndarray, area: float, start: tuple[float, float] | None = None):
     """[S, inner volume] at each knot; S(0) = 0 and a constant rate before the first knot,
-    unless ``start`` gives the values at the first knot."""
+    unless ``start`` gives the values at the first knot (vectorised: set_flow calls it)."""
     q = flow[:, 1] + flow[:, 2]
+    dt = np.diff(flow[:, 0])
     cum = np.empty((len(flow), 2))
     cum[0] = start if start is not None else (flow[0, 0] * q[0] / area, flow[0, 0] * flow[0, 2])
-    for k in range(len(flow) - 1):
-        dt = flow[k + 1, 0] - flow[k, 0]
-        cum[k + 1, 0] = cum[k, 0] + 0.5 * (q[k] + q[k + 1]) * dt / area
-        cum[k + 1, 1] = cum[k, 1] + 0.5 * (flow[k, 2] + flow[k + 1, 2]) * dt
+    cum[1:, 0] = cum[0, 0] + np.cumsum(0.5 * (q[:-1] + q[1:]) * dt) / area
+    cum[1:, 1] = cum[0, 1] + np.cumsum(0.5 * (flow[:-1, 2] + flow[1:, 2]) * dt)
     return cum
 
 
