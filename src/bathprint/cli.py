@@ -120,6 +120,9 @@ def build_parser() -> argparse.ArgumentParser:
     v.set_defaults(func=_cmd_validate)
     sub.add_parser("theory", help="scaling laws and linear stability: bathprint theory [--json]")
     sub.add_parser("play", help="one episode of an environment to a GIF: bathprint play ENV ...")
+    sub.add_parser(
+        "bench", help="work-precision study: bathprint bench accuracy --out DIR [--quick]"
+    )
     from bathprint import sweep
 
     sw = sub.add_parser("sweep", help="run a grid of scenes; resumable; process pool or Dask")
@@ -146,6 +149,10 @@ def main(argv: list[str] | None = None) -> int:
         from bathprint import theory
 
         return theory.main(argv[1:])
+    if argv[:2] == ["bench", "accuracy"]:  # the work-precision study parses its own options
+        from bathprint.bench_accuracy import main as bench_accuracy
+
+        return bench_accuracy(argv[2:])
     if argv[:1] == ["play"]:  # so does the environments' player
         from bathprint.envs import play_main
 
