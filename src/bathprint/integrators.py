@@ -55,6 +55,7 @@ from bathprint.layout import (
     P_MAX_INLET_GROWTH,
     P_MAX_NEWTON,
     P_MAX_STEP,
+    P_MAX_STRAIN,
     P_MAX_STRAIN_CHANGE,
     P_MIN_STEP,
     P_NEEDLE_AREA,
@@ -522,14 +523,14 @@ def _explicit_step(
 
 @njit(cache=True)
 def _max_strain_change(pos0, pos, seg_rest, n_nodes, params) -> float:
-    """Largest change of a segment's length over the step, relative to its rest length,
-    or the largest strain itself if that is bigger than the strain bound allows.
+    """Largest change of a segment's length over the step, relative to its rest length;
+    a strain beyond ``numerics.max_strain`` counts as a change beyond the bound.
 
-    A large strain (soft rods in these scenes strain by far less than a percent) means
-    the implicit step has stabilised a physical instability (a rod pushed into the floor
-    compresses instead of buckling when h is much longer than the buckling time), so it
-    is reported as a strain change and the step is retried shorter. The inlet segment is
-    left out: its rest length grows during the step.
+    A large strain means the implicit step may have stabilised a physical instability (a
+    rod pushed into the floor compresses instead of buckling when h is much longer than
+    the buckling time), so the step is retried shorter; a filament that really strains
+    more (very soft slugs, very fast jets) needs a larger ``numerics.max_strain``. The
+    inlet segment is left out: its rest length grows during the step.
     """
     worst = 0.0
     n_check = filament_segments(n_nodes, params) - (1 if params[P_CLAMPED] > 0.0 else 0)
@@ -540,8 +541,12 @@ def _max_strain_change(pos0, pos, seg_rest, n_nodes, params) -> float:
             a += (pos0[3 * j + 3 + c] - pos0[3 * j + c]) ** 2
             b += (pos[3 * j + 3 + c] - pos[3 * j + c]) ** 2
         change = abs(math.sqrt(b) - math.sqrt(a)) / seg_rest[j]
-        strain = abs(math.sqrt(b) / seg_rest[j] - 1.0) * params[P_MAX_STRAIN_CHANGE] / 0.1
-        worst = max(worst, change, strain)
+        worst = max(worst, change)
+        s_new = abs(math.sqrt(b) / seg_rest[j] - 1.0)
+        if s_new > params[P_MAX_STRAIN]:
+            # a strain beyond numerics.max_strain is reported as a change of the same
+            # relative size, so the step is retried shorter
+            worst = max(worst, params[P_MAX_STRAIN_CHANGE] * s_new / params[P_MAX_STRAIN])
     return worst
 
 
@@ -704,6 +709,8 @@ def advance(
             if fixed > 0.0:
                 info[0] = t
                 counters[C_FAIL_NODE] = int(info[1])
+                fstate[0] = t
+                istate[0] = n_nodes
                 return STATUS_NEWTON
             if err < 0.0:
                 fstate[1] = 0.25 * h_taken
@@ -712,6 +719,8 @@ def advance(
             if fstate[1] < h_min:
                 info[0] = t
                 info[2] = fstate[1]
+                fstate[0] = t
+                istate[0] = n_nodes
                 return STATUS_NEWTON if err < 0.0 else STATUS_ERROR
             continue
         t += h_taken

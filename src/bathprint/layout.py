@@ -85,7 +85,8 @@ P_OFFSET_ANGLE = 43  # rad, direction of the offset around the needle axis
 P_CURVATURE_COEFFICIENT = 44  # -, kappa0 = C Delta phi / r
 P_SLUG_FRACTION = 45  # -, droplets wider than this fraction of the filament diameter are slugs
 P_NEWTON_REUSE = 46  # 1: modified Newton (reuse the factorised Jacobian within a step)
-N_PARAMS = 47
+P_MAX_STRAIN = 47  # -, adaptive steps ending with a larger |l/l0 - 1| are retried shorter
+N_PARAMS = 48
 
 # --- effects ------------------------------------------------------------------------
 E_ELASTICITY = 0

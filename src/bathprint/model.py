@@ -157,6 +157,7 @@ def compile_model(scene: Scene) -> Model:
     p[L.P_MAX_STEP] = scene.numerics.max_step_s
     p[L.P_STRETCH_LIMIT] = scene.numerics.stretch_limit
     p[L.P_MAX_STRAIN_CHANGE] = scene.numerics.max_strain_change
+    p[L.P_MAX_STRAIN] = scene.numerics.max_strain
     p[L.P_MAX_INLET_GROWTH] = num["max_inlet_growth"]
     p[L.P_CLAMPED] = 1.0
     gel = scene.gelation

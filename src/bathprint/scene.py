@@ -195,6 +195,9 @@ class Numerics:
     max_step_s: float = _num(0.05, 1e-9, 100.0, lo_open=True)
     min_step_s: float = _num(1e-10, 1e-15, 1.0, lo_open=True)
     stretch_limit: float = _num(0.5, 1e-3, 10.0, lo_open=True, doc="bound on |l/l0 - 1|")
+    max_strain: float = _num(
+        0.25, 1e-3, 10.0, lo_open=True, doc="adaptive steps ending with a larger strain are retried"
+    )
     max_strain_change: float = _num(
         0.05, 1e-4, 10.0, lo_open=True, doc="adaptive steps changing a strain more are retried"
     )
