@@ -70,6 +70,7 @@ from bathprint.layout import (
     STATUS_NEWTON,
     STATUS_OK,
     STATUS_STEP_LIMIT,
+    STATUS_STRAIN,
     STATUS_STRETCH,
     W_FULL_NEWTON_STEPS,
     W_LU_VALID,
@@ -690,6 +691,7 @@ def advance(
                 energies,
                 info,
             )
+        strained = False
         if err >= 0.0 and fixed <= 0.0:
             # a jump in strain means Newton found a spurious (folded) branch: step back
             jump = (
@@ -697,6 +699,7 @@ def advance(
                 / params[P_MAX_STRAIN_CHANGE]
             )
             if jump > 1.0:
+                strained = 16.0 * jump > err
                 err = max(err, 16.0 * jump)
         if err < 0.0 or (fixed <= 0.0 and err > 1.0):
             for k in range(nall):
@@ -721,7 +724,9 @@ def advance(
                 info[2] = fstate[1]
                 fstate[0] = t
                 istate[0] = n_nodes
-                return STATUS_NEWTON if err < 0.0 else STATUS_ERROR
+                if err < 0.0:
+                    return STATUS_NEWTON
+                return STATUS_STRAIN if strained else STATUS_ERROR
             continue
         t += h_taken
         steps += 1

@@ -124,11 +124,15 @@ STATUS_NEWTON = 3  # Newton failed at the smallest allowed step
 STATUS_STRETCH = 4
 STATUS_STEP_LIMIT = 5  # step budget of this call used up; call again
 STATUS_ERROR = 6  # the error estimate stays above tolerance down to the smallest step
+STATUS_STRAIN = 7  # strains stay beyond numerics.max_strain (or change too fast) at every step
 STATUS_MESSAGES = {
     STATUS_NAN: "non-finite position or velocity",
     STATUS_NEWTON: "Newton iteration failed to converge at the smallest allowed time step",
     STATUS_STRETCH: "segment stretch beyond the allowed bound",
     STATUS_ERROR: "local error above tolerance even at the smallest allowed time step",
+    STATUS_STRAIN: "segment strain beyond numerics.max_strain (or changing faster than "
+    "numerics.max_strain_change) even at the smallest allowed time step: the filament is "
+    "too soft for its load at this resolution; raise numerics.max_strain to accept it",
 }
 
 # --- integer counters (``counters[C_*]``) ----------------------------------------------

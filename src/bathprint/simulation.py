@@ -390,7 +390,7 @@ class Simulation:
         detail = ""
         if status == L.STATUS_STRETCH:
             detail = f"strain {value:+.3g} beyond numerics.stretch_limit"
-        elif status in (L.STATUS_NEWTON, L.STATUS_ERROR):
+        elif status in (L.STATUS_NEWTON, L.STATUS_ERROR, L.STATUS_STRAIN):
             detail = (
                 f"integrator {self.scene.numerics.integrator}, "
                 f"step {self.fstate[1]:.3g} s, min step {self.scene.numerics.min_step_s:g} s"
