@@ -5,12 +5,9 @@ from __future__ import annotations
 import csv
 from pathlib import Path
 
-import pytest
-
 from bathprint.bench_accuracy import Row, curve, is_monotone, main
 
 
-@pytest.mark.timeout(60)
 def test_quick_run_writes_files_and_converges(tmp_path: Path) -> None:
     assert main(["--quick", "--out", str(tmp_path)]) == 0
     for name in ("accuracy.csv", "presets.csv", "accuracy.png"):
