@@ -120,6 +120,9 @@ def build_parser() -> argparse.ArgumentParser:
     v.set_defaults(func=_cmd_validate)
     sub.add_parser("theory", help="scaling laws and linear stability: bathprint theory [--json]")
     sub.add_parser("play", help="one episode of an environment to a GIF: bathprint play ENV ...")
+    sub.add_parser("train", help="train an agent: bathprint train --algo ppo --env ENV ...")
+    sub.add_parser("evaluate", help="held-out rollouts: bathprint evaluate POLICY... --env ENV")
+    sub.add_parser("baselines", help="fit the constant / feedforward baselines: ... fit --env ENV")
     sub.add_parser(
         "bench", help="work-precision study: bathprint bench accuracy --out DIR [--quick]"
     )
@@ -157,6 +160,15 @@ def main(argv: list[str] | None = None) -> int:
         from bathprint.envs import play_main
 
         return play_main(argv[1:])
+    if argv[:1] in (["train"], ["evaluate"], ["baselines"]):  # and the agents' commands
+        from bathprint.agents import cli as agents_cli
+
+        main_of = {
+            "train": agents_cli.train_main,
+            "evaluate": agents_cli.evaluate_main,
+            "baselines": agents_cli.baselines_main,
+        }
+        return main_of[argv[0]](argv[1:])
     args = build_parser().parse_args(argv)
     try:
         return int(args.func(args))

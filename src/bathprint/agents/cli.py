@@ -1,0 +1,188 @@
+"""``bathprint train``, ``bathprint evaluate`` and ``bathprint baselines``.
+
+bathprint train --algo ppo --env bathprint/WriteShape-v0 [--timesteps N] [--n-envs K]
+                [--seed S] [--out DIR] [--resume]
+bathprint evaluate RUN_DIR_OR_POLICY [...] --env ENV [--episodes N] [--seed S] [--out DIR]
+bathprint baselines fit --env ENV [--targets N] [--write]
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from collections.abc import Sequence
+
+from bathprint.agents.hyperparams import ALGOS
+
+
+def _train_parser() -> argparse.ArgumentParser:
+    ap = argparse.ArgumentParser(
+        prog="bathprint train", description="Train a Stable-Baselines3 agent on an environment."
+    )
+    ap.add_argument("--algo", required=True, choices=ALGOS)
+    ap.add_argument("--env", required=True, help="environment id or short name")
+    ap.add_argument("--timesteps", type=int, default=None, help="total environment steps")
+    ap.add_argument("--n-envs", type=int, default=None, help="parallel environments")
+    ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--out", default=None, help="run directory (default runs/ALGO_ENV_seedS)")
+    ap.add_argument("--resume", action="store_true", help="continue the run in --out")
+    ap.add_argument(
+        "--hyperparams",
+        default=None,
+        help="YAML file of settings (default agents/ALGO.yml), e.g. agents/ppo_residual.yml",
+    )
+    ap.add_argument("--quiet", action="store_true", help="no progress bar")
+    return ap
+
+
+def train_main(argv: Sequence[str] | None = None) -> int:
+    args = _train_parser().parse_args(argv)
+    from bathprint.agents.train import train
+
+    for name in ("timesteps", "n_envs"):
+        value = getattr(args, name)
+        if value is not None and value < 1:
+            print(
+                f"bathprint train: --{name.replace('_', '-')} = {value}; must be >= 1",
+                file=sys.stderr,
+            )
+            return 2
+    try:
+        run_dir = train(
+            args.algo,
+            args.env,
+            timesteps=args.timesteps,
+            n_envs=args.n_envs,
+            seed=args.seed,
+            out=args.out,
+            resume=args.resume,
+            progress=not args.quiet,
+            hyperparams_file=args.hyperparams,
+        )
+    except KeyboardInterrupt:
+        return 130
+    except (ValueError, FileNotFoundError, FileExistsError) as exc:
+        print(f"bathprint train: {exc}", file=sys.stderr)
+        return 2
+    info = json.loads((run_dir / "run.json").read_text())
+    print(
+        f"trained {info['timesteps_done']} steps in {info['wall_time_s']:.0f} s; wrote {run_dir}/"
+        "final_model.zip, training_curve.png"
+    )
+    return 0
+
+
+def _evaluate_parser() -> argparse.ArgumentParser:
+    ap = argparse.ArgumentParser(
+        prog="bathprint evaluate",
+        description="Deterministic rollouts of policies on the held-out targets.",
+    )
+    ap.add_argument(
+        "policies",
+        nargs="+",
+        help="run directories, model .zip files or baselines: random, constant, feedforward, "
+        "feedforward_calibrated",
+    )
+    ap.add_argument("--env", required=True)
+    ap.add_argument("--episodes", type=int, default=16)
+    ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--out", default="runs/evaluate")
+    ap.add_argument(
+        "--accuracy",
+        choices=("draft", "balanced", "fine"),
+        default=None,
+        help="accuracy preset (default: the run's own, else draft)",
+    )
+    ap.add_argument("--images", type=int, default=3, help="episodes to draw as PNG")
+    ap.add_argument("--no-animation", action="store_true", help="skip the GIF of episode 0")
+    ap.add_argument("--quiet", action="store_true")
+    return ap
+
+
+def evaluate_main(argv: Sequence[str] | None = None) -> int:
+    args = _evaluate_parser().parse_args(argv)
+    from bathprint.agents.evaluate import evaluate_many, format_table
+
+    try:
+        summaries = evaluate_many(
+            args.policies,
+            args.env,
+            episodes=args.episodes,
+            seed=args.seed,
+            out=args.out,
+            accuracy=args.accuracy,
+            images=args.images,
+            animate=not args.no_animation,
+            progress=not args.quiet,
+        )
+    except (ValueError, FileNotFoundError, RuntimeError) as exc:
+        print(f"bathprint evaluate: {exc}", file=sys.stderr)
+        return 2
+    print(format_table(summaries), end="")
+    print(f"wrote {args.out}/table.md and one directory per policy")
+    return 0
+
+
+def _baselines_parser() -> argparse.ArgumentParser:
+    ap = argparse.ArgumentParser(
+        prog="bathprint baselines",
+        description="Fit the constant and feedforward baselines on training targets.",
+    )
+    sub = ap.add_subparsers(dest="action", required=True)
+    f = sub.add_parser("fit", help="grid search of constant flows; scaling-law prefactor")
+    f.add_argument("--env", required=True)
+    f.add_argument("--accuracy", default="draft", choices=("draft", "balanced", "fine"))
+    f.add_argument("--targets", type=int, default=4, help="training targets per action")
+    f.add_argument("--grid-q-outer", type=int, default=8)
+    f.add_argument("--grid-q-inner", type=int, default=4)
+    f.add_argument("--grid-offset", type=int, default=3)
+    f.add_argument("--seed", type=int, default=1000)
+    f.add_argument("--write", action="store_true", help="store the result in agents/baselines.yml")
+    f.add_argument("--quiet", action="store_true")
+    s = sub.add_parser("show", help="print the fitted baselines")
+    s.add_argument("--env", required=True)
+    return ap
+
+
+def baselines_main(argv: Sequence[str] | None = None) -> int:
+    args = _baselines_parser().parse_args(argv)
+    from bathprint.agents.hyperparams import load_baselines, save_baselines
+    from bathprint.envs import resolve_id
+
+    try:
+        env_id = resolve_id(args.env)
+        if args.action == "show":
+            entry = load_baselines(env_id)
+            entry.pop("grid", None)
+            print(json.dumps(entry, indent=2))
+            return 0
+        from bathprint.agents.fit import fit_baselines
+
+        for name in ("targets", "grid_q_outer", "grid_q_inner", "grid_offset"):
+            if getattr(args, name) < 1:
+                raise ValueError(
+                    f"--{name.replace('_', '-')} = {getattr(args, name)}; must be >= 1"
+                )
+        entry = fit_baselines(
+            env_id,
+            accuracy=args.accuracy,
+            n_targets=args.targets,
+            grid_q_outer=args.grid_q_outer,
+            grid_q_inner=args.grid_q_inner,
+            grid_offset=args.grid_offset,
+            seed=args.seed,
+            progress=not args.quiet,
+        )
+    except (ValueError, FileNotFoundError, RuntimeError) as exc:
+        print(f"bathprint baselines: {exc}", file=sys.stderr)
+        return 2
+    print(
+        f"{env_id}: best constant action {entry['constant_action']} "
+        f"(Q_o {entry['constant_q_outer_ml_min']:.3f}, Q_i {entry['constant_q_inner_ml_min']:.3f}"
+        f" ml/min; mean metric {entry['constant_mean_metric']:.4f} on training targets); "
+        f"scaling-law prefactor c = {entry['feedforward_prefactor']:.4f} (paper 0.4)"
+    )
+    if args.write:
+        print(f"wrote {save_baselines(env_id, entry)}")
+    return 0

@@ -1,0 +1,203 @@
+"""``bathprint evaluate``: deterministic rollouts of policies on the held-out target set.
+
+Episode k uses evaluation target k (mod the set's size) and seed ``seed + k`` (which picks
+the warm-up start state), so the same policy and seeds give the same numbers. For each
+policy (a baseline name, a run directory or a model ``.zip``) it writes into
+``OUT/<label>/``::
+
+    episodes.csv, episodes.json   per episode: metric (the shape metric, see
+                                  bathprint.envs.metric), shape_rms_mm, curvature_rms_1_mm,
+                                  density_rms_kg_m3 (intrinsic errors), reward, episode
+                                  length, wall time, mean flows, divergence message
+    summary.json                  means and standard deviations
+    episode_K.png                 the printed filament over its target (first --images)
+    episode_0.gif                 one episode being written (--animate)
+
+and, for all policies together, ``OUT/table.md`` and ``OUT/table.json``.
+"""
+
+from __future__ import annotations
+
+import csv
+import json
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from tqdm import tqdm
+
+from bathprint.agents.rollout import METRIC_KEYS, Episode, run_episode
+
+
+def _run_settings(spec: str, accuracy: str | None) -> tuple[dict[str, Any], Any]:
+    """(environment kwargs, wrapper entry) a policy was trained with (run directories and
+    their models), else the preset and no wrapper."""
+    path = Path(spec)
+    kwargs: dict[str, Any] = {}
+    wrapper = None
+    run_json = path / "run.json" if path.is_dir() else None
+    if run_json is None and path.suffix == ".zip":
+        run_json = next((p / "run.json" for p in path.parents if (p / "run.json").is_file()), None)
+    if run_json is not None and run_json.is_file():
+        hp = json.loads(run_json.read_text())["hyperparams"]
+        kwargs.update(hp.get("env_kwargs", {}))
+        wrapper = hp.get("wrapper")
+    if accuracy is not None:
+        kwargs["accuracy"] = accuracy
+    kwargs.setdefault("accuracy", "draft")
+    return kwargs, wrapper
+
+
+def _safe_label(label: str) -> str:
+    return "".join(ch if ch.isalnum() or ch in "-_." else "_" for ch in label)
+
+
+def summarize(episodes: list[Episode]) -> dict[str, Any]:
+    """Means and standard deviations of the per-episode numbers."""
+    out: dict[str, Any] = {"episodes": len(episodes)}
+    for key in METRIC_KEYS:
+        vals = np.array([e.metrics[key] for e in episodes])
+        out[f"mean_{key}"] = float(vals.mean())
+        out[f"std_{key}"] = float(vals.std())
+    out["mean_reward"] = float(np.mean([e.episode_return for e in episodes]))
+    out["mean_episode_length"] = float(np.mean([e.length for e in episodes]))
+    out["truncated_episodes"] = int(sum(e.truncated for e in episodes))
+    out["wall_time_s"] = float(sum(e.wall_time_s for e in episodes))
+    return out
+
+
+def evaluate_policy_spec(
+    spec: str,
+    env_id: str,
+    episodes: int = 16,
+    seed: int = 0,
+    out: str | Path | None = None,
+    accuracy: str | None = None,
+    images: int = 3,
+    animate: bool = True,
+    progress: bool = True,
+) -> tuple[str, dict[str, Any], list[Episode]]:
+    """Evaluate one policy; returns (label, summary, episodes) and writes the files if
+    ``out`` is given."""
+    from bathprint.agents.policies import load_policy
+    from bathprint.envs import make, resolve_id
+
+    if episodes < 1:
+        raise ValueError(f"episodes = {episodes!r}; must be >= 1")
+    env_id = resolve_id(env_id)
+    from bathprint.agents.wrappers import wrapper_factory
+
+    kwargs, wrapper = _run_settings(spec, accuracy)
+    env = make(env_id, render_mode="rgb_array", target_set="eval", **kwargs)
+    if wrapper:
+        env = wrapper_factory(wrapper)(env)
+    policy, label = load_policy(spec, env, env_id, seed=seed)
+    n_eval = env.unwrapped.sampler.eval_size
+    eps: list[Episode] = []
+    for k in tqdm(range(episodes), desc=f"evaluate {label}", disable=not progress):
+        frame_every = 2 if (animate and k == 0 and out is not None) else 0
+        ep = run_episode(
+            env,
+            policy,
+            seed + k,
+            target_index=k % n_eval,
+            frame_every=frame_every,
+            final_frame=out is not None and k < images,
+        )
+        eps.append(ep)
+    summary = summarize(eps)
+    summary.update(
+        {
+            "policy": label,
+            "env_id": env_id,
+            "env_kwargs": kwargs,
+            "wrapper": wrapper,
+            "seed": seed,
+            "spec": spec,
+        }
+    )
+    if out is not None:
+        _write(Path(out) / _safe_label(label), env, eps, summary, images)
+    env.close()
+    return label, summary, eps
+
+
+def _write(d: Path, env: Any, eps: list[Episode], summary: dict[str, Any], images: int) -> None:
+    from PIL import Image
+
+    from bathprint.envs.play import write_animation
+
+    d.mkdir(parents=True, exist_ok=True)
+    records = [e.record() for e in eps]
+    with (d / "episodes.csv").open("w", newline="") as f:
+        w = csv.DictWriter(f, fieldnames=list(records[0]))
+        w.writeheader()
+        w.writerows(records)
+    (d / "episodes.json").write_text(json.dumps(records, indent=2))
+    (d / "summary.json").write_text(json.dumps(summary, indent=2, default=str))
+    for k, e in enumerate(eps[:images]):
+        if e.final_frame is not None:
+            Image.fromarray(e.final_frame).save(d / f"episode_{k}.png")
+    if eps[0].frames:
+        write_animation(eps[0].frames, d / "episode_0.gif", env.metadata["render_fps"])
+
+
+def format_table(summaries: Sequence[dict[str, Any]]) -> str:
+    """Markdown table of several policies' summaries (mean +- std over episodes)."""
+    lines = [
+        "| policy | metric | shape RMS (mm) | curvature RMS (1/mm) | density RMS (kg/m^3) "
+        "| truncated | wall s |",
+        "|---|---|---|---|---|---|---|",
+    ]
+    for s in summaries:
+        lines.append(
+            f"| {s['policy']} | {s['mean_metric']:.3f} +- {s['std_metric']:.3f} "
+            f"| {s['mean_shape_rms_mm']:.3f} | {s['mean_curvature_rms_1_mm']:.4f} "
+            f"| {s['mean_density_rms_kg_m3']:.2f} | {s['truncated_episodes']}/{s['episodes']} "
+            f"| {s['wall_time_s']:.1f} |"
+        )
+    return "\n".join(lines) + "\n"
+
+
+def collect_summaries(out: str | Path) -> list[dict[str, Any]]:
+    """Every ``OUT/*/summary.json``: baselines first (in their usual order), then agents."""
+    from bathprint.agents.policies import BASELINES
+
+    found = [json.loads(p.read_text()) for p in sorted(Path(out).glob("*/summary.json"))]
+    order = {name: k for k, name in enumerate(BASELINES)}
+    return sorted(found, key=lambda s: (order.get(s["policy"], len(order)), s["policy"]))
+
+
+def evaluate_many(
+    specs: Sequence[str],
+    env_id: str,
+    episodes: int = 16,
+    seed: int = 0,
+    out: str | Path = "runs/evaluate",
+    accuracy: str | None = None,
+    images: int = 3,
+    animate: bool = True,
+    progress: bool = True,
+) -> list[dict[str, Any]]:
+    """Evaluate each policy; returns their summaries. ``OUT/table.md`` and ``table.json``
+    are rebuilt from every policy evaluated into ``OUT`` so far with the same environment,
+    episodes and seed, so evaluations made one at a time add up to one table."""
+    out = Path(out)
+    summaries = []
+    for spec in specs:
+        _, summary, _ = evaluate_policy_spec(
+            spec, env_id, episodes, seed, out, accuracy, images, animate, progress
+        )
+        summaries.append(summary)
+    first = summaries[0]
+    same = [
+        s
+        for s in collect_summaries(out)
+        if (s["env_id"], s["episodes"], s["seed"]) == (first["env_id"], episodes, seed)
+    ]
+    (out / "table.md").write_text(
+        f"{first['env_id']}: {episodes} held-out episodes, seed {seed}\n\n" + format_table(same)
+    )
+    (out / "table.json").write_text(json.dumps(same, indent=2, default=str))
+    return summaries

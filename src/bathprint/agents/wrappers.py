@@ -1,0 +1,67 @@
+"""Residual control: a learned correction on top of the scaling-law feedforward.
+
+``FeedforwardResidual`` makes the agent's action a *correction*: the environment receives
+``clip(a_ff(obs) + scale * a, -1, 1)``, where ``a_ff`` is the
+:class:`~bathprint.agents.policies.FeedforwardPolicy` action for the last observation (residual
+policy learning: the agent starts at the feedforward controller and learns what the law
+misses). Select it in ``agents/<algo>.yml`` with
+``wrapper: {name: feedforward_residual, scale: 0.5, calibrated: true}``; evaluation wraps the
+environment the same way (read from the run's ``run.json``).
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+
+from bathprint.agents.policies import PAPER_PREFACTOR, FeedforwardPolicy
+
+WRAPPERS = ("feedforward_residual",)
+
+
+class FeedforwardResidual(gym.Wrapper):
+    """The environment's action = clip(feedforward(obs) + scale * action, -1, 1)."""
+
+    def __init__(self, env: gym.Env, scale: float = 0.5, calibrated: bool = True) -> None:
+        super().__init__(env)
+        if not 0 < scale <= 2:
+            raise ValueError(f"wrapper scale = {scale!r}; allowed: 0 < scale <= 2")
+        prefactor = PAPER_PREFACTOR
+        if calibrated:
+            from bathprint.agents.hyperparams import load_baselines
+
+            prefactor = float(load_baselines(env.spec.id)["feedforward_prefactor"])
+        self.feedforward = FeedforwardPolicy(env, prefactor=prefactor)
+        self.scale = float(scale)
+        self._obs: np.ndarray | None = None
+
+    def reset(self, **kwargs: Any) -> tuple[np.ndarray, dict[str, Any]]:
+        obs, info = self.env.reset(**kwargs)
+        self._obs = obs
+        return obs, info
+
+    def step(self, action: np.ndarray) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
+        if self._obs is None:
+            raise RuntimeError("call reset() before step()")
+        a = np.asarray(action, np.float32)
+        if not np.isfinite(a).all():
+            raise ValueError(f"action {a!r} holds NaN or inf")
+        full = np.clip(self.feedforward.action(self._obs) + self.scale * a, -1.0, 1.0)
+        obs, reward, terminated, truncated, info = self.env.step(full.astype(np.float32))
+        self._obs = obs
+        return obs, reward, terminated, truncated, info
+
+
+def wrapper_factory(spec: dict[str, Any] | None) -> Any:
+    """A picklable ``env -> wrapped env`` from a ``wrapper:`` entry (None: no wrapper)."""
+    import functools
+
+    if not spec:
+        return None
+    spec = dict(spec)
+    name = spec.pop("name", None)
+    if name not in WRAPPERS:
+        raise ValueError(f"wrapper name = {name!r}; allowed: {', '.join(WRAPPERS)}")
+    return functools.partial(FeedforwardResidual, **spec)
