@@ -5,8 +5,8 @@ training family, which never yields a held-out target), never on the evaluation 
 
 - best constant: every action of a grid (``--grid-q-outer`` values of Q_o, ``--grid-q-inner``
   of Q_i, ``--grid-offset`` of the inclusion offset, each evenly spaced over [-1, 1] in
-  action units) is held for whole episodes on ``--targets`` targets; the one with the
-  lowest mean final metric wins.
+  action units; a grid of one value is mid-range, or Q_i = 0 for Q_i) is held for whole
+  episodes on ``--targets`` targets; the one with the lowest mean final metric wins.
 - prefactor: in the runs with Q_i = 0 and no offset, the median radius R of the osculating
   helix of the printed (scored) filament is measured, and c in R = c (B / (mu v))^(1/3) is
   the geometric mean of R / (B / (mu v))^(1/3) over them (B, mu, v as in
@@ -27,10 +27,11 @@ from bathprint.agents.rollout import run_episode
 from bathprint.envs.targets import discrete_curvature, discrete_torsion
 
 
-def _grid(n: int) -> list[float]:
+def _grid(n: int, single: float = 0.0) -> list[float]:
+    """n values evenly spaced over [-1, 1] in action units; one value is ``single``."""
     if n < 1:
         raise ValueError(f"grid size {n!r}; must be >= 1")
-    return [0.0] if n == 1 else [float(x) for x in np.linspace(-1.0, 1.0, n)]
+    return [single] if n == 1 else [float(x) for x in np.linspace(-1.0, 1.0, n)]
 
 
 def printed_coil_radius_mm(env: Any) -> float:
@@ -64,7 +65,7 @@ def fit_baselines(
     u = env.unwrapped
     names = u.action_names
     axes = [_grid(grid_q_outer)]
-    axes.append(_grid(grid_q_inner) if "q_inner" in names else [])
+    axes.append(_grid(grid_q_inner, -1.0) if "q_inner" in names else [])  # one value: Q_i = 0
     axes.append(_grid(grid_offset) if "inclusion_offset" in names else [])
     grids = [ax for ax in axes if ax]
     actions = [np.array(a, np.float32) for a in itertools.product(*grids)]
@@ -72,7 +73,6 @@ def fit_baselines(
     if dim != len(grids):  # needle velocity components stay 0
         actions = [np.concatenate([a, np.zeros(dim - len(grids), np.float32)]) for a in actions]
     law = LawConstants.from_env(env)
-    i_qi = names.index("q_inner") if "q_inner" in names else None
     i_off = names.index("inclusion_offset") if "inclusion_offset" in names else None
     table: list[dict[str, Any]] = []
     ratios: list[float] = []
@@ -80,14 +80,14 @@ def fit_baselines(
     for a in actions:
         policy = ConstantPolicy(a)
         metrics, radii = [], []
-        plain = (i_qi is None or a[i_qi] == -1.0) and (i_off is None or a[i_off] == 0.0)
+        ctl = u.action_to_controls(a)
+        plain = ctl["q_inner_ml_min"] == 0.0 and (i_off is None or a[i_off] == 0.0)
         for k in range(n_targets):
             ep = run_episode(env, policy, seed + k)
             metrics.append(ep.metrics["metric"])
             if plain and not ep.truncated:
                 radii.append(printed_coil_radius_mm(env))
             bar.update()
-        ctl = u.action_to_controls(a)
         row = {
             "action": [round(float(x), 6) for x in a],
             "q_outer_ml_min": round(float(ctl["q_outer_ml_min"]), 6),
