@@ -10,16 +10,13 @@ import numpy as np
 
 
 def _missing_error(run_dir: Path) -> float:
-    """M at reset (= missing_error), to turn evaluation returns into final metrics."""
-    from bathprint.envs import make
+    """M at reset (= the spec's missing_error), to turn evaluation returns into final
+    metrics; read from the environment's spec, no environment is built."""
+    from bathprint.envs.metric import MetricParams
+    from bathprint.envs.spec import load_spec
 
     info = json.loads((run_dir / "run.json").read_text())
-    kwargs = dict(info["hyperparams"].get("env_kwargs", {}))
-    env = make(info["env_id"], **kwargs)
-    try:
-        return float(env.unwrapped.metric_params.missing_error)
-    finally:
-        env.close()
+    return MetricParams.from_dict(load_spec(info["env_id"]).metric).missing_error
 
 
 def eval_curve(run_dir: str | Path) -> tuple[np.ndarray, np.ndarray]:
