@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import argparse
 import csv
+import json
 import math
 import sys
 import time
@@ -36,7 +37,7 @@ from bathprint.scene import ACCURACY_PRESETS
 from bathprint.simulation import Simulation
 from bathprint.stability import explicit_step_limit
 from bathprint.theory import beta_critical
-from bathprint.validation import CANTILEVER, _lateral_growth_rate
+from bathprint.validation import CANTILEVER, extruded_rod_growth_rate_for
 
 PROBLEMS = ("cantilever", "onset", "coil_radius", "coil_frequency")
 CANTILEVER_T_END = 0.1  # s: about 30 relaxation times of the slowest bending mode
@@ -82,6 +83,54 @@ def timed(fn: Callable[[], Any], repeats: int = 2) -> tuple[float, Any]:
     return best, result
 
 
+class Points:
+    """Measured points, kept in ``points.jsonl`` of the output directory as they finish, so
+    that an interrupted study resumes where it stopped (``--fresh`` starts over). Shows a
+    progress bar over the plan's points."""
+
+    def __init__(self, path: Path | None, total: int, fresh: bool = False) -> None:
+        from tqdm import tqdm
+
+        self.path = path
+        self.done: dict[str, tuple[float, Any]] = {}
+        if path is not None and path.exists() and not fresh:
+            for line in path.read_text().splitlines():
+                if line.strip():
+                    rec = json.loads(line)
+                    res = rec["result"]
+                    self.done[rec["key"]] = (
+                        rec["wall_s"],
+                        tuple(res) if isinstance(res, list) else res,
+                    )
+        elif path is not None and fresh and path.exists():
+            path.unlink()
+        self.bar = tqdm(total=total, unit="point", desc="work-precision", disable=path is None)
+        self.bar.update(min(len(self.done), total))
+
+    def measure(self, key: str, fn: Callable[[], Any], repeats: int = 2) -> tuple[float, Any]:
+        """(wall s, result) of ``fn``: stored if this key was measured before, else timed."""
+        if key in self.done:
+            return self.done[key]
+        wall, result = timed(fn, repeats)
+        self.done[key] = (wall, result)
+        if self.path is not None:
+            with self.path.open("a") as f:
+                f.write(json.dumps({"key": key, "wall_s": wall, "result": result}) + "\n")
+        self.bar.set_postfix_str(key, refresh=False)
+        self.bar.update(1)
+        return wall, result
+
+    def close(self) -> None:
+        self.bar.close()
+
+
+_POINTS = Points(None, 0)  # replaced by main(); the run_* functions measure through it
+
+
+def measure(key: str, fn: Callable[[], Any], repeats: int = 2) -> tuple[float, Any]:
+    return _POINTS.measure(key, fn, repeats)
+
+
 # --------------------------------------------------------------------------- problems
 
 
@@ -122,35 +171,15 @@ def extruded_rod_growth_rate(
     beta: float, n_segments: int = 20, extra: dict[str, Any] | None = None
 ) -> float:
     """Growth rate, in units of B / (mu_s L^4), of a perturbation of the extruded rod at
-    beta (copy of :func:`bathprint.validation.extruded_rod_growth_rate_for` with the
-    numerics as arguments; default tolerance 1e-6 as there). ``extra["time_step_scale"]``:
-    a fixed step of that many units of mu_s L^4 / B."""
+    beta (:func:`bathprint.validation.extruded_rod_growth_rate_for`). ``extra``: numerics
+    overrides; ``extra["time_step_scale"]``: a fixed step of that many units of
+    mu_s L^4 / B."""
     extra = dict(extra or {})
     step_scale = extra.pop("time_step_scale", None)
-    length_mm = 10.0
-    overrides: dict[str, Any] = {
-        **CANTILEVER,
-        "effects": ["elasticity", "drag"],
-        "drag.model": "constant",
-        "needle.direction": [0.0, 0.0, -1.0],
-        "initial.length_mm": length_mm,
-        "initial.perturbation_mm": 1e-5 * length_mm,
-        "numerics.node_spacing_mm": length_mm / n_segments,
-        "numerics.tolerance": 1e-6,
-        "duration_s": 1e3,
-        **extra,
-    }
-    sim = Simulation("paper_simulation", overrides)
-    m = sim.model
-    length = length_mm * 1e-3
-    scale = m.bending_stiffness / (m.mu_s * length**4)
-    if step_scale is not None:
-        overrides["numerics.time_step_s"] = step_scale / scale
-        sim = Simulation("paper_simulation", overrides)
-        m = sim.model
-    v = beta * m.bending_stiffness / (m.mu_s * length**3)
-    m.params[5:8] = (0.0, 0.0, v)  # P_FLOW_X..Z: from the free end toward the needle
-    return _lateral_growth_rate(sim, 10.0 / scale) / scale
+    rate, scale, _ = extruded_rod_growth_rate_for(
+        beta, n_segments=n_segments, extra=extra, time_step_scale=step_scale
+    )
+    return rate / scale
 
 
 def onset_error(n_segments: int = 20, extra: dict[str, Any] | None = None) -> float:
@@ -230,6 +259,16 @@ QUICK = Plan(
 INTEGRATORS = ("implicit", "implicit_euler")
 
 
+def plan_size(plan: Plan) -> int:
+    """Number of measured points of a plan (for the progress bar)."""
+    n_presets = len(ACCURACY_PRESETS)
+    cant = len(INTEGRATORS) * (len(plan.cant_tol) + len(plan.cant_dt) + len(plan.cant_n))
+    onset = len(INTEGRATORS) * (len(plan.onset_tol) + len(plan.onset_dt) + len(plan.onset_n))
+    coil_presets = list(ACCURACY_PRESETS).index(plan.coil_reference) + 1
+    coil = len(plan.coil_tol) + len(plan.coil_spacing) + coil_presets
+    return cant + len(plan.cant_explicit_n) + n_presets + onset + n_presets + coil
+
+
 def _log(msg: str) -> None:
     print(msg, flush=True)
 
@@ -248,20 +287,32 @@ def run_cantilever(plan: Plan) -> tuple[list[Row], dict[str, Row]]:
     p = "cantilever"
     for integ in INTEGRATORS:
         for tol in plan.cant_tol:
-            w, e = timed(lambda i=integ, t=tol: cantilever_error(50, i, {"numerics.tolerance": t}))
+            w, e = measure(
+                f"{p}|{integ}|tol|{tol!r}",
+                lambda i=integ, t=tol: cantilever_error(50, i, {"numerics.tolerance": t}),
+            )
             rows.append(Row(p, integ, "tolerance", "numerics.tolerance", tol, w, e))
         for dt in plan.cant_dt:
-            w, e = timed(lambda i=integ, d=dt: cantilever_error(50, i, {"numerics.time_step_s": d}))
+            w, e = measure(
+                f"{p}|{integ}|dt|{dt!r}",
+                lambda i=integ, d=dt: cantilever_error(50, i, {"numerics.time_step_s": d}),
+            )
             rows.append(Row(p, integ, "time_step", "numerics.time_step_s", dt, w, e))
         for n in plan.cant_n:
-            w, e = timed(lambda i=integ, k=n: cantilever_error(k, i, {"numerics.tolerance": 1e-3}))
+            w, e = measure(
+                f"{p}|{integ}|n|{n}",
+                lambda i=integ, k=n: cantilever_error(k, i, {"numerics.tolerance": 1e-3}),
+            )
             rows.append(Row(p, integ, "node_spacing", "numerics.node_spacing_mm", 10 / n, w, e))
     for n in plan.cant_explicit_n:
-        w, e = timed(lambda k=n: cantilever_error(k, "explicit"))
+        w, e = measure(f"{p}|explicit|n|{n}", lambda k=n: cantilever_error(k, "explicit"))
         rows.append(Row(p, "explicit", "node_spacing", "numerics.node_spacing_mm", 10 / n, w, e))
     presets: dict[str, Row] = {}
     for name, (_, _, factor) in ACCURACY_PRESETS.items():
-        w, e = timed(lambda s=name: cantilever_error(50, "implicit", {"numerics.accuracy": s}))
+        w, e = measure(
+            f"{p}|preset|{name}",
+            lambda s=name: cantilever_error(50, "implicit", {"numerics.accuracy": s}),
+        )
         presets[name] = Row(p, "implicit", "preset", name, 0.2 * factor, w, e)
     return rows, presets
 
@@ -273,17 +324,25 @@ def run_onset(plan: Plan) -> tuple[list[Row], dict[str, Row]]:
     for integ in INTEGRATORS:
         base = {"numerics.integrator": integ}
         for tol in plan.onset_tol:
-            w, e = timed(lambda b=base, t=tol: onset_error(20, {**b, "numerics.tolerance": t}))
+            w, e = measure(
+                f"{p}|{integ}|tol|{tol!r}",
+                lambda b=base, t=tol: onset_error(20, {**b, "numerics.tolerance": t}),
+            )
             rows.append(Row(p, integ, "tolerance", "numerics.tolerance", tol, w, e))
         for c in plan.onset_dt:
-            w, e = timed(lambda b=base, s=c: onset_error(20, {**b, "time_step_scale": s}))
+            w, e = measure(
+                f"{p}|{integ}|dt|{c!r}",
+                lambda b=base, s=c: onset_error(20, {**b, "time_step_scale": s}),
+            )
             rows.append(Row(p, integ, "time_step", "time_step_s * B/(mu_s L^4)", c, w, e))
         for n in plan.onset_n:
-            w, e = timed(lambda b=base, k=n: onset_error(k, b))
+            w, e = measure(f"{p}|{integ}|n|{n}", lambda b=base, k=n: onset_error(k, b))
             rows.append(Row(p, integ, "node_spacing", "numerics.node_spacing_mm", 10 / n, w, e))
     presets: dict[str, Row] = {}
     for name, (_, _, factor) in ACCURACY_PRESETS.items():
-        w, e = timed(lambda s=name: onset_error(20, {"numerics.accuracy": s}))
+        w, e = measure(
+            f"{p}|preset|{name}", lambda s=name: onset_error(20, {"numerics.accuracy": s})
+        )
         presets[name] = Row(p, "implicit", "preset", name, 0.5 * factor, w, e)
     return rows, presets
 
@@ -293,8 +352,10 @@ def run_coil(plan: Plan) -> tuple[list[Row], dict[str, Row]]:
     dur = plan.coil_duration
     ref_name = plan.coil_reference
     _log(f"  coil reference: preset {ref_name!r}, {dur:g} s ...")
-    w_ref, (r_ref, om_ref) = timed(
-        lambda: coil_run({"numerics.accuracy": ref_name}, dur), repeats=1
+    w_ref, (r_ref, om_ref) = measure(
+        f"coil|{dur!r}|preset|{ref_name}",
+        lambda: coil_run({"numerics.accuracy": ref_name}, dur),
+        repeats=1,
     )
     _log(f"  reference R = {r_ref * 1e3:.4f} mm, omega = {om_ref:.4f} rad/s ({w_ref:.1f} s)")
 
@@ -307,11 +368,16 @@ def run_coil(plan: Plan) -> tuple[list[Row], dict[str, Row]]:
 
     rows: list[Row] = []
     for tol in plan.coil_tol:
-        w, res = timed(lambda t=tol: coil_run({"numerics.tolerance": t}, dur))
+        w, res = measure(
+            f"coil|{dur!r}|tol|{tol!r}", lambda t=tol: coil_run({"numerics.tolerance": t}, dur)
+        )
         rows += rows_for("tolerance", "numerics.tolerance", tol, w, res)
         _log(f"  coil tolerance {tol:g}: {w:.1f} s")
     for dx in plan.coil_spacing:
-        w, res = timed(lambda d=dx: coil_run({"numerics.node_spacing_mm": d}, dur))
+        w, res = measure(
+            f"coil|{dur!r}|dx|{dx!r}",
+            lambda d=dx: coil_run({"numerics.node_spacing_mm": d}, dur),
+        )
         rows += rows_for("node_spacing", "numerics.node_spacing_mm", dx, w, res)
         _log(f"  coil spacing {dx:g} mm: {w:.1f} s")
     presets: dict[str, Row] = {}
@@ -321,7 +387,10 @@ def run_coil(plan: Plan) -> tuple[list[Row], dict[str, Row]]:
         if name == ref_name:
             w, res = w_ref, (r_ref, om_ref)  # the reference itself: error 0 by construction
         else:
-            w, res = timed(lambda s=name: coil_run({"numerics.accuracy": s}, dur))
+            w, res = measure(
+                f"coil|{dur!r}|preset|{name}",
+                lambda s=name: coil_run({"numerics.accuracy": s}, dur),
+            )
         r_row, om_row = rows_for("preset", name, 0.3 * factor, w, res)
         presets[name] = r_row
         presets[name + "/frequency"] = om_row
@@ -418,10 +487,18 @@ def main(argv: Sequence[str] | None = None) -> int:
     ap = argparse.ArgumentParser(prog="bathprint bench accuracy", description=__doc__)
     ap.add_argument("--out", required=True, type=Path, help="output directory")
     ap.add_argument("--quick", action="store_true", help="fewer points, shorter coil run")
+    ap.add_argument(
+        "--fresh", action="store_true", help="discard points measured by an earlier run in --out"
+    )
     args = ap.parse_args(argv)
     plan = QUICK if args.quick else FULL
     out: Path = args.out
     out.mkdir(parents=True, exist_ok=True)
+    global _POINTS
+    name = "points_quick.jsonl" if args.quick else "points.jsonl"
+    _POINTS = Points(out / name, plan_size(plan), fresh=args.fresh)
+    if _POINTS.done:
+        _log(f"resuming: {len(_POINTS.done)} points already measured in {out / name}")
     t0 = time.perf_counter()
     _log("warming up (numba kernels) ...")
     warm_up()
@@ -434,6 +511,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         rows += r
         presets += list(p.values())
         _log(f"{label}: {time.perf_counter() - t1:.1f} s")
+    _POINTS.close()
     write_csv(out / "accuracy.csv", rows + presets)
     write_csv(out / "presets.csv", presets)
     plot(out / "accuracy.png", rows, presets)

@@ -143,9 +143,15 @@ def extruded_rod_growth_rate_for(
     diameter_mm: float = 1.0,
     n_segments: int = 40,
     length_mm: float = 10.0,
+    extra: dict[str, Any] | None = None,
+    time_step_scale: float | None = None,
 ) -> tuple[float, float, float]:
     """(growth rate 1/s, its scale B / (mu_s L^4) in 1/s, speed v m/s) of a perturbation of
-    the extruded rod at beta = mu_s v L^3 / B, for a given modulus and diameter."""
+    the extruded rod at beta = mu_s v L^3 / B, for a given modulus and diameter.
+
+    ``extra``: further scene overrides (numerics); ``time_step_scale``: a fixed step of that
+    many units of mu_s L^4 / B (None: adaptive, tolerance 1e-6 unless ``extra`` sets one).
+    """
     overrides: dict[str, Any] = {
         **CANTILEVER,
         "effects": ["elasticity", "drag"],
@@ -158,11 +164,16 @@ def extruded_rod_growth_rate_for(
         "numerics.node_spacing_mm": length_mm / n_segments,
         "numerics.tolerance": 1e-6,
         "duration_s": 1e3,
+        **(extra or {}),
     }
     sim = Simulation("paper_simulation", overrides)
     m = sim.model
     length = length_mm * 1e-3
     scale = m.bending_stiffness / (m.mu_s * length**4)
+    if time_step_scale is not None:
+        overrides["numerics.time_step_s"] = time_step_scale / scale
+        sim = Simulation("paper_simulation", overrides)
+        m = sim.model
     v = beta * m.bending_stiffness / (m.mu_s * length**3)
     m.params[5:8] = (0.0, 0.0, v)  # P_FLOW_X..Z: from the free end toward the needle
     return _lateral_growth_rate(sim, 10.0 / scale), scale, v
