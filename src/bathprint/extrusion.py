@@ -104,6 +104,51 @@ def inner_volume(flow: np.ndarray, flow_cum: np.ndarray, t: float) -> float:
     return flow_cum[k, 1] + 0.5 * (flow[k, 2] + qi) * (t - flow[k, 0])
 
 
+@njit(cache=True, error_model="numpy")
+def flow_step(
+    flow: np.ndarray, flow_cum: np.ndarray, area: float, t: float, qo: float, qi: float
+) -> tuple[np.ndarray, np.ndarray]:
+    """New (flow, flow_cum) tables for a step change of the flow rates to (qo, qi) m^3/s at
+    time t (:meth:`bathprint.Simulation.set_flow`, which checks the values): the knots
+    before t, a knot at t, the new flow 1 us later (knot times stay strictly rising), the
+    last 64 kept (older ones are summarised in the cumulative table), and the cumulative
+    table rebuilt from the first knot as :func:`bathprint.model.flow_cumulative` does."""
+    n_old = flow.shape[0]
+    n_keep = 0
+    for i in range(n_old):
+        if flow[i, 0] < t:
+            n_keep += 1
+    qo_now, qi_now = flow_rate(flow, t)
+    n_all = n_keep + 2
+    skip = max(n_all - 64, 0)
+    n = n_all - skip
+    new = np.empty((n, 3))
+    r = 0
+    k = 0
+    for i in range(n_old):
+        if flow[i, 0] < t:
+            if k >= skip:
+                new[r, 0], new[r, 1], new[r, 2] = flow[i, 0], flow[i, 1], flow[i, 2]
+                r += 1
+            k += 1
+    new[r, 0], new[r, 1], new[r, 2] = t, qo_now, qi_now
+    new[r + 1, 0], new[r + 1, 1], new[r + 1, 2] = t + 1e-6, qo, qi
+    first = new[0, 0]
+    cum = np.empty((n, 2))
+    cum[0, 0] = extruded_length(flow, flow_cum, area, first)
+    cum[0, 1] = inner_volume(flow, flow_cum, first)
+    s0 = s1 = 0.0  # running sums, as np.cumsum (which starts from the first term)
+    for i in range(1, n):
+        dt = new[i, 0] - new[i - 1, 0]
+        term0 = 0.5 * ((new[i - 1, 1] + new[i - 1, 2]) + (new[i, 1] + new[i, 2])) * dt
+        term1 = 0.5 * (new[i - 1, 2] + new[i, 2]) * dt
+        s0 = term0 if i == 1 else s0 + term0
+        s1 = term1 if i == 1 else s1 + term1
+        cum[i, 0] = cum[0, 0] + s0 / area
+        cum[i, 1] = cum[0, 1] + s1
+    return new, cum
+
+
 @njit(cache=True)
 def time_at_extruded_length(
     flow: np.ndarray, flow_cum: np.ndarray, area: float, s: float, t_hi: float

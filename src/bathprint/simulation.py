@@ -19,11 +19,11 @@ from bathprint.errors import SimulationError
 from bathprint.extrusion import (
     extruded_length,
     flow_rate,
+    flow_step,
     material_row,
     needle_state,
     set_boundary,
 )
-from bathprint.extrusion import inner_volume as inner_volume_at
 from bathprint.integrators import N_VECS, V_POS0, V_VEL0, _explicit_step, advance
 from bathprint.model import Model, compile_model
 from bathprint.scene import Scene, load_scene
@@ -245,27 +245,10 @@ class Simulation:
                 f"q_inner_m3_s = {q_inner_m3_s!r} is more than the needle allows with "
                 f"q_outer_m3_s = {q_outer_m3_s!r} (inner fraction at most {phi_max:g})"
             )
-        from bathprint.model import flow_cumulative
-
         m = self.model
-        t = self.t
-        flow = m.flow
-        keep = flow[:, 0] < t
-        qo_now, qi_now = flow_rate(flow, t)
-        rows = [flow[keep]] if keep.any() else []
-        rows.append(np.array([[t, qo_now, qi_now]]))
-        # a 1 us ramp keeps knot times strictly rising; the flow is the new one after it
-        rows.append(np.array([[t + 1e-6, q_outer_m3_s, q_inner_m3_s]]))
-        new = np.concatenate(rows)
-        if len(new) > 64:  # keep the table short: older knots are summarised in flow_cum
-            new = new[-64:]
-        first = new[0, 0]
-        start = (
-            float(extruded_length(flow, m.flow_cum, m.needle_area, first)),
-            float(inner_volume_at(flow, m.flow_cum, first)),
+        m.flow, m.flow_cum = flow_step(
+            m.flow, m.flow_cum, m.needle_area, self.t, q_outer_m3_s, q_inner_m3_s
         )
-        m.flow = np.ascontiguousarray(new)
-        m.flow_cum = flow_cumulative(m.flow, m.needle_area, start)
 
     def set_inclusion_offset(self, offset: float) -> None:
         """Set the inclusions' offset Delta = (r1 - r2) / r, in [-1, 1], from now on."""

@@ -1,4 +1,9 @@
-"""Compiled kernels of the environments (numba): the windowed Kabsch RMSD of the metric."""
+"""Compiled kernels of the environments (numba): the windowed Kabsch RMSD of the metric, and
+the per-step fast path (flow table update, state read, printed samples, metric, observation).
+
+The fast-path kernels reproduce the numpy expressions they replace operation by operation
+(same order, numpy's pairwise summation for means), so their results are bit-identical.
+"""
 
 from __future__ import annotations
 
@@ -163,3 +168,289 @@ def circle_curvature(points: np.ndarray, k: int, out: np.ndarray) -> None:
             * (ac0 * ac0 + ac1 * ac1 + ac2 * ac2)
         )
         out[j] = 2.0 * area2 / den if den > 1e-30 else 0.0
+
+
+@njit(cache=True)
+def _block_sum(a: np.ndarray, lo: int, n: int) -> float:
+    """Sum of a[lo:lo + n], n <= 128, in numpy's order (8 accumulators when n >= 8)."""
+    if n < 8:
+        res = 0.0
+        for i in range(lo, lo + n):
+            res += a[i]
+        return res
+    r0, r1, r2, r3 = a[lo], a[lo + 1], a[lo + 2], a[lo + 3]
+    r4, r5, r6, r7 = a[lo + 4], a[lo + 5], a[lo + 6], a[lo + 7]
+    i = lo + 8
+    end8 = lo + n - n % 8
+    while i < end8:
+        r0 += a[i]
+        r1 += a[i + 1]
+        r2 += a[i + 2]
+        r3 += a[i + 3]
+        r4 += a[i + 4]
+        r5 += a[i + 5]
+        r6 += a[i + 6]
+        r7 += a[i + 7]
+        i += 8
+    res = ((r0 + r1) + (r2 + r3)) + ((r4 + r5) + (r6 + r7))
+    while i < lo + n:
+        res += a[i]
+        i += 1
+    return res
+
+
+@njit(cache=True)
+def pairwise_sum(a: np.ndarray, lo: int, n: int) -> float:
+    """Sum of a[lo:lo + n] in numpy's order (``np.add.reduce``: blocks of <= 128 summed 8-way
+    unrolled, halves (cut at a multiple of 8) added pairwise). Iterative: numba's cache does
+    not take recursive functions."""
+    if n <= 128:
+        return _block_sum(a, lo, n)
+    # post-order walk of numpy's recursion with explicit stacks (depth <= log2(n))
+    s_lo = np.empty(64, np.int64)
+    s_n = np.empty(64, np.int64)
+    s_stage = np.empty(64, np.int64)
+    partial = np.empty(64)
+    s_lo[0], s_n[0], s_stage[0] = lo, n, 0
+    sp = 1
+    rp = 0
+    while sp > 0:
+        top = sp - 1
+        m = s_n[top]
+        if m <= 128:
+            partial[rp] = _block_sum(a, s_lo[top], m)
+            rp += 1
+            sp -= 1
+            continue
+        half = m // 2
+        half -= half % 8
+        if s_stage[top] == 0:  # left half first
+            s_stage[top] = 1
+            s_lo[sp], s_n[sp], s_stage[sp] = s_lo[top], half, 0
+            sp += 1
+        elif s_stage[top] == 1:  # then the right half
+            s_stage[top] = 2
+            s_lo[sp], s_n[sp], s_stage[sp] = s_lo[top] + half, m - half, 0
+            sp += 1
+        else:  # both done: left + right
+            partial[rp - 2] = partial[rp - 2] + partial[rp - 1]
+            rp -= 1
+            sp -= 1
+    return partial[0]
+
+
+@njit(cache=True, error_model="numpy")
+def read_state(x: np.ndarray, v: np.ndarray, rest: np.ndarray, scale: float) -> tuple:
+    """x /= scale, v /= scale in place; returns (u, finite): u = [0, cumsum(rest)] / scale
+    and whether x, u and v are all finite."""
+    ok = True
+    for i in range(x.shape[0]):
+        for a in range(3):
+            x[i, a] = x[i, a] / scale
+            v[i, a] = v[i, a] / scale
+            ok = ok and math.isfinite(x[i, a]) and math.isfinite(v[i, a])
+    u = np.empty(rest.shape[0] + 1)
+    u[0] = 0.0 / scale
+    c = 0.0
+    for i in range(rest.shape[0]):
+        c = rest[0] if i == 0 else c + rest[i]
+        u[i + 1] = c / scale
+        ok = ok and math.isfinite(u[i + 1])
+    return u, ok
+
+
+@njit(cache=True)
+def step_at(u: np.ndarray, values: np.ndarray, uq: np.ndarray, out: np.ndarray) -> None:
+    """out[i] = values[k] for the last k with u[k] <= uq[i] (clipped to values' range), as
+    ``values[clip(searchsorted(u, uq, 'right') - 1, 0, len(values) - 1)]``."""
+    n = u.shape[0]
+    last = values.shape[0] - 1
+    for i in range(uq.shape[0]):
+        t = uq[i]
+        lo = 0
+        hi = n  # first index with u[index] > t, by bisection
+        while lo < hi:
+            mid = (lo + hi) // 2
+            if u[mid] <= t:
+                lo = mid + 1
+            else:
+                hi = mid
+        out[i] = values[min(max(lo - 1, 0), last)]
+
+
+@njit(cache=True)
+def printed_at(
+    u: np.ndarray, x: np.ndarray, rho: np.ndarray, u0: float, h: float, j: int
+) -> tuple[np.ndarray, np.ndarray]:
+    """Positions (interpolated) and densities (per segment) at u0 + i h, i < j."""
+    uq = np.empty(j)
+    for i in range(j):
+        uq[i] = u0 + i * h
+    pts = np.empty((j, 3))
+    dens = np.empty(j)
+    interp_rows(u, x, uq, pts)
+    step_at(u, rho, uq, dens)
+    return pts, dens
+
+
+@njit(cache=True, error_model="numpy")
+def metric_errors(
+    pts: np.ndarray,
+    rho: np.ndarray,
+    tpts: np.ndarray,
+    tcurv: np.ndarray,
+    tlo: np.ndarray,
+    thi: np.ndarray,
+    half: int,
+    k: int,
+    w: np.ndarray,
+    reflect: bool,
+    bath_lo: float,
+    bath_hi: float,
+) -> tuple:
+    """Per-sample errors and the parts of :func:`bathprint.envs.metric.evaluate`.
+
+    ``w`` = [w_shape, w_curvature, w_density, length_scale, density_scale, missing^2].
+    Returns (errors, value, shape_rms, curvature_rms, density_rms).
+    """
+    w_shape, w_curv, w_dens, ls, ds, m2 = w[0], w[1], w[2], w[3], w[4], w[5]
+    n_all = tpts.shape[0]
+    n = min(pts.shape[0], n_all)
+    err2 = np.full(n_all, m2)
+    shape = curv = dens = 0.0
+    if n > 0:
+        e2 = np.zeros(n)
+        tmp = np.empty(n)
+        if w_shape > 0:
+            d = np.zeros(n)
+            windowed_kabsch(pts[:n], tpts[:n], half, reflect, d)
+            for i in range(n):
+                r = d[i] / ls
+                e2[i] += w_shape * (r * r)
+                tmp[i] = d[i] * d[i]
+            shape = math.sqrt(pairwise_sum(tmp, 0, n) / n)
+        if w_curv > 0:
+            kap = np.empty(n)
+            circle_curvature(pts[:n], k, kap)
+            for i in range(n):
+                dk = kap[i] - tcurv[i] if n >= 2 * k + 1 else 0.0
+                r = ls * dk
+                e2[i] += w_curv * (r * r)
+                tmp[i] = dk * dk
+            curv = math.sqrt(pairwise_sum(tmp, 0, n) / n)
+        if w_dens > 0:
+            for i in range(n):
+                r = rho[i]
+                if r < bath_lo:
+                    r = bath_lo
+                if r > bath_hi:
+                    r = bath_hi
+                below = tlo[i] - r
+                above = r - thi[i]
+                if below < 0.0:
+                    below = 0.0
+                if above < 0.0:
+                    above = 0.0
+                dr = below + above
+                q = dr / ds
+                e2[i] += w_dens * (q * q)
+                tmp[i] = dr * dr
+            dens = math.sqrt(pairwise_sum(tmp, 0, n) / n)
+        for i in range(n):
+            err2[i] = e2[i] if e2[i] <= m2 else m2  # NaN too
+    value = math.sqrt(pairwise_sum(err2, 0, n_all) / n_all)
+    errors = np.sqrt(err2)
+    return errors, value, shape, curv, dens
+
+
+@njit(cache=True, error_model="numpy")
+def observe(
+    x: np.ndarray,
+    v: np.ndarray,
+    u: np.ndarray,
+    rho: np.ndarray,
+    layout: tuple,
+    tfeat: np.ndarray,
+    progress: np.ndarray,
+    controls: np.ndarray,
+    errors: np.ndarray,
+    clip: float,
+) -> np.ndarray:
+    """The observation vector (float32, ``bathprint.envs.core.OBS_LAYOUT``), NaN -> 0 and
+    clipped to +-clip.
+
+    ``layout`` = (query offsets behind the tip (tip | velocity | back sampling), n_tip, n_vel,
+    curvature indices into the back sampling, density offsets, target offsets, scales
+    [length, speed, curvature, density ref, density scale], recent-sample count).
+    ``tfeat``: (N, 3) target features; ``progress`` = [printed, spacing, episode length,
+    scored fraction, metric, missing error, scored count]; ``controls``: the 6 entries.
+    """
+    query, n_tip, n_vel, curv_idx, dens_off, tgt_off, sc, n_recent = layout
+    n = x.shape[0]
+    u_tip = u[n - 1]
+    m = query.shape[0]
+    uq = np.empty(m)
+    for i in range(m):
+        uq[i] = u_tip - query[i]
+    xi = np.empty((m, 3))
+    vi = np.empty((n_vel, 3))
+    interp_rows(u, x, uq, xi)
+    interp_rows(u, v, uq[n_tip : n_tip + n_vel], vi)
+    back = np.ascontiguousarray(xi[n_tip + n_vel :])
+    kap = np.empty(back.shape[0])
+    circle_curvature(back, 2, kap)
+    nd = dens_off.shape[0]
+    ud = np.empty(nd)
+    for i in range(nd):
+        ud[i] = u_tip - dens_off[i]
+    rd = np.empty(nd)
+    step_at(u, rho, ud, rd)
+    nt = tgt_off.shape[0]
+    size = 3 * n_tip + 3 * n_vel + curv_idx.shape[0] + nd + 3 * nt + controls.shape[0] + 4
+    obs = np.empty(size)
+    o = 0
+    for i in range(n_tip):
+        for a in range(3):
+            obs[o] = (xi[i, a] - x[n - 1, a]) / sc[0]
+            o += 1
+    for i in range(n_vel):
+        for a in range(3):
+            obs[o] = vi[i, a] / sc[1]
+            o += 1
+    for i in range(curv_idx.shape[0]):
+        obs[o] = kap[curv_idx[i]] * sc[2]
+        o += 1
+    for i in range(nd):
+        obs[o] = (rd[i] - sc[3]) / sc[4]
+        o += 1
+    printed, h, n_tgt = progress[0], progress[1], tfeat.shape[0]
+    for i in range(nt):
+        r = (printed + tgt_off[i]) / h
+        f = math.floor(r)  # round half to even, as np.round
+        if r - f > 0.5 or (r - f == 0.5 and f % 2.0 != 0.0):
+            f += 1.0
+        k = min(max(int(f), 0), n_tgt - 1)
+        for a in range(3):
+            obs[o] = tfeat[k, a]
+            o += 1
+    for i in range(controls.shape[0]):
+        obs[o] = controls[i]
+        o += 1
+    miss = progress[5]
+    j = int(progress[6])
+    lo = max(0, j - n_recent)
+    obs[o] = printed / progress[2]
+    obs[o + 1] = progress[3]
+    obs[o + 2] = progress[4] / miss
+    obs[o + 3] = pairwise_sum(errors, lo, j - lo) / (j - lo) / miss if j > lo else 1.0
+    out = np.empty(size, np.float32)
+    for i in range(size):
+        y = obs[i]
+        if y != y:
+            y = 0.0
+        elif y > clip:
+            y = clip
+        elif y < -clip:
+            y = -clip
+        out[i] = y
+    return out

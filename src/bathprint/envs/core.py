@@ -19,9 +19,16 @@ import numpy as np
 from gymnasium import spaces
 
 from bathprint import layout as L
-from bathprint.envs._kernels import interp_rows
+from bathprint.envs._kernels import interp_rows, observe, printed_at, read_state
 from bathprint.envs.accuracy import accuracy_overrides
-from bathprint.envs.metric import MetricParams, MetricValue, PrintedSamples, evaluate
+from bathprint.envs.metric import (
+    MetricParams,
+    MetricValue,
+    PreparedMetric,
+    PrintedSamples,
+    evaluate_prepared,
+    prepare,
+)
 from bathprint.envs.needle import move_needle
 from bathprint.envs.spec import EnvSpecData, load_spec
 from bathprint.envs.targets import (
@@ -30,7 +37,6 @@ from bathprint.envs.targets import (
     SectionsFamily,
     Target,
     TargetSampler,
-    discrete_curvature,
     load_target_file,
 )
 from bathprint.errors import SimulationError
@@ -62,7 +68,26 @@ _OBS_QUERY_MM = np.concatenate([TIP_OFFSETS_MM, VEL_OFFSETS_MM, _BACK_MM])
 _OBS_TIP = slice(0, len(TIP_OFFSETS_MM))
 _OBS_VEL = slice(_OBS_TIP.stop, _OBS_TIP.stop + len(VEL_OFFSETS_MM))
 _OBS_BACK = slice(_OBS_VEL.stop, _OBS_VEL.stop + len(_BACK_MM))
-_OBS_CURV_INDEX = np.round(np.array(CURV_OFFSETS_MM) / _BACK_STEP_MM).astype(int)
+_OBS_CURV_INDEX = np.round(np.array(CURV_OFFSETS_MM) / _BACK_STEP_MM).astype(np.int64)
+# the layout as the observation kernel takes it (bathprint.envs._kernels.observe)
+_OBS_KERNEL_LAYOUT = (
+    _OBS_QUERY_MM,
+    len(TIP_OFFSETS_MM),
+    len(VEL_OFFSETS_MM),
+    _OBS_CURV_INDEX,
+    np.array(DENS_OFFSETS_MM),
+    np.array(TARGET_OFFSETS_MM),
+    np.array(
+        [
+            OBS_LENGTH_MM,
+            OBS_SPEED_MM_S,
+            OBS_CURVATURE_MM,
+            OBS_DENSITY_REF_KG_M3,
+            OBS_DENSITY_SCALE_KG_M3,
+        ]
+    ),
+    RECENT_SAMPLES,
+)
 
 OBS_LAYOUT: tuple[tuple[str, int], ...] = (
     ("tip_relative_positions", 3 * len(TIP_OFFSETS_MM)),
@@ -170,6 +195,7 @@ class BathprintEnv(gym.Env[np.ndarray, np.ndarray]):
             raise ValueError(f"needle_velocity = {needle_velocity!r}; allowed: False, True, 'xy'")
         self.needle_axes = "" if not needle_velocity else str(needle_velocity)
         self.action_names += [f"needle_v{a}" for a in self.needle_axes]
+        self._action_index = {name: k for k, name in enumerate(self.action_names)}
         self.needle_speed_mm_s = float(ctl.get("needle_speed_mm_s", 10.0))
         box = np.array(ctl.get("needle_box_mm", [[-20, 20], [-20, 20], [-40, -2]]), float)
         self.needle_box_mm = box.reshape(3, 2)
@@ -195,6 +221,7 @@ class BathprintEnv(gym.Env[np.ndarray, np.ndarray]):
 
         self.sim: Simulation | None = None
         self.target: Target | None = None
+        self._prepared_target: Target | None = None
         self._figure: Any = None
         self._diverged = False
 
@@ -241,26 +268,22 @@ class BathprintEnv(gym.Env[np.ndarray, np.ndarray]):
         a = np.asarray(action, dtype=np.float64)
         if a.shape != self.action_space.shape:
             raise ValueError(f"action shape {a.shape}; expected {self.action_space.shape}")
-        if not np.isfinite(a).all():
+        values = a.tolist()
+        if not all(map(math.isfinite, values)):
             raise ValueError(f"action {a!r} holds NaN or inf")
-        a = np.clip(a, -1.0, 1.0)
-        named = dict(zip(self.action_names, a, strict=True))
+        values = [min(max(x, -1.0), 1.0) for x in values]
+        index = self._action_index
 
-        def affine(x: float, lo_hi: tuple[float, ...]) -> float:
-            return lo_hi[0] + 0.5 * (x + 1.0) * (lo_hi[1] - lo_hi[0])
+        def affine(name: str, lo_hi: tuple[float, ...]) -> float:
+            return lo_hi[0] + 0.5 * (values[index[name]] + 1.0) * (lo_hi[1] - lo_hi[0])
 
-        qo = affine(named["q_outer"], self.q_outer_range)
-        qi = affine(named["q_inner"], self.q_inner_range) if "q_inner" in named else 0.0
+        qo = affine("q_outer", self.q_outer_range)
+        qi = affine("q_inner", self.q_inner_range) if "q_inner" in index else 0.0
         qi = min(qi, self.phi_max / (1.0 - self.phi_max) * qo * (1.0 - 1e-9))
-        off = (
-            affine(named["inclusion_offset"], self.offset_range)
-            if "inclusion_offset" in named
-            else None
-        )
+        off = affine("inclusion_offset", self.offset_range) if "inclusion_offset" in index else None
         vel = np.zeros(3)
-        for k, axis in enumerate("xyz"):
-            if f"needle_v{axis}" in named:
-                vel[k] = named[f"needle_v{axis}"] * self.needle_speed_mm_s
+        for axis in self.needle_axes:
+            vel["xyz".index(axis)] = values[index[f"needle_v{axis}"]] * self.needle_speed_mm_s
         return {"q_outer_ml_min": qo, "q_inner_ml_min": qi, "inclusion_offset": off, "vel": vel}
 
     def controls_to_action(self, q_outer_ml_min: float, q_inner_ml_min: float = 0.0) -> np.ndarray:
@@ -325,6 +348,7 @@ class BathprintEnv(gym.Env[np.ndarray, np.ndarray]):
             "vel": np.zeros(3),
         }
         self._needle_mm = self.needle_start_mm.copy()
+        self._needle_obs = [0.0, 0.0, 0.0]
         self._steps = 0
         self._diverged = False
         self._snapshot()
@@ -366,6 +390,7 @@ class BathprintEnv(gym.Env[np.ndarray, np.ndarray]):
             c["vel"] = (target - self._needle_mm) / dt
             move_needle(sim, c["vel"] * MM, t1)
             self._needle_mm = target
+            self._needle_obs = ((target - self.needle_start_mm) / OBS_NEEDLE_MM).tolist()
         self._controls = c
         self._steps += 1
         before = self._metric.value
@@ -392,7 +417,7 @@ class BathprintEnv(gym.Env[np.ndarray, np.ndarray]):
             return self._last_obs.copy(), 0.0, False, True, info
         self._metric = self._evaluate()
         reward = before - self._metric.value
-        terminated = self._printed_mm >= self.episode_length_mm - 1e-6
+        terminated = self._printed_mm >= self._episode_length_mm - 1e-6
         obs = self._observe()
         self._last_obs = obs.copy()
         if self.render_mode == "human":
@@ -405,25 +430,40 @@ class BathprintEnv(gym.Env[np.ndarray, np.ndarray]):
         the free end), densities, velocities (mm/s)."""
         sim = self.sim
         assert sim is not None
-        x = sim.centerline() / MM
-        u = np.concatenate([[0.0], np.cumsum(sim.rest_lengths())]) / MM
-        v = sim.velocities() / MM
-        if not (np.isfinite(x).all() and np.isfinite(u).all() and np.isfinite(v).all()):
+        x, v = sim.centerline(), sim.velocities()
+        u, finite = read_state(x, v, sim.rest_lengths(), MM)  # x, v: m -> mm in place
+        if not finite:
             raise SimulationError("non-finite state read by the environment", sim.t, -1)
         self._x, self._u, self._v = x, u, v
-        self._xv = np.concatenate([x, v], axis=1)  # positions and velocities, interpolated together
-        self._rho = sim.material()[:, L.MAT_DENSITY]
+        self._rho = np.ascontiguousarray(sim.material()[:, L.MAT_DENSITY])
         self._printed_mm = float(u[-1] - self._u0_mm)
+
+    def _prepare_target(self) -> None:
+        """Per-target constants: the metric's, the observed target features, the key."""
+        tgt = self.target
+        assert tgt is not None
+        aim = tgt.density_aim(self.rho_gel)
+        self._target_features = np.ascontiguousarray(
+            np.stack(
+                [
+                    tgt.curvature_1_mm * OBS_CURVATURE_MM,
+                    tgt.torsion_1_mm * OBS_CURVATURE_MM,
+                    (aim - OBS_DENSITY_REF_KG_M3) / OBS_DENSITY_SCALE_KG_M3,
+                ],
+                axis=1,
+            ),
+            np.float64,
+        )
+        self._prepared_metric: PreparedMetric = prepare(tgt, self.metric_params, self.bath_range)
+        self._episode_length_mm = self.episode_length_mm
+        self._target_key = tgt.key
+        self._prepared_target = tgt
 
     def _interp(self, u_query: np.ndarray, values: np.ndarray) -> np.ndarray:
         """Rows of ``values`` (one per node) at material coordinates ``u_query`` (mm)."""
         out = np.empty((len(u_query), values.shape[1]))
         interp_rows(self._u, values, np.ascontiguousarray(u_query, np.float64), out)
         return out
-
-    def _density_at(self, u_query: np.ndarray) -> np.ndarray:
-        idx = np.searchsorted(self._u, u_query, side="right") - 1
-        return self._rho[np.clip(idx, 0, len(self._rho) - 1)]
 
     def _scored(self) -> int:
         """Number of target samples that are printed and settled."""
@@ -435,89 +475,90 @@ class BathprintEnv(gym.Env[np.ndarray, np.ndarray]):
     def printed_samples(self) -> PrintedSamples:
         """The scored part of the printed filament at the target's sample arclengths."""
         assert self.target is not None
-        j = self._scored()
-        uq = self._u0_mm + np.arange(j) * self.target.spacing_mm
-        return PrintedSamples(self._interp(uq, self._x), self._density_at(uq))
+        pts, dens = printed_at(
+            self._u, self._x, self._rho, self._u0_mm, self.target.spacing_mm, self._scored()
+        )
+        return PrintedSamples(pts, dens)
 
     def _evaluate(self) -> MetricValue:
-        assert self.target is not None
-        return evaluate(self.target, self.printed_samples(), self.metric_params, self.bath_range)
+        if self._prepared_target is not self.target:
+            self._prepare_target()
+        p = self.printed_samples()
+        return evaluate_prepared(self._prepared_metric, p.points_mm, p.density_kg_m3)
 
     def _observe(self) -> np.ndarray:
-        assert self.target is not None
         tgt = self.target
-        u_tip = self._u[-1]
-        tip = self._x[-1]
-        parts: list[np.ndarray] = []
-        xv = self._interp(u_tip - _OBS_QUERY_MM, self._xv)
-        parts.append((xv[_OBS_TIP, :3] - tip).ravel() / OBS_LENGTH_MM)
-        parts.append(xv[_OBS_VEL, 3:].ravel() / OBS_SPEED_MM_S)
-        kap = discrete_curvature(xv[_OBS_BACK, :3], 2)
-        parts.append(kap[_OBS_CURV_INDEX] * OBS_CURVATURE_MM)
-        rho = self._density_at(u_tip - np.array(DENS_OFFSETS_MM))
-        parts.append((rho - OBS_DENSITY_REF_KG_M3) / OBS_DENSITY_SCALE_KG_M3)
-        s = self._printed_mm + np.array(TARGET_OFFSETS_MM)
-        idx = np.clip(np.round(s / tgt.spacing_mm).astype(int), 0, tgt.n_samples - 1)
-        aim = tgt.density_aim(self.rho_gel)[idx]
-        feats = np.stack(
-            [
-                tgt.curvature_1_mm[idx] * OBS_CURVATURE_MM,
-                tgt.torsion_1_mm[idx] * OBS_CURVATURE_MM,
-                (aim - OBS_DENSITY_REF_KG_M3) / OBS_DENSITY_SCALE_KG_M3,
-            ],
-            axis=1,
-        )
-        parts.append(feats.ravel())
+        assert tgt is not None
+        if self._prepared_target is not tgt:
+            self._prepare_target()
         c = self._controls
+
+        def to_unit(x: float, lo_hi: tuple[float, ...]) -> float:  # as controls_to_action
+            span = lo_hi[1] - lo_hi[0]
+            return min(max(0.0 if span <= 0 else 2.0 * (x - lo_hi[0]) / span - 1.0, -1.0), 1.0)
+
         off_span = self.offset_range[1] - self.offset_range[0]
         off = c["inclusion_offset"]
-        off_obs = (
-            0.0 if off is None or off_span <= 0 else 2 * (off - self.offset_range[0]) / off_span - 1
-        )
-        a = self.controls_to_action(c["q_outer_ml_min"], c["q_inner_ml_min"])
-        q_in = a[self.action_names.index("q_inner")] if "q_inner" in self.action_names else -1.0
-        parts.append(
-            np.array(
-                [a[0], q_in, off_obs, *((self._needle_mm - self.needle_start_mm) / OBS_NEEDLE_MM)]
-            )
+        controls = np.array(
+            [
+                to_unit(c["q_outer_ml_min"], self.q_outer_range),
+                to_unit(c["q_inner_ml_min"], self.q_inner_range)
+                if "q_inner" in self._action_index
+                else -1.0,
+                0.0
+                if off is None or off_span <= 0
+                else 2 * (off - self.offset_range[0]) / off_span - 1,
+                *self._needle_obs,
+            ]
         )
         m = self._metric
-        j = self._scored()
-        recent = m.errors[max(0, j - RECENT_SAMPLES) : j]
-        miss = self.metric_params.missing_error
-        parts.append(
-            np.array(
-                [
-                    self._printed_mm / self.episode_length_mm,
-                    m.scored_fraction,
-                    m.value / miss,
-                    recent.mean() / miss if len(recent) else 1.0,
-                ]
-            )
+        progress = np.array(
+            [
+                self._printed_mm,
+                tgt.spacing_mm,
+                self._episode_length_mm,
+                m.scored_fraction,
+                m.value,
+                self.metric_params.missing_error,
+                self._scored(),
+            ],
+            np.float64,
         )
-        obs = np.concatenate(parts)
-        obs = np.nan_to_num(obs, nan=0.0, posinf=OBS_CLIP, neginf=-OBS_CLIP)
-        return np.clip(obs, -OBS_CLIP, OBS_CLIP).astype(np.float32)
+        return observe(
+            self._x,
+            self._v,
+            self._u,
+            self._rho,
+            _OBS_KERNEL_LAYOUT,
+            self._target_features,
+            progress,
+            controls,
+            m.errors,
+            OBS_CLIP,
+        )
 
     def _info(self) -> dict[str, Any]:
         assert self.sim is not None and self.target is not None
-        c = self._controls
-        info: dict[str, Any] = dict(self._metric.as_info())
-        info.update(
-            {
-                "printed_length_mm": self._printed_mm,
-                "episode_length_mm": self.episode_length_mm,
-                "q_outer_ml_min": float(c["q_outer_ml_min"]),
-                "q_inner_ml_min": float(c["q_inner_ml_min"]),
-                "needle_mm": self._needle_mm.copy(),
-                "sim_time_s": float(self.sim.t) if not self._diverged else float("nan"),
-                "n_nodes": int(self._x.shape[0]),
-                "target_key": self.target.key,
-                "target_index": self._target_index,
-                "start_state": self._start_index,
-            }
-        )
-        return info
+        c, m = self._controls, self._metric
+        return {
+            "metric": m.value,
+            "shape_rms_mm": m.shape_rms_mm,
+            "curvature_rms_1_mm": m.curvature_rms_1_mm,
+            "density_rms_kg_m3": m.density_rms_kg_m3,
+            "scored_fraction": m.scored_fraction,
+            "printed_length_mm": self._printed_mm,
+            "episode_length_mm": self.episode_length_mm,
+            "q_outer_ml_min": float(c["q_outer_ml_min"]),
+            "q_inner_ml_min": float(c["q_inner_ml_min"]),
+            "needle_mm": self._needle_mm.copy(),
+            "sim_time_s": float(self.sim.t) if not self._diverged else float("nan"),
+            "n_nodes": int(self._x.shape[0]),
+            "target_key": self._target_key
+            if self._prepared_target is self.target
+            else self.target.key,
+            "target_index": self._target_index,
+            "start_state": self._start_index,
+        }
 
     # ------------------------------------------------------------------ rendering
     def render(self) -> np.ndarray | None:

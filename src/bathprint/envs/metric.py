@@ -32,6 +32,7 @@ The reward of a step is M_before - M_after; an episode's return is M_0 - M_final
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from typing import Any
 
@@ -116,6 +117,77 @@ def settle_density(rho: np.ndarray, bath_range: tuple[float, float] | None) -> n
     return np.clip(rho, bath_range[0], bath_range[1])
 
 
+@dataclass(frozen=True)
+class PreparedMetric:
+    """What :func:`evaluate` needs of a target and the parameters, ready for the compiled
+    kernel (:func:`bathprint.envs._kernels.metric_errors`); see :func:`prepare`."""
+
+    args: tuple[Any, ...]  # (points, curvature, density lo, hi, half, k, w, reflect, bath lo, hi)
+    n_samples: int
+    needs_density: bool
+
+
+def prepare(
+    target: Target, params: MetricParams, bath_range: tuple[float, float] | None = None
+) -> PreparedMetric:
+    """The per-target constants of the metric (the target's curvature is cached on it)."""
+    h = target.spacing_mm
+    half = max(1, int(round(0.5 * params.window_mm / h)))
+    k = max(1, int(round(params.curvature_span_mm / h)))
+    tcurv = np.zeros(0)
+    if params.w_curvature > 0:
+        key = f"curvature_{k}"
+        if key not in target._cache:
+            target._cache[key] = discrete_curvature(target.points_mm, k)
+        tcurv = np.ascontiguousarray(target._cache[key], np.float64)
+    w = np.array(
+        [
+            params.w_shape,
+            params.w_curvature,
+            params.w_density,
+            params.length_scale_mm,
+            params.density_scale_kg_m3,
+            params.missing_error**2,
+        ],
+        np.float64,
+    )
+    lo, hi = (-math.inf, math.inf) if bath_range is None else bath_range
+    args = (
+        np.ascontiguousarray(target.points_mm, np.float64),
+        tcurv,
+        np.ascontiguousarray(target.density_lo_kg_m3, np.float64),
+        np.ascontiguousarray(target.density_hi_kg_m3, np.float64),
+        half,
+        k,
+        w,
+        bool(params.allow_reflection),
+        float(lo),
+        float(hi),
+    )
+    return PreparedMetric(args, target.n_samples, params.w_density > 0)
+
+
+def evaluate_prepared(
+    prepared: PreparedMetric, points_mm: np.ndarray, density_kg_m3: np.ndarray
+) -> MetricValue:
+    """The metric of the printed samples (C-contiguous float64 arrays) with :func:`prepare`'s
+    constants: what :func:`evaluate` returns."""
+    from bathprint.envs._kernels import metric_errors
+
+    n_sc = min(len(points_mm), prepared.n_samples)
+    if prepared.needs_density and n_sc > 0 and len(density_kg_m3) < n_sc:
+        raise ValueError(f"{len(density_kg_m3)} printed densities for {n_sc} scored samples")
+    errors, value, shape, curv, dens = metric_errors(points_mm, density_kg_m3, *prepared.args)
+    return MetricValue(
+        value=value,
+        shape_rms_mm=shape,
+        curvature_rms_1_mm=curv,
+        density_rms_kg_m3=dens,
+        scored_fraction=n_sc / prepared.n_samples,
+        errors=errors,
+    )
+
+
 def evaluate(
     target: Target,
     printed: PrintedSamples,
@@ -123,44 +195,6 @@ def evaluate(
     bath_range: tuple[float, float] | None = None,
 ) -> MetricValue:
     """The metric of ``printed`` (its first J samples scored) against ``target``."""
-    n_all = target.n_samples
-    n_sc = min(len(printed.points_mm), n_all)
-    err2 = np.full(n_all, params.missing_error**2)
-    shape = curv = dens = 0.0
-    if n_sc > 0:
-        h = target.spacing_mm
-        q = target.points_mm[:n_sc]
-        pts = printed.points_mm[:n_sc]
-        e2 = np.zeros(n_sc)
-        if params.w_shape > 0:
-            half = max(1, int(round(0.5 * params.window_mm / h)))
-            d = windowed_kabsch_rmsd(pts, q, half, params.allow_reflection)
-            e2 += params.w_shape * (d / params.length_scale_mm) ** 2
-            shape = float(np.sqrt(np.mean(d * d)))
-        if params.w_curvature > 0:
-            k = max(1, int(round(params.curvature_span_mm / h)))
-            key = f"curvature_{k}"
-            if key not in target._cache:
-                target._cache[key] = discrete_curvature(target.points_mm, k)
-            dk = discrete_curvature(pts, k) - target._cache[key][:n_sc]
-            if n_sc < 2 * k + 1:
-                dk = np.zeros(n_sc)
-            e2 += params.w_curvature * (params.length_scale_mm * dk) ** 2
-            curv = float(np.sqrt(np.mean(dk * dk)))
-        if params.w_density > 0:
-            rho = settle_density(printed.density_kg_m3[:n_sc], bath_range)
-            lo = target.density_lo_kg_m3[:n_sc]
-            hi = target.density_hi_kg_m3[:n_sc]
-            dr = np.maximum(lo - rho, 0.0) + np.maximum(rho - hi, 0.0)
-            e2 += params.w_density * (dr / params.density_scale_kg_m3) ** 2
-            dens = float(np.sqrt(np.mean(dr * dr)))
-        err2[:n_sc] = np.minimum(e2, params.missing_error**2)
-    err2 = np.where(np.isfinite(err2), err2, params.missing_error**2)
-    return MetricValue(
-        value=float(np.sqrt(np.mean(err2))),
-        shape_rms_mm=shape,
-        curvature_rms_1_mm=curv,
-        density_rms_kg_m3=dens,
-        scored_fraction=n_sc / n_all,
-        errors=np.sqrt(err2),
-    )
+    pts = np.ascontiguousarray(np.asarray(printed.points_mm, np.float64).reshape(-1, 3))
+    rho = np.ascontiguousarray(np.asarray(printed.density_kg_m3, np.float64).reshape(-1))
+    return evaluate_prepared(prepare(target, params, bath_range), pts, rho)

@@ -1,0 +1,217 @@
+"""The environments' compiled step path is bit-identical to the numpy expressions it replaced
+(kept here as references): flow table update, numpy-order sums, metric, observation."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+import bathprint.envs as E
+from bathprint import layout as L
+from bathprint.envs import core
+from bathprint.envs._kernels import pairwise_sum
+from bathprint.envs.metric import MetricParams, PrintedSamples, evaluate
+from bathprint.envs.targets import Target, discrete_curvature
+from bathprint.extrusion import extruded_length, flow_rate, inner_volume
+from bathprint.model import flow_cumulative
+
+
+# ------------------------------------------------------------------ references (numpy)
+def reference_evaluate(
+    target: Target, pts: np.ndarray, dens: np.ndarray, p: MetricParams, bath_range
+) -> tuple[np.ndarray, float, float, float, float]:
+    """The metric as first written with numpy (errors, value, shape, curvature, density)."""
+    from bathprint.envs.metric import settle_density, windowed_kabsch_rmsd
+
+    n_all = target.n_samples
+    n_sc = min(len(pts), n_all)
+    err2 = np.full(n_all, p.missing_error**2)
+    shape = curv = dn = 0.0
+    if n_sc > 0:
+        h = target.spacing_mm
+        e2 = np.zeros(n_sc)
+        if p.w_shape > 0:
+            half = max(1, int(round(0.5 * p.window_mm / h)))
+            d = windowed_kabsch_rmsd(pts[:n_sc], target.points_mm[:n_sc], half, p.allow_reflection)
+            e2 += p.w_shape * (d / p.length_scale_mm) ** 2
+            shape = float(np.sqrt(np.mean(d * d)))
+        if p.w_curvature > 0:
+            k = max(1, int(round(p.curvature_span_mm / h)))
+            dk = discrete_curvature(pts[:n_sc], k) - discrete_curvature(target.points_mm, k)[:n_sc]
+            if n_sc < 2 * k + 1:
+                dk = np.zeros(n_sc)
+            e2 += p.w_curvature * (p.length_scale_mm * dk) ** 2
+            curv = float(np.sqrt(np.mean(dk * dk)))
+        if p.w_density > 0:
+            rho = settle_density(dens[:n_sc], bath_range)
+            lo, hi = target.density_lo_kg_m3[:n_sc], target.density_hi_kg_m3[:n_sc]
+            dr = np.maximum(lo - rho, 0.0) + np.maximum(rho - hi, 0.0)
+            e2 += p.w_density * (dr / p.density_scale_kg_m3) ** 2
+            dn = float(np.sqrt(np.mean(dr * dr)))
+        err2[:n_sc] = np.minimum(e2, p.missing_error**2)
+    err2 = np.where(np.isfinite(err2), err2, p.missing_error**2)
+    return np.sqrt(err2), float(np.sqrt(np.mean(err2))), shape, curv, dn
+
+
+def reference_observe(env: core.BathprintEnv) -> np.ndarray:
+    """The observation as first written with numpy, from the environment's state."""
+    tgt = env.target
+    u, x, v, rho = env._u, env._x, env._v, env._rho
+
+    def density_at(uq: np.ndarray) -> np.ndarray:
+        idx = np.searchsorted(u, uq, side="right") - 1
+        return rho[np.clip(idx, 0, len(rho) - 1)]
+
+    xv = env._interp(u[-1] - core._OBS_QUERY_MM, np.concatenate([x, v], axis=1))
+    parts = [
+        (xv[core._OBS_TIP, :3] - x[-1]).ravel() / core.OBS_LENGTH_MM,
+        xv[core._OBS_VEL, 3:].ravel() / core.OBS_SPEED_MM_S,
+        discrete_curvature(xv[core._OBS_BACK, :3], 2)[core._OBS_CURV_INDEX] * core.OBS_CURVATURE_MM,
+        (density_at(u[-1] - np.array(core.DENS_OFFSETS_MM)) - core.OBS_DENSITY_REF_KG_M3)
+        / core.OBS_DENSITY_SCALE_KG_M3,
+    ]
+    s = env._printed_mm + np.array(core.TARGET_OFFSETS_MM)
+    idx = np.clip(np.round(s / tgt.spacing_mm).astype(int), 0, tgt.n_samples - 1)
+    aim = tgt.density_aim(env.rho_gel)[idx]
+    feats = np.stack(
+        [
+            tgt.curvature_1_mm[idx] * core.OBS_CURVATURE_MM,
+            tgt.torsion_1_mm[idx] * core.OBS_CURVATURE_MM,
+            (aim - core.OBS_DENSITY_REF_KG_M3) / core.OBS_DENSITY_SCALE_KG_M3,
+        ],
+        axis=1,
+    )
+    parts.append(feats.ravel())
+    c = env._controls
+    off_span = env.offset_range[1] - env.offset_range[0]
+    off = c["inclusion_offset"]
+    off_obs = 0.0
+    if off is not None and off_span > 0:
+        off_obs = 2 * (off - env.offset_range[0]) / off_span - 1
+    a = env.controls_to_action(c["q_outer_ml_min"], c["q_inner_ml_min"])
+    q_in = a[env.action_names.index("q_inner")] if "q_inner" in env.action_names else -1.0
+    needle = (env._needle_mm - env.needle_start_mm) / core.OBS_NEEDLE_MM
+    parts.append(np.array([a[0], q_in, off_obs, *needle]))
+    m = env._metric
+    j = env._scored()
+    recent = m.errors[max(0, j - core.RECENT_SAMPLES) : j]
+    miss = env.metric_params.missing_error
+    parts.append(
+        np.array(
+            [
+                env._printed_mm / env.episode_length_mm,
+                m.scored_fraction,
+                m.value / miss,
+                recent.mean() / miss if len(recent) else 1.0,
+            ]
+        )
+    )
+    obs = np.nan_to_num(np.concatenate(parts), nan=0.0, posinf=core.OBS_CLIP, neginf=-core.OBS_CLIP)
+    return np.clip(obs, -core.OBS_CLIP, core.OBS_CLIP).astype(np.float32)
+
+
+# ------------------------------------------------------------------ tests
+def test_pairwise_sum_is_numpys_sum() -> None:
+    rng = np.random.default_rng(0)
+    for n in [*range(300), 1000, 1027, 5000]:
+        a = rng.standard_normal(n + 3) * 10.0 ** rng.uniform(-6, 6, n + 3)
+        assert pairwise_sum(a, 2, n) == np.sum(a[2 : 2 + n])
+
+
+def _reference_set_flow(m, t: float, qo: float, qi: float) -> None:
+    """``Simulation.set_flow``'s table update as it was written in numpy (the reference)."""
+    flow = m.flow
+    keep = flow[:, 0] < t
+    qo_now, qi_now = flow_rate(flow, t)
+    rows = [flow[keep]] if keep.any() else []
+    rows.append(np.array([[t, qo_now, qi_now]]))
+    rows.append(np.array([[t + 1e-6, qo, qi]]))
+    new = np.concatenate(rows)
+    if len(new) > 64:
+        new = new[-64:]
+    first = new[0, 0]
+    start = (
+        float(extruded_length(flow, m.flow_cum, m.needle_area, first)),
+        float(inner_volume(flow, m.flow_cum, first)),
+    )
+    m.flow = np.ascontiguousarray(new)
+    m.flow_cum = flow_cumulative(m.flow, m.needle_area, start)
+
+
+def test_compiled_set_flow_equals_the_numpy_reference() -> None:
+    envs = [E.make("bathprint/WriteShape-v0", accuracy="draft").unwrapped for _ in range(2)]
+    for env in envs:
+        env.reset(seed=0)
+    a, b = envs[0].sim, envs[1].sim
+    rng = np.random.default_rng(1)
+    for _ in range(100):  # past 64 knots: the table is cut and its cumulative start moves
+        t = a.t + rng.uniform(1e-4, 0.02)
+        a.fstate[0] = b.fstate[0] = t  # only the time matters to set_flow
+        qo, qi = rng.uniform(0.25, 2.0) * core.ML_MIN, rng.uniform(0.0, 0.2) * core.ML_MIN
+        a.set_flow(qo, qi)
+        _reference_set_flow(b.model, t, qo, qi)
+        np.testing.assert_array_equal(b.model.flow, a.model.flow)
+        np.testing.assert_array_equal(b.model.flow_cum, a.model.flow_cum)
+    assert len(a.model.flow) == 64
+
+
+@pytest.mark.parametrize("bath", [None, (1010.0, 1050.0)])
+def test_metric_equals_the_numpy_reference(bath) -> None:
+    env = E.make("bathprint/WriteShape-v0", accuracy="draft").unwrapped
+    rng = np.random.default_rng(2)
+    params = [
+        MetricParams(w_density=0.5),
+        MetricParams(window_mm=7.0, w_shape=0.3, w_curvature=0.0, w_density=1.0),
+        MetricParams(w_shape=0.0, w_curvature=0.0, w_density=1.0, allow_reflection=False),
+        MetricParams(allow_reflection=False, curvature_span_mm=2.0),
+    ]
+    for trial in range(12):
+        target = env.sampler.train_target(rng)
+        n = target.n_samples
+        for j in (0, 1, 3, 5, 17, n // 2, n, n + 4):
+            pts = target.points_mm[: min(j, n)] + 0.3 * rng.standard_normal((min(j, n), 3))
+            pts = np.concatenate([pts, rng.standard_normal((j - len(pts), 3))])
+            dens = rng.uniform(1000.0, 1060.0, j)
+            if trial % 4 == 3 and j > 4:
+                pts[2] = np.nan
+                dens[3] = np.nan
+            p = params[trial % len(params)]
+            got = evaluate(target, PrintedSamples(pts, dens), p, bath)
+            ref = reference_evaluate(target, pts, dens, p, bath)
+            np.testing.assert_array_equal(got.errors, ref[0])
+            assert [got.value, got.shape_rms_mm, got.curvature_rms_1_mm, got.density_rms_kg_m3] == (
+                pytest.approx(list(ref[1:]), rel=0, abs=0, nan_ok=True)
+            )
+            assert got.scored_fraction == min(j, n) / n
+
+
+@pytest.mark.parametrize(
+    ("env_id", "kwargs"),
+    [
+        ("bathprint/CoilRadius-v0", {}),
+        ("bathprint/WriteShape-v0", {"needle_velocity": True}),
+        ("bathprint/BuoyantLayers-v0", {}),
+    ],
+)
+def test_observation_and_metric_equal_the_numpy_reference(env_id: str, kwargs: dict) -> None:
+    env = E.make(env_id, accuracy="draft", **kwargs)
+    u = env.unwrapped
+    env.action_space.seed(3)
+    obs, _ = env.reset(seed=3)
+    np.testing.assert_array_equal(obs, reference_observe(u))
+    for _ in range(u.episode_steps):
+        obs, _, term, trunc, _ = env.step(env.action_space.sample())
+        assert not trunc
+        np.testing.assert_array_equal(obs, reference_observe(u))
+        p = u.printed_samples()
+        ref = reference_evaluate(
+            u.target, p.points_mm, p.density_kg_m3, u.metric_params, u.bath_range
+        )
+        np.testing.assert_array_equal(u._metric.errors, ref[0])
+        assert u._metric.value == ref[1]
+        assert u._rho.tolist() == u.sim.material()[:, L.MAT_DENSITY].tolist()
+        if term:
+            break
+    assert term and math.isfinite(u._metric.value)
