@@ -11,6 +11,7 @@ from numba import njit
 
 from bathprint.banded import band_clear
 from bathprint.effects import drag, elasticity, end_load, floor, gravity, inertia
+from bathprint.freezing import accumulate_tail
 from bathprint.layout import (
     E_DRAG,
     E_ELASTICITY,
@@ -18,6 +19,7 @@ from bathprint.layout import (
     E_FLOOR,
     E_GRAVITY,
     E_INERTIA,
+    W_TAIL,
 )
 from bathprint.topology import free_nodes
 
@@ -68,3 +70,5 @@ def assemble(
     if enabled[E_END_LOAD]:
         calls[E_END_LOAD] += 1
         energies[E_END_LOAD] = end_load.accumulate(*args, do_jac)
+    if work[W_TAIL] > 0.0:  # a frozen tail (numerics.freeze_beyond_mm): part of the drag
+        energies[E_DRAG] += accumulate_tail(*args, do_jac)

@@ -36,6 +36,7 @@ from bathprint.extrusion import (
     split_inlet,
     transport_curvature,
 )
+from bathprint.freezing import tail_load
 from bathprint.layout import (
     C_FAIL_NODE,
     C_NEWTON_FAILURES,
@@ -44,6 +45,7 @@ from bathprint.layout import (
     C_SPLITS,
     C_STEPS,
     E_GELATION,
+    E_GRAVITY,
     E_INCLUSIONS,
     INTEGRATOR_EXPLICIT,
     INTEGRATOR_IMPLICIT_EULER,
@@ -51,6 +53,7 @@ from bathprint.layout import (
     KU,
     P_CLAMPED,
     P_FIXED_STEP,
+    P_FREEZE_BEYOND,
     P_INERTIA,
     P_MAX_INLET_GROWTH,
     P_MAX_NEWTON,
@@ -74,10 +77,12 @@ from bathprint.layout import (
     STATUS_STRETCH,
     W_FULL_NEWTON_STEPS,
     W_LU_VALID,
+    W_TAIL,
 )
 from bathprint.topology import filament_segments, free_nodes
 
 GAMMA = 1.0 - 1.0 / math.sqrt(2.0)
+MIN_ACTIVE_NODES = 6  # freezing leaves at least this many nodes (tip and ghost included)
 
 # rows of the vector workspace ``vecs`` (each 3 * capacity long)
 V_POS0 = 0
@@ -600,8 +605,13 @@ def advance(
     energies: np.ndarray,
     info: np.ndarray,
 ) -> int:
-    """Integrate from fstate[0] to t_end. istate = [n_nodes, n_splits]; fstate = [t, h_next].
+    """Integrate from fstate[0] to t_end. istate = [n_nodes, n_splits, n_frozen];
+    fstate = [t, h_next].
 
+    The first n_frozen nodes (material more than params[P_FREEZE_BEYOND] behind the needle)
+    are out of the solve: each step works on array views that start at the first active
+    node, whose end is free, and the frozen nodes are translated with that node, so the
+    settled tail keeps its shape and stays attached at no cost per Newton iteration.
     Returns a STATUS_* code; on failure ``info`` holds [time, node, value].
     """
     capacity = pos.shape[0] // 3
@@ -614,6 +624,7 @@ def advance(
     area = params[P_NEEDLE_AREA]
     pos0 = vecs[V_POS0]
     vel0 = vecs[V_VEL0]
+    freeze_beyond = params[P_FREEZE_BEYOND]
     steps = 0
     eps = 1e-12 * max(1.0, abs(t_end))
     while t < t_end - eps:
@@ -636,21 +647,31 @@ def advance(
         h_taken = min(h, t_end - t)
         if t_end - t - h_taken < 1e-3 * h_taken:
             h_taken = t_end - t
-        nall = 3 * n_nodes
+        # views of the active part (no copies): node `frozen` is its free end
+        frozen = istate[2]
+        if frozen > 0 or work[W_TAIL] > 0.0:
+            tail_load(pos, seg_rest, seg_mat, frozen, params, enabled[E_GRAVITY] > 0, work)
+        n_act = n_nodes - frozen
+        a_pos = pos[3 * frozen :]
+        a_vel = vel[3 * frozen :]
+        a_node_s = node_s[frozen:]
+        a_seg_rest = seg_rest[frozen:]
+        a_seg_mat = seg_mat[frozen:]
+        nall = 3 * n_act
         for k in range(nall):
-            pos0[k] = pos[k]
-            vel0[k] = vel[k]
+            pos0[k] = a_pos[k]
+            vel0[k] = a_vel[k]
         info[0] = t
         if integrator == INTEGRATOR_EXPLICIT:
             err = _explicit_step(
                 h_taken,
                 t,
-                n_nodes,
-                pos,
-                vel,
-                node_s,
-                seg_rest,
-                seg_mat,
+                n_act,
+                a_pos,
+                a_vel,
+                a_node_s,
+                a_seg_rest,
+                a_seg_mat,
                 params,
                 enabled,
                 flow,
@@ -669,13 +690,13 @@ def advance(
             err = _implicit_step(
                 h_taken,
                 t,
-                n_nodes,
+                n_act,
                 integrator,
-                pos,
-                vel,
-                node_s,
-                seg_rest,
-                seg_mat,
+                a_pos,
+                a_vel,
+                a_node_s,
+                a_seg_rest,
+                a_seg_mat,
                 params,
                 enabled,
                 flow,
@@ -695,16 +716,18 @@ def advance(
         if err >= 0.0 and fixed <= 0.0:
             # a jump in strain means Newton found a spurious (folded) branch: step back
             jump = (
-                _max_strain_change(pos0, pos, seg_rest, n_nodes, params)
+                _max_strain_change(pos0, a_pos, a_seg_rest, n_act, params)
                 / params[P_MAX_STRAIN_CHANGE]
             )
             if jump > 1.0:
                 strained = 16.0 * jump > err
                 err = max(err, 16.0 * jump)
+        if err < 0.0:
+            info[1] += frozen  # node numbers of the whole filament
         if err < 0.0 or (fixed <= 0.0 and err > 1.0):
             for k in range(nall):
-                pos[k] = pos0[k]
-                vel[k] = vel0[k]
+                a_pos[k] = pos0[k]
+                a_vel[k] = vel0[k]
             counters[C_REJECTED] += 1
             if err < 0.0:
                 counters[C_NEWTON_FAILURES] += 1
@@ -734,12 +757,19 @@ def advance(
             work[W_FULL_NEWTON_STEPS] -= 1.0
         counters[C_STEPS] += 1
         info[0] = t
-        status = _check_state(pos, vel, seg_rest, n_nodes, params, info)
+        status = _check_state(a_pos, a_vel, a_seg_rest, n_act, params, info)
         if status != STATUS_OK:
+            info[1] += frozen
             fstate[0] = t
             istate[0] = n_nodes
             return status
-        transport_curvature(pos0, pos, filament_segments(n_nodes, params), seg_mat)
+        transport_curvature(pos0, a_pos, filament_segments(n_act, params), a_seg_mat)
+        if frozen > 0:  # the frozen tail moves with the active end, rigidly
+            for c in range(3):
+                d = a_pos[c] - pos0[c]
+                for j in range(frozen):
+                    pos[3 * j + c] += d
+                    vel[3 * j + c] = a_vel[c]
         if fixed <= 0.0 and h_taken >= 0.999 * h:
             fstate[1] = h * min(5.0, 0.9 / math.sqrt(max(err, 1e-10)))
         s_tip = extruded_length(flow, flow_cum, area, t)
@@ -775,6 +805,12 @@ def advance(
         if enabled[E_GELATION]:
             calls[E_GELATION] += 1
             gelation.update(t, n_nodes, pos, seg_rest, seg_mat, params, work)
+        if freeze_beyond > 0.0 and params[P_CLAMPED] > 0.0:
+            frozen = istate[2]
+            limit = s_tip - freeze_beyond
+            while n_nodes - frozen > MIN_ACTIVE_NODES and node_s[frozen] < limit:
+                frozen += 1
+            istate[2] = frozen
     fstate[0] = t_end
     istate[0] = n_nodes
     return STATUS_OK

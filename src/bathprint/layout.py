@@ -86,7 +86,8 @@ P_CURVATURE_COEFFICIENT = 44  # -, kappa0 = C Delta phi / r
 P_SLUG_FRACTION = 45  # -, droplets wider than this fraction of the filament diameter are slugs
 P_NEWTON_REUSE = 46  # 1: modified Newton (reuse the factorised Jacobian within a step)
 P_MAX_STRAIN = 47  # -, adaptive steps ending with a larger |l/l0 - 1| are retried shorter
-N_PARAMS = 48
+P_FREEZE_BEYOND = 48  # m, material further behind the needle is frozen (0: off)
+N_PARAMS = 49
 
 # --- effects ------------------------------------------------------------------------
 E_ELASTICITY = 0
@@ -156,3 +157,5 @@ BAND_WIDTH = 2 * KL + KU + 1
 W_LU_VALID = 390
 # slot counting accepted steps still to take with full Newton after a Newton failure
 W_FULL_NEWTON_STEPS = 391
+# 13 slots from here: the frozen tail's lumped load (bathprint.freezing)
+W_TAIL = 400

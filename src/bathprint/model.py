@@ -125,6 +125,32 @@ def effective_numerics(scene: Scene) -> dict[str, float]:
     }
 
 
+MIN_ACTIVE_SPACINGS = 8  # the active filament keeps at least this many node spacings
+
+
+def _freeze_beyond(scene: Scene, node_spacing_mm: float) -> float:
+    """``numerics.freeze_beyond_mm``, checked: 0 (off) or at least ``MIN_ACTIVE_SPACINGS``
+    node spacings, and not with end_load, inertia or floor (the lumped tail of
+    :mod:`bathprint.freezing` carries drag and net weight only)."""
+    value = scene.numerics.freeze_beyond_mm
+    if value == 0.0:
+        return 0.0
+    if value < MIN_ACTIVE_SPACINGS * node_spacing_mm:
+        raise SceneError(
+            f"numerics.freeze_beyond_mm = {value!r} is shorter than {MIN_ACTIVE_SPACINGS} node "
+            f"spacings ({MIN_ACTIVE_SPACINGS * node_spacing_mm:g} mm); allowed: 0 (off) or "
+            "at least that"
+        )
+    clash = [e for e in ("end_load", "inertia", "floor") if e in scene.effects]
+    if clash:
+        raise SceneError(
+            f"numerics.freeze_beyond_mm = {value!r} with the {clash[0]} effect: the frozen tail "
+            "is lumped into drag and net weight at the active end (no end load, tail mass or "
+            f"floor contact); allowed: 0 with {clash[0]}"
+        )
+    return value
+
+
 def compile_model(scene: Scene) -> Model:
     """Turn a validated scene into the arrays of a :class:`Model`."""
     p = np.zeros(L.N_PARAMS)
@@ -160,6 +186,7 @@ def compile_model(scene: Scene) -> Model:
     p[L.P_MAX_STRAIN] = scene.numerics.max_strain
     p[L.P_MAX_INLET_GROWTH] = num["max_inlet_growth"]
     p[L.P_CLAMPED] = 1.0
+    p[L.P_FREEZE_BEYOND] = _freeze_beyond(scene, num["node_spacing_mm"]) * MM
     gel = scene.gelation
     if "gelation" in scene.effects and gel.final_modulus_pa < gel.initial_modulus_pa:
         raise SceneError(

@@ -212,6 +212,13 @@ class Numerics:
         },
     )
     max_newton_iterations: int = field(default=12, metadata={"range": (1, 100)})
+    freeze_beyond_mm: float = _num(
+        0.0,
+        0.0,
+        1e6,
+        doc="material further than this behind the needle (arclength) leaves the solve and "
+        "follows the active filament's end rigidly; 0: off",
+    )
     newton_tolerance: float = _num(0.01, 1e-8, 1.0, lo_open=True, doc="in units of tolerance")
 
 

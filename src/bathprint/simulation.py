@@ -28,7 +28,7 @@ from bathprint.integrators import N_VECS, V_POS0, V_VEL0, _explicit_step, advanc
 from bathprint.model import Model, compile_model
 from bathprint.scene import Scene, load_scene
 
-WORK_SIZE = 400
+WORK_SIZE = 416
 
 
 def _perpendicular(d: np.ndarray) -> np.ndarray:
@@ -92,7 +92,7 @@ class Simulation:
         material_row(phi0, -sc.initial.age_s, 0.0, d, m.params, row)
         self.seg_mat[: n_seg + 1] = row
         self.seg_rest[:n_seg] = seg_len
-        self.istate[:] = (n_nodes, 0)
+        self.istate[:] = (n_nodes, 0, 0)
         h0 = sc.numerics.time_step_s or min(sc.numerics.max_step_s, 1e-4)
         self.fstate[:] = (0.0, h0)
         set_boundary(
@@ -157,7 +157,7 @@ class Simulation:
         self.band2 = np.zeros((3 * cap, L.BAND_WIDTH))
         self.piv = np.zeros(3 * cap, dtype=np.int64)
         if not hasattr(self, "istate"):
-            self.istate = np.zeros(2, dtype=np.int64)
+            self.istate = np.zeros(3, dtype=np.int64)  # n_nodes, n_splits, n_frozen
             self.fstate = np.zeros(2)
             self.work = np.zeros(WORK_SIZE)
             self.calls = np.zeros(L.N_EFFECTS, dtype=np.int64)
@@ -185,6 +185,12 @@ class Simulation:
     def n_nodes(self) -> int:
         """Nodes including the needle tip and the ghost node."""
         return int(self.istate[0])
+
+    @property
+    def n_frozen(self) -> int:
+        """Nodes frozen at the free end (``numerics.freeze_beyond_mm``): out of the solve,
+        translated with the first active node."""
+        return int(self.istate[2])
 
     @property
     def capacity(self) -> int:
@@ -221,6 +227,7 @@ class Simulation:
         if not self.clamped:
             return
         self.model.params[L.P_CLAMPED] = 0.0
+        self.istate[2] = 0  # a released filament has no needle to measure from: all active
         ghost = self.n_nodes - 1
         self.pos[3 * ghost : 3 * ghost + 3] = 0.0
         self.vel[3 * ghost : 3 * ghost + 3] = 0.0

@@ -3,17 +3,21 @@
 The environments' ``accuracy`` argument picks one. They trade the simulator's fidelity for
 speed; the task (control interval, target, metric) is the same under every preset.
 
-=========  =================  =========  ===============  ============  ===========
-preset     integrator         tolerance  node spacing mm  inlet growth  Newton tol.
-=========  =================  =========  ===============  ============  ===========
-draft      implicit (SDIRK2)  0.1        0.8              4             0.1 (full)
-balanced   implicit (SDIRK2)  0.03       0.6              4             0.1 (full)
-fine       implicit (SDIRK2)  1e-3       0.3              0.5           0.01
-=========  =================  =========  ===============  ============  ===========
+=========  =================  =========  ===============  ============  ===========  ==========
+preset     integrator         tolerance  node spacing mm  inlet growth  Newton tol.  frozen mm
+=========  =================  =========  ===============  ============  ===========  ==========
+draft      implicit (SDIRK2)  0.1        0.8              4             0.1 (full)   beyond 20
+balanced   implicit (SDIRK2)  0.03       0.6              4             0.1 (full)   beyond 40
+fine       implicit (SDIRK2)  1e-3       0.3              0.5           0.01         never
+=========  =================  =========  ===============  ============  ===========  ==========
 
 (tolerance: local error per step relative to the node spacing; inlet growth: node spacings
 extruded per adaptive step at most; see the README's Scenes table; "(full)": full Newton
-where the core offers the choice, ``numerics.newton``; fine keeps the core's default.)
+where the core offers the choice, ``numerics.newton``; fine keeps the core's default;
+"frozen": ``numerics.freeze_beyond_mm``, material further behind the needle leaves the
+solve and moves with the active filament as one lumped drag and weight, see
+:mod:`bathprint.freezing`. On random-action episodes it changes the final metric by 4-7x
+less than the draft preset differs from balanced: ``benchmarks/bench_freezing.py``.)
 ``fine`` is the built-in scenes' own resolution. Coil radius of CoilRadius-v0 at constant
 Q_o = 0.5 / 1 / 2 ml/min (median over the scored part): fine 3.71 / 2.76 / 2.11 mm,
 balanced within 2 %, draft 2-11 % too large. Measured costs: ``benchmarks/bench_envs.py``.
@@ -32,6 +36,7 @@ ACCURACY_PRESETS: dict[str, dict[str, Any]] = {
         "numerics.node_spacing_mm": 0.8,
         "numerics.max_inlet_growth": 4.0,
         "numerics.min_step_s": 1e-7,
+        "numerics.freeze_beyond_mm": 20.0,
     },
     "balanced": {
         "numerics.integrator": "implicit",
@@ -40,6 +45,7 @@ ACCURACY_PRESETS: dict[str, dict[str, Any]] = {
         "numerics.node_spacing_mm": 0.6,
         "numerics.max_inlet_growth": 4.0,
         "numerics.min_step_s": 1e-8,
+        "numerics.freeze_beyond_mm": 40.0,
     },
     "fine": {
         "numerics.integrator": "implicit",

@@ -1,0 +1,147 @@
+"""What freezing settled material (``numerics.freeze_beyond_mm``) costs in accuracy and
+saves in time.
+
+    python benchmarks/bench_freezing.py [--episodes 8]
+
+(1) A steady coil (scene ``gelation_coiling_22G``, 3 s, draft and balanced presets): coil
+    radius and frequency and wall time with the material beyond 20, 40 and 60 mm frozen,
+    against the same run without freezing; beside it, the change that tightening the
+    tolerance ten times makes (the error the preset already accepts).
+(2) The environments at their ``draft`` preset (which freezes beyond 20 mm) under random
+    actions: the final metric of ``--episodes`` seeded episodes with and without freezing,
+    beside the difference between the draft and balanced presets (both without freezing),
+    and environment steps per CPU second of each.
+
+Writes benchmarks/results/freezing_coil.csv and freezing_envs.csv. Times are ratios to the
+run without freezing measured in the same process.
+"""
+
+from __future__ import annotations
+
+import argparse
+import time
+
+import numpy as np
+from _common import write_csv
+
+import bathprint.envs as E
+from bathprint.bench_accuracy import coil_run
+from bathprint.simulation import Simulation
+
+COIL = "gelation_coiling_22G"
+FREEZE_MM = (20.0, 40.0, 60.0)
+
+
+def _coil(overrides: dict) -> tuple[float, float, float]:
+    t0 = time.perf_counter()
+    r, om = coil_run(overrides)
+    return r, om, time.perf_counter() - t0
+
+
+def coil_table() -> list[dict]:
+    """Radius / frequency changes and wall-time ratios of the steady coil."""
+    dx = Simulation(COIL).scene.numerics.node_spacing_mm
+    rows = []
+    for preset, factor, tol, growth in (("draft", 2.0, 1e-2, 2.0), ("balanced", 1.0, 1e-3, 0.5)):
+        base = {"numerics.accuracy": preset}
+        tighter = {
+            "numerics.tolerance": tol / 10,
+            "numerics.max_inlet_growth": growth,
+            "numerics.node_spacing_mm": dx * factor,
+        }
+        _coil({**base, "duration_s": 0.3})  # load the kernels
+        r0, om0, w0 = _coil(base)
+        rt, omt, wt = _coil(tighter)
+        rows.append(
+            {
+                "preset": preset,
+                "variant": "tolerance / 10",
+                "radius_change": rt / r0 - 1,
+                "frequency_change": omt / om0 - 1,
+                "wall_ratio": wt / w0,
+            }
+        )
+        for fb in FREEZE_MM:
+            r, om, w = _coil({**base, "numerics.freeze_beyond_mm": fb})
+            rows.append(
+                {
+                    "preset": preset,
+                    "variant": f"frozen beyond {fb:g} mm",
+                    "radius_change": r / r0 - 1,
+                    "frequency_change": om / om0 - 1,
+                    "wall_ratio": w / w0,
+                }
+            )
+    return rows
+
+
+def _episodes(
+    env_id: str, accuracy: str, freeze_mm: float | None, n: int
+) -> tuple[np.ndarray, float]:
+    """Final metrics of n seeded random-action episodes, and steps per CPU second."""
+    extra = {} if freeze_mm is None else {"numerics.freeze_beyond_mm": freeze_mm}
+    env = E.make(env_id, accuracy=accuracy, scene_overrides=extra)
+    env.reset(seed=0)  # warm-up states and kernels, outside the timing
+    finals, steps, cpu = [], 0, 0.0
+    for ep in range(n):
+        env.action_space.seed(100 + ep)
+        env.reset(seed=100 + ep)
+        c0, done, info = time.process_time(), False, {}
+        while not done:
+            _, _, term, trunc, info = env.step(env.action_space.sample())
+            done, steps = term or trunc, steps + 1
+        cpu += time.process_time() - c0
+        finals.append(info["metric"])
+    env.close()
+    return np.array(finals), steps / cpu
+
+
+def env_table(episodes: int) -> list[dict]:
+    rows = []
+    for env_id in E.ENV_IDS:
+        bal, _ = _episodes(env_id, "balanced", 0.0, episodes)
+        off, rate_off = _episodes(env_id, "draft", 0.0, episodes)
+        on, rate_on = _episodes(env_id, "draft", None, episodes)  # the preset: beyond 20 mm
+        rows.append(
+            {
+                "env": env_id,
+                "episodes": episodes,
+                "mean_final_metric_draft": float(off.mean()),
+                "freezing_change": float(np.abs(on - off).mean()),
+                "draft_vs_balanced": float(np.abs(off - bal).mean()),
+                "steps_per_cpu_s_frozen": rate_on,
+                "steps_per_cpu_s_not_frozen": rate_off,
+                "speedup": rate_on / rate_off,
+            }
+        )
+    return rows
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__)
+    ap.add_argument("--episodes", type=int, default=8)
+    args = ap.parse_args()
+    coil = coil_table()
+    print(f"{'preset':9s} {'variant':22s} {'dR/R':>9s} {'domega/omega':>13s} {'wall ratio':>10s}")
+    for r in coil:
+        print(
+            f"{r['preset']:9s} {r['variant']:22s} {r['radius_change']:+9.4f} "
+            f"{r['frequency_change']:+13.4f} {r['wall_ratio']:10.2f}"
+        )
+    print("->", write_csv("freezing_coil", coil))
+    envs = env_table(args.episodes)
+    print(
+        f"\n{'env':28s} {'mean M':>7s} {'|dM| freeze':>11s} {'|dM| draft-bal':>14s} "
+        f"{'steps/cpu-s off -> on':>22s}"
+    )
+    for r in envs:
+        print(
+            f"{r['env']:28s} {r['mean_final_metric_draft']:7.3f} {r['freezing_change']:11.4f} "
+            f"{r['draft_vs_balanced']:14.4f} {r['steps_per_cpu_s_not_frozen']:9.0f} -> "
+            f"{r['steps_per_cpu_s_frozen']:5.0f} ({r['speedup']:.2f}x)"
+        )
+    print("->", write_csv("freezing_envs", envs))
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,108 @@
+"""Frozen tail: settled material far behind the needle, out of the solve, as one lumped load.
+
+With ``numerics.freeze_beyond_mm`` > 0 the nodes more than that arclength of material
+behind the needle are frozen (:func:`bathprint.integrators.advance`): the steps work on
+array views that start at the first active node, and the frozen nodes translate with it,
+so the tail keeps its shape and stays attached. Far from the needle the filament moves as
+a rigid body (a laid helix sinks or is pushed away as a whole), so what the tail does to
+the active filament is its total drag at the velocity of that node, and its net weight:
+
+    F_tail = W - D (v_a - u_bath),   D = sum_j mu_s l_j (2 I - t_j t_j^T),
+    W = -sum_j (rho_j - rho_bath(z_j)) A_j l_j g e_z     (only when gravity is listed)
+
+summed over the frozen segments (the one joining the tail to the active end included).
+D and W are computed once per step (O(frozen nodes), no Newton work) and applied to the
+active end with the Jacobian block D, the same drag law as :mod:`bathprint.effects.drag`.
+The tail's bending moment is not transmitted (the active end is free to turn).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+from bathprint.effects._band import add_block
+from bathprint.effects.gravity import bath_density
+from bathprint.layout import (
+    MAT_DENSITY,
+    MAT_RADIUS,
+    P_FLOW_X,
+    P_GRAVITY,
+    P_MU_S,
+    W_TAIL,
+)
+from bathprint.topology import free_nodes
+
+# layout of the tail's slots in ``work`` (from W_TAIL): on flag, force (3), drag tensor (9)
+_ON = 0
+_FORCE = 1
+_DRAG = 4
+
+
+@njit(cache=True)
+def tail_load(pos, seg_rest, seg_mat, n_frozen: int, params, gravity_on: bool, work) -> None:
+    """Lumped drag tensor and net weight of the frozen segments 0..n_frozen-1 into ``work``
+    (the flag is 0 when nothing is frozen)."""
+    base = W_TAIL
+    for k in range(13):
+        work[base + k] = 0.0
+    if n_frozen <= 0:
+        return
+    work[base + _ON] = 1.0
+    mu_s = params[P_MU_S]
+    g = params[P_GRAVITY]
+    weight = 0.0
+    for j in range(n_frozen):
+        ex = pos[3 * j + 3] - pos[3 * j]
+        ey = pos[3 * j + 4] - pos[3 * j + 1]
+        ez = pos[3 * j + 5] - pos[3 * j + 2]
+        length = math.sqrt(ex * ex + ey * ey + ez * ez)
+        tt = (ex / length, ey / length, ez / length)
+        for a in range(3):
+            for b in range(3):
+                work[base + _DRAG + 3 * a + b] += (
+                    mu_s * length * ((2.0 if a == b else 0.0) - tt[a] * tt[b])
+                )
+        if gravity_on:
+            r = seg_mat[j, MAT_RADIUS]
+            half_vol = 0.5 * math.pi * r * r * seg_rest[j]
+            rho = seg_mat[j, MAT_DENSITY]
+            for side in range(2):
+                rho_b, _ = bath_density(params, pos[3 * (j + side) + 2], r)
+                weight += half_vol * g * (rho - rho_b)
+    # drag of a tail at rest in the bath's flow: D u_bath
+    for a in range(3):
+        push = 0.0
+        for b in range(3):
+            push += work[base + _DRAG + 3 * a + b] * params[P_FLOW_X + b]
+        work[base + _FORCE + a] = push
+    work[base + _FORCE + 2] -= weight
+
+
+@njit(cache=True)
+def accumulate_tail(
+    pos, vel, acc, n_nodes, seg_rest, seg_mat, params, t, cx, cv, ca, force, band, work, do_jac
+) -> float:
+    """Add the frozen tail's load to the active end (node 0 of the active views) and cv D
+    to its Jacobian block; returns the tail's dissipation rate (W)."""
+    base = W_TAIL
+    if work[base + _ON] <= 0.0:
+        return 0.0
+    drag = work[base + _DRAG : base + _DRAG + 9].reshape((3, 3))
+    power = 0.0
+    for a in range(3):
+        f = work[base + _FORCE + a]
+        for b in range(3):
+            f -= drag[a, b] * vel[b]
+        force[a] += f
+        power -= f * vel[a]
+    if do_jac:
+        add_block(band, free_nodes(n_nodes, params), 0, 0, drag, cv)
+    return power
+
+
+def tail_is_frozen(work: np.ndarray) -> bool:
+    """True when a tail load is set (for tests)."""
+    return bool(work[W_TAIL + _ON] > 0.0)
