@@ -13,7 +13,9 @@ the active filament is its total drag at the velocity of that node, and its net 
 summed over the frozen segments (the one joining the tail to the active end included).
 D and W are computed once per step (O(frozen nodes), no Newton work) and applied to the
 active end with the Jacobian block D, the same drag law as :mod:`bathprint.effects.drag`.
-The tail's bending moment is not transmitted (the active end is free to turn).
+The tail's bending moment is not transmitted (the active end is free to turn). The error
+and Newton norms stay RMS over the whole filament (the frozen nodes' error is zero), so
+freezing does not tighten the step-size control.
 """
 
 from __future__ import annotations
@@ -31,6 +33,7 @@ from bathprint.layout import (
     P_FLOW_X,
     P_GRAVITY,
     P_MU_S,
+    W_NORM_EXTRA,
     W_TAIL,
 )
 from bathprint.topology import free_nodes
@@ -48,6 +51,7 @@ def tail_load(pos, seg_rest, seg_mat, n_frozen: int, params, gravity_on: bool, w
     base = W_TAIL
     for k in range(13):
         work[base + k] = 0.0
+    work[W_NORM_EXTRA] = 3.0 * n_frozen
     if n_frozen <= 0:
         return
     work[base + _ON] = 1.0

@@ -77,6 +77,7 @@ from bathprint.layout import (
     STATUS_STRETCH,
     W_FULL_NEWTON_STEPS,
     W_LU_VALID,
+    W_NORM_EXTRA,
     W_TAIL,
 )
 from bathprint.topology import filament_segments, free_nodes
@@ -194,7 +195,7 @@ def _stage_solve(
         norm = 0.0
         for k in range(nd):
             norm += rhs[k] * rhs[k]
-        norm = math.sqrt(norm / max(nd, 1)) / scale
+        norm = math.sqrt(norm / max(nd + work[W_NORM_EXTRA], 1.0)) / scale
         if not np.isfinite(norm) or norm > 1e12:
             info[1] = _worst_node(rhs, nd)
             return False
@@ -271,7 +272,7 @@ def _filtered_norm(
     err = 0.0
     for k in range(nd):
         err += rhs[k] * rhs[k]
-    return math.sqrt(err / max(nd, 1))
+    return math.sqrt(err / max(nd + work[W_NORM_EXTRA], 1.0))
 
 
 @njit(cache=True)
@@ -520,7 +521,7 @@ def _explicit_step(
         for k in range(nd):
             vel[k] += rhs[k]
             norm += (h * rhs[k]) ** 2
-        if math.sqrt(norm / max(nd, 1)) / scale < params[P_NEWTON_TOL]:
+        if math.sqrt(norm / max(nd + work[W_NORM_EXTRA], 1.0)) / scale < params[P_NEWTON_TOL]:
             break
     for k in range(nd):
         pos[k] = pos0[k] + h * vel[k]

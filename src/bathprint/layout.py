@@ -159,3 +159,6 @@ W_LU_VALID = 390
 W_FULL_NEWTON_STEPS = 391
 # 13 slots from here: the frozen tail's lumped load (bathprint.freezing)
 W_TAIL = 400
+# degrees of freedom of the frozen tail: error and Newton norms are RMS over the whole
+# filament (frozen nodes contribute zero), so freezing does not tighten the step control
+W_NORM_EXTRA = 413
