@@ -5,6 +5,7 @@ from __future__ import annotations
 import functools
 import json
 import warnings
+from pathlib import Path
 
 import gymnasium
 import numpy as np
@@ -379,3 +380,26 @@ def test_play_writes_an_animation_and_the_metric(tmp_path) -> None:
     assert ep["return"] == pytest.approx(4.0 - ep["metric"], abs=1e-9)
     assert (out / "episode_0.gif").stat().st_size > 10_000
     assert E.play_main(["Nope", "--out", str(out)]) == 2
+
+
+def test_specs_are_found_in_a_checkout_an_install_or_the_variable(
+    tmp_path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Checkout first; a regular install's copy in <prefix>/share/bathprint/ otherwise
+    (pyproject's data-files); $BATHPRINT_ENVS_DIR / $BATHPRINT_AGENTS_DIR over both."""
+    import sysconfig
+
+    import bathprint._resources as R
+    from bathprint.agents.hyperparams import agents_dir
+    from bathprint.envs.spec import specs_dir
+
+    monkeypatch.delenv("BATHPRINT_ENVS_DIR", raising=False)
+    monkeypatch.delenv("BATHPRINT_AGENTS_DIR", raising=False)
+    assert (specs_dir() / "coil_radius.toml").is_file()
+    assert (agents_dir() / "ppo.yml").is_file()
+    monkeypatch.setattr(R, "_CHECKOUT", tmp_path)  # as if installed: no checkout around
+    installed = Path(sysconfig.get_path("data")) / "share" / "bathprint"
+    assert specs_dir() == installed / "envs"
+    assert agents_dir() == installed / "agents"
+    monkeypatch.setenv("BATHPRINT_ENVS_DIR", str(tmp_path / "mine"))
+    assert specs_dir() == tmp_path / "mine"

@@ -26,11 +26,12 @@ from __future__ import annotations
 
 import copy
 import json
-import os
 from pathlib import Path
 from typing import Any
 
 import yaml
+
+from bathprint._resources import shared_dir
 
 ALGOS = ("ppo", "sac")
 #: keys read by bathprint itself; everything else is passed to the SB3 algorithm
@@ -49,11 +50,9 @@ RUN_KEYS = (
 
 
 def agents_dir() -> Path:
-    """``$BATHPRINT_AGENTS_DIR`` or the checkout's ``agents/``."""
-    env = os.environ.get("BATHPRINT_AGENTS_DIR")
-    if env:
-        return Path(env)
-    return Path(__file__).resolve().parents[3] / "agents"
+    """``$BATHPRINT_AGENTS_DIR``, the checkout's ``agents/``, or the installed copy
+    (:func:`bathprint._resources.shared_dir`)."""
+    return shared_dir("agents", "BATHPRINT_AGENTS_DIR")
 
 
 def _read_yaml(path: Path) -> dict[str, Any]:

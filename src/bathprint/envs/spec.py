@@ -9,11 +9,12 @@ in ``$BATHPRINT_ENVS_DIR`` if set, else in ``envs/`` at the root of the source c
 from __future__ import annotations
 
 import copy
-import os
 import tomllib
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
+
+from bathprint._resources import shared_dir
 
 #: Environment id -> spec file name (in the specs directory).
 SPEC_FILES: dict[str, str] = {
@@ -94,12 +95,9 @@ class EnvSpecData:
 
 
 def specs_dir() -> Path:
-    """Directory holding the spec files: ``$BATHPRINT_ENVS_DIR`` or the checkout's ``envs/``."""
-    env = os.environ.get("BATHPRINT_ENVS_DIR")
-    if env:
-        return Path(env)
-    # src/bathprint/envs/spec.py -> repository root is three levels above src/
-    return Path(__file__).resolve().parents[3] / "envs"
+    """Directory holding the spec files: ``$BATHPRINT_ENVS_DIR``, the checkout's ``envs/``,
+    or the installed copy (:func:`bathprint._resources.shared_dir`)."""
+    return shared_dir("envs", "BATHPRINT_ENVS_DIR")
 
 
 def spec_path(env_id: str) -> Path:
