@@ -118,3 +118,17 @@ def test_main_json_output(capsys: pytest.CaptureFixture[str]) -> None:
     assert 1.2 < d["paper_prefactor_with_cox_mean"] < 1.4
     assert T.main([]) == 0
     assert "beta_c" in capsys.readouterr().out
+
+
+def test_cantilever_modes_sum_to_the_static_deflection() -> None:
+    """Eigenvalues of the clamped-free beam (tabulated 1.8751, 4.6941, 7.8548, 10.9955) and
+    the uniform-load expansion: the tip amplitudes sum to the static q L^4 / (8 B)."""
+    from bathprint.theory import cantilever_modes
+
+    modes = cantilever_modes(5)
+    np.testing.assert_allclose(
+        [m[0] for m in modes[:4]], [1.8751041, 4.6940911, 7.8547574, 10.9955407], rtol=1e-7
+    )
+    assert modes[1][1] == pytest.approx(6.2669, rel=1e-4)
+    assert sum(m[2] for m in modes) == pytest.approx(1.0, abs=1e-4)
+    assert abs(modes[1][2]) == pytest.approx(0.0143, rel=1e-2)  # mode 2: 1.4 % of the tip

@@ -205,6 +205,27 @@ def critical_length(B: float, mu_s: float, v: float) -> float:
 
 
 # --- Chebyshev collocation for the growth rate -----------------------------------------------
+def cantilever_modes(n_modes: int = 4) -> list[tuple[float, float, float]]:
+    """Clamped-free Euler-Bernoulli modes and how a uniform load excites them.
+
+    For each mode n: (beta_n L, omega_n / omega_1, tip amplitude / static tip deflection)
+    of a uniformly loaded cantilever released from straight, i.e. the coefficients of the
+    static deflection q L^4 / (8 B) expanded in the modes (they sum to 1). beta_n L are the
+    roots of cos(x) cosh(x) = -1, omega_n ~ (beta_n L)^2. Used to judge which modes an
+    integrator must resolve on the inertial cantilever (benchmarks/bench_pyelastica.py).
+    """
+    x = np.linspace(0.0, 1.0, 4001)
+    out = []
+    for n in range(1, n_modes + 1):
+        guess = (n - 0.5) * math.pi
+        b = brentq(lambda z: math.cos(z) * math.cosh(z) + 1.0, guess - 1.0, guess + 1.0)
+        sig = (math.sinh(b) - math.sin(b)) / (math.cosh(b) + math.cos(b))
+        phi = np.cosh(b * x) - np.cos(b * x) - sig * (np.sinh(b * x) - np.sin(b * x))
+        coeff = np.trapezoid(phi, x) / np.trapezoid(phi * phi, x) / b**4  # of q L^4 / B
+        out.append((b, (b / out[0][0]) ** 2 if out else 1.0, float(coeff * phi[-1] * 8.0)))
+    return out
+
+
 def _nodes(n: int) -> np.ndarray:
     """Chebyshev-Lobatto points of degree n on [-1, 1], ascending (symmetric sine form)."""
     if n < 6:
