@@ -12,25 +12,13 @@ from __future__ import annotations
 
 import argparse
 
-from _common import best_of, write_csv
+from _common import best_of, sagging_filament, write_csv
 
 from bathprint import Simulation
 
 
 def _make(n: int) -> Simulation:
-    spacing_mm = 0.5
-    return Simulation(
-        "paper_simulation",
-        {
-            "flow.q_outer_ml_min": 0.0,
-            "initial.length_mm": n * spacing_mm,
-            "numerics.node_spacing_mm": spacing_mm,
-            "needle.direction": [1.0, 0.0, 0.0],
-            "initial.perturbation_mm": 1.0,
-            "numerics.time_step_s": 2e-3,
-            "duration_s": 100.0,
-        },
-    )
+    return sagging_filament(n)
 
 
 def main() -> None:

@@ -127,6 +127,7 @@ def summarize(sim: Simulation, wall_s: float) -> dict[str, Any]:
         "wall_s_per_simulated_s": wall_s / sim.t if sim.t > 0 else math.nan,
         **sim.counts(),
         "nodes": len(c),
+        "frozen_nodes": sim.n_frozen,
         "node_steps_per_s": _node_steps(sim) / wall_s if wall_s > 0 else math.nan,
         "final_length_m": float(seg.sum()),
         "printed_length_m": float(sim.rest_lengths().sum()),
@@ -200,7 +201,7 @@ def simulate(
         for t in times:
             s0 = sim.counts()["steps"]
             sim.advance(float(t))
-            node_steps += (sim.counts()["steps"] - s0) * sim.n_nodes
+            node_steps += (sim.counts()["steps"] - s0) * (sim.n_nodes - sim.n_frozen)
             frames.append(sim.centerline())
             t_out.append(float(t))
             if bar is not None:

@@ -20,7 +20,9 @@ solve and moves with the active filament as one lumped drag and weight, see
 less than the draft preset differs from balanced: ``benchmarks/bench_freezing.py``.)
 ``fine`` is the built-in scenes' own resolution. Coil radius of CoilRadius-v0 at constant
 Q_o = 0.5 / 1 / 2 ml/min (median over the scored part): fine 3.71 / 2.76 / 2.11 mm,
-balanced within 2 %, draft 2-11 % too large. Measured costs: ``benchmarks/bench_envs.py``.
+balanced -0.5 / -3.2 / -0.1 %, draft +1.4 / +0.7 / +10 % (with the freezing above; without
+it balanced was within 2 %, draft 2-11 % too large). Measured costs:
+``benchmarks/bench_envs.py``.
 """
 
 from __future__ import annotations
