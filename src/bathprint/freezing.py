@@ -11,11 +11,15 @@ the active filament is its total drag at the velocity of that node, and its net 
     W = -sum_j (rho_j - rho_bath(z_j)) A_j l_j g e_z     (only when gravity is listed)
 
 summed over the frozen segments (the one joining the tail to the active end included).
-D and W are computed once per step (O(frozen nodes), no Newton work) and applied to the
-active end with the Jacobian block D, the same drag law as :mod:`bathprint.effects.drag`.
+D and W are computed at the start of each step (O(frozen nodes), no Newton work) and
+applied to the active end with the Jacobian block D, the same drag law as
+:mod:`bathprint.effects.drag`. In a density gradient W is thus lagged by one step and has no
+Jacobian; its restoring time mu_s / (g A drho/dz) (~0.2 s in BuoyantLayers-v0) is longer than
+the largest step, so this stays stable.
 The tail's bending moment is not transmitted (the active end is free to turn). The error
-and Newton norms stay RMS over the whole filament (the frozen nodes' error is zero), so
-freezing does not tighten the step-size control.
+and Newton norms stay RMS over the whole filament, as without freezing (the frozen nodes
+count with zero error: they only follow the active end), so freezing does not tighten the
+step-size control.
 """
 
 from __future__ import annotations
@@ -90,7 +94,8 @@ def accumulate_tail(
     pos, vel, acc, n_nodes, seg_rest, seg_mat, params, t, cx, cv, ca, force, band, work, do_jac
 ) -> float:
     """Add the frozen tail's load to the active end (node 0 of the active views) and cv D
-    to its Jacobian block; returns the tail's dissipation rate (W)."""
+    to its Jacobian block; returns the tail drag's dissipation rate (v - u) D (v - u) (W),
+    u the bath's flow."""
     base = W_TAIL
     if work[base + _ON] <= 0.0:
         return 0.0
@@ -100,8 +105,8 @@ def accumulate_tail(
         f = work[base + _FORCE + a]
         for b in range(3):
             f -= drag[a, b] * vel[b]
+            power += (vel[a] - params[P_FLOW_X + a]) * drag[a, b] * (vel[b] - params[P_FLOW_X + b])
         force[a] += f
-        power -= f * vel[a]
     if do_jac:
         add_block(band, free_nodes(n_nodes, params), 0, 0, drag, cv)
     return power

@@ -484,6 +484,7 @@ def _explicit_step(
         for k in range(nd):
             rhs[k] = force[k]
         if band_lu(band, nd, KL, KU, piv) != 0:
+            info[1] = _worst_node(force, nd)
             return -1.0
         band_solve(band, nd, KL, KU, piv, rhs)
         for k in range(nd):
@@ -515,6 +516,7 @@ def _explicit_step(
         for k in range(nd):
             rhs[k] = force[k]
         if band_lu(band, nd, KL, KU, piv) != 0:
+            info[1] = _worst_node(force, nd)
             return -1.0
         band_solve(band, nd, KL, KU, piv, rhs)
         norm = 0.0

@@ -141,6 +141,12 @@ def _freeze_beyond(scene: Scene, node_spacing_mm: float) -> float:
             f"spacings ({MIN_ACTIVE_SPACINGS * node_spacing_mm:g} mm); allowed: 0 (off) or "
             "at least that"
         )
+    if scene.initial.length_mm > value:
+        raise SceneError(
+            f"numerics.freeze_beyond_mm = {value!r} is shorter than initial.length_mm = "
+            f"{scene.initial.length_mm!r}: the initial filament would freeze before it settles; "
+            "allowed: at least initial.length_mm"
+        )
     clash = [e for e in ("end_load", "inertia", "floor") if e in scene.effects]
     if clash:
         raise SceneError(

@@ -165,6 +165,15 @@ class Simulation:
             self.energies = np.zeros(L.N_EFFECTS)
             self.info = np.zeros(3)
 
+    def __setstate__(self, state: dict) -> None:
+        """Unpickle, padding the state arrays of older versions (fewer integer states or
+        work slots) so that the kernels never read past them."""
+        self.__dict__.update(state)
+        if self.istate.shape[0] < 3:
+            self.istate = np.concatenate([self.istate, np.zeros(3 - len(self.istate), np.int64)])
+        if self.work.shape[0] < WORK_SIZE:
+            self.work = np.concatenate([self.work, np.zeros(WORK_SIZE - len(self.work))])
+
     def _grow(self) -> None:
         n = self.n_nodes
         old = (self.pos, self.vel, self.node_s, self.seg_rest, self.seg_mat)
@@ -295,7 +304,10 @@ class Simulation:
         return {name: int(self.calls[k]) for k, name in enumerate(L.EFFECT_NAMES)}
 
     def energies_now(self) -> dict[str, float]:
-        """Energy of each listed effect at the current state (J; drag: dissipation rate, W)."""
+        """Energy of each listed effect at the current state (J; drag: dissipation rate, W),
+        over the whole filament (a frozen tail's lumped load is not added again)."""
+        work = self.work.copy()
+        work[L.W_TAIL] = 0.0
         zero = np.zeros_like(self.vel)
         force = np.zeros_like(self.pos)
         calls = np.zeros_like(self.calls)
@@ -314,7 +326,7 @@ class Simulation:
             0.0,
             force,
             self.band,
-            self.work,
+            work,
             False,
             self.model.enabled,
             calls,
