@@ -7,13 +7,16 @@ saves in time.
     radius and frequency and wall time with the material beyond 20, 40 and 60 mm frozen,
     against the same run without freezing; beside it, the change that tightening the
     tolerance ten times makes (the error the preset already accepts).
-(2) The environments at their ``draft`` preset (which freezes beyond 20 mm) under random
+(2) Rope coiling on the floor (scene ``rope_coiling_18G``, 6 s): the RMS change of the last
+    30 mm of material next to the needle and of the pile's centre, with the material resting
+    on the floor beyond 15, 30 and 60 mm frozen, beside tightening the tolerance 3x.
+(3) The environments at their ``draft`` preset (which freezes beyond 20 mm) under random
     actions: the final metric of ``--episodes`` seeded episodes with and without freezing,
     beside the difference between the draft and balanced presets (both without freezing),
     and environment steps per CPU second of each.
 
-Writes benchmarks/results/freezing_coil.csv and freezing_envs.csv. Times are ratios to the
-run without freezing measured in the same process.
+Writes benchmarks/results/freezing_coil.csv, freezing_rope.csv and freezing_envs.csv. Times
+are ratios to the run without freezing measured in the same process.
 """
 
 from __future__ import annotations
@@ -75,6 +78,46 @@ def coil_table() -> list[dict]:
     return rows
 
 
+def _last_mm(sim: Simulation, mm: float = 30.0) -> np.ndarray:
+    x = sim.centerline()
+    s = sim.node_s[: len(x)]
+    q = s[-1] - np.linspace(0.0, mm * 1e-3, 61)
+    return np.stack([np.interp(q, s, x[:, a]) for a in range(3)], axis=1)
+
+
+def rope_table(duration_s: float = 6.0) -> list[dict]:
+    """Changes of the rope-coiling run near the needle and of the pile, and wall ratios."""
+
+    def run(extra: dict) -> tuple[Simulation, float]:
+        sim = Simulation("rope_coiling_18G", extra)
+        t0 = time.perf_counter()
+        sim.advance(duration_s)
+        return sim, time.perf_counter() - t0
+
+    run({"duration_s": 0.5})  # load the kernels
+    base, w0 = run({})
+    rows = []
+    for label, extra in [("tolerance / 3", {"numerics.tolerance": 3e-4})] + [
+        (f"frozen beyond {fb:g} mm", {"numerics.freeze_beyond_mm": fb}) for fb in (15.0, 30.0, 60.0)
+    ]:
+        sim, w = run(extra)
+        near = np.sqrt(np.mean(np.sum((_last_mm(sim) - _last_mm(base)) ** 2, axis=1)))
+        pile = np.linalg.norm(sim.centerline().mean(0) - base.centerline().mean(0))
+        rows.append(
+            {
+                "variant": label,
+                "frozen_nodes": sim.n_frozen,
+                "nodes": sim.n_nodes,
+                "near_needle_rms_mm": near * 1e3,
+                "pile_centre_shift_mm": pile * 1e3,
+                "steps": sim.counts()["steps"],
+                "rejected": sim.counts()["rejected_steps"],
+                "wall_ratio": w / w0,
+            }
+        )
+    return rows
+
+
 def _episodes(
     env_id: str, accuracy: str, freeze_mm: float | None, n: int
 ) -> tuple[np.ndarray, float]:
@@ -129,6 +172,18 @@ def main() -> None:
             f"{r['frequency_change']:+13.4f} {r['wall_ratio']:10.2f}"
         )
     print("->", write_csv("freezing_coil", coil))
+    rope = rope_table()
+    print(
+        f"\n{'rope coiling, 6 s':24s} {'frozen':>10s} {'near rms mm':>11s} {'pile mm':>8s} "
+        f"{'steps/rej':>12s} {'wall ratio':>10s}"
+    )
+    for r in rope:
+        print(
+            f"{r['variant']:24s} {r['frozen_nodes']:4d}/{r['nodes']:<5d} "
+            f"{r['near_needle_rms_mm']:11.4f} {r['pile_centre_shift_mm']:8.4f} "
+            f"{r['steps']:6d}/{r['rejected']:<5d} {r['wall_ratio']:10.2f}"
+        )
+    print("->", write_csv("freezing_rope", rope))
     envs = env_table(args.episodes)
     print(
         f"\n{'env':28s} {'mean M':>7s} {'|dM| freeze':>11s} {'|dM| draft-bal':>14s} "

@@ -11,6 +11,12 @@ the active filament is its total drag at the velocity of that node, and its net 
     W = -sum_j (rho_j - rho_bath(z_j)) A_j l_j g e_z     (only when gravity is listed)
 
 summed over the frozen segments (the one joining the tail to the active end included).
+
+With the floor listed, only material resting on the floor freezes, and the tail slides
+with the active end horizontally (its height stays): its weight is carried by the floor
+and it acts on the active end through its horizontal drag and the floor's friction on it,
+-mu_f N u_h / sqrt(|u_h|^2 + u_eps^2) with N its total net weight, the law of
+:mod:`bathprint.effects.floor` (a rope-coiling pile is pushed over the floor as a whole).
 D and W are computed at the start of each step (O(frozen nodes), no Newton work) and
 applied to the active end with the Jacobian block D, the same drag law as
 :mod:`bathprint.effects.drag`. In a density gradient W is thus lagged by one step and has no
@@ -30,15 +36,20 @@ import numpy as np
 from numba import njit
 
 from bathprint.effects._band import add_block
+from bathprint.effects.floor import friction_block
 from bathprint.effects.gravity import bath_density
 from bathprint.layout import (
     MAT_DENSITY,
     MAT_RADIUS,
     P_FLOW_X,
+    P_FRICTION_COEFFICIENT,
+    P_FRICTION_VELOCITY,
     P_GRAVITY,
     P_MU_S,
     W_NORM_EXTRA,
     W_TAIL,
+    W_TAIL_NORMAL,
+    W_TAIL_ON_FLOOR,
 )
 from bathprint.topology import free_nodes
 
@@ -49,13 +60,19 @@ _DRAG = 4
 
 
 @njit(cache=True)
-def tail_load(pos, seg_rest, seg_mat, n_frozen: int, params, gravity_on: bool, work) -> None:
+def tail_load(
+    pos, seg_rest, seg_mat, n_frozen: int, params, gravity_on: bool, on_floor: bool, work
+) -> None:
     """Lumped drag tensor and net weight of the frozen segments 0..n_frozen-1 into ``work``
-    (the flag is 0 when nothing is frozen)."""
+    (the flag is 0 when nothing is frozen). ``on_floor``: the tail rests on the floor, which
+    carries its weight (stored as the normal force for friction); drag acts on its
+    horizontal motion only."""
     base = W_TAIL
     for k in range(13):
         work[base + k] = 0.0
     work[W_NORM_EXTRA] = 3.0 * n_frozen
+    work[W_TAIL_NORMAL] = 0.0
+    work[W_TAIL_ON_FLOOR] = 1.0 if on_floor else 0.0
     if n_frozen <= 0:
         return
     work[base + _ON] = 1.0
@@ -80,6 +97,11 @@ def tail_load(pos, seg_rest, seg_mat, n_frozen: int, params, gravity_on: bool, w
             for side in range(2):
                 rho_b, _ = bath_density(params, pos[3 * (j + side) + 2], r)
                 weight += half_vol * g * (rho - rho_b)
+    if on_floor:  # the tail moves horizontally only: D P_h; the floor carries the weight
+        for a in range(3):
+            work[base + _DRAG + 3 * a + 2] = 0.0
+        work[W_TAIL_NORMAL] = max(weight, 0.0)
+        weight = 0.0
     # drag of a tail at rest in the bath's flow: D u_bath
     for a in range(3):
         push = 0.0
@@ -107,8 +129,22 @@ def accumulate_tail(
             f -= drag[a, b] * vel[b]
             power += (vel[a] - params[P_FLOW_X + a]) * drag[a, b] * (vel[b] - params[P_FLOW_X + b])
         force[a] += f
+    n_free = free_nodes(n_nodes, params)
     if do_jac:
-        add_block(band, free_nodes(n_nodes, params), 0, 0, drag, cv)
+        add_block(band, n_free, 0, 0, drag, cv)
+    normal = work[W_TAIL_NORMAL]
+    mu_f = params[P_FRICTION_COEFFICIENT]
+    if work[W_TAIL_ON_FLOOR] > 0.0 and normal > 0.0 and mu_f > 0.0:
+        eps = params[P_FRICTION_VELOCITY]
+        ux, uy = vel[0], vel[1]
+        s = math.sqrt(ux * ux + uy * uy + eps * eps)
+        force[0] -= mu_f * normal * ux / s
+        force[1] -= mu_f * normal * uy / s
+        power += mu_f * normal * (ux * ux + uy * uy) / s
+        if do_jac:
+            blk = work[100:109].reshape((3, 3))  # the effects' scratch block
+            friction_block(blk, mu_f * normal, ux, uy, s)
+            add_block(band, n_free, 0, 0, blk, cv)
     return power
 
 

@@ -44,6 +44,7 @@ from bathprint.layout import (
     C_REJECTED,
     C_SPLITS,
     C_STEPS,
+    E_FLOOR,
     E_GELATION,
     E_GRAVITY,
     E_INCLUSIONS,
@@ -51,8 +52,10 @@ from bathprint.layout import (
     INTEGRATOR_IMPLICIT_EULER,
     KL,
     KU,
+    MAT_RADIUS,
     P_CLAMPED,
     P_FIXED_STEP,
+    P_FLOOR_Z,
     P_FREEZE_BEYOND,
     P_INERTIA,
     P_MAX_INLET_GROWTH,
@@ -582,6 +585,13 @@ def _check_state(pos, vel, seg_rest, n_nodes, params, info) -> int:
 
 
 @njit(cache=True)
+def _rests_on_floor(pos, seg_mat, node: int, params) -> bool:
+    """Node within 5% of its radius of the floor contact height (z_floor + r)."""
+    r = seg_mat[node, MAT_RADIUS]
+    return pos[3 * node + 2] <= params[P_FLOOR_Z] + 1.05 * r
+
+
+@njit(cache=True)
 def advance(
     t_end: float,
     max_steps: int,
@@ -628,6 +638,8 @@ def advance(
     pos0 = vecs[V_POS0]
     vel0 = vecs[V_VEL0]
     freeze_beyond = params[P_FREEZE_BEYOND]
+    on_floor = enabled[E_FLOOR] > 0  # only material resting on the floor freezes
+    n_moving = 2 if on_floor else 3  # a frozen tail on the floor slides, at its height
     steps = 0
     eps = 1e-12 * max(1.0, abs(t_end))
     while t < t_end - eps:
@@ -653,7 +665,9 @@ def advance(
         # views of the active part (no copies): node `frozen` is its free end
         frozen = istate[2]
         if frozen > 0 or work[W_TAIL] > 0.0:
-            tail_load(pos, seg_rest, seg_mat, frozen, params, enabled[E_GRAVITY] > 0, work)
+            tail_load(
+                pos, seg_rest, seg_mat, frozen, params, enabled[E_GRAVITY] > 0, on_floor, work
+            )
         n_act = n_nodes - frozen
         a_pos = pos[3 * frozen :]
         a_vel = vel[3 * frozen :]
@@ -768,7 +782,7 @@ def advance(
             return status
         transport_curvature(pos0, a_pos, filament_segments(n_act, params), a_seg_mat)
         if frozen > 0:  # the frozen tail moves with the active end, rigidly
-            for c in range(3):
+            for c in range(n_moving):
                 d = a_pos[c] - pos0[c]
                 for j in range(frozen):
                     pos[3 * j + c] += d
@@ -811,7 +825,13 @@ def advance(
         if freeze_beyond > 0.0 and params[P_CLAMPED] > 0.0:
             frozen = istate[2]
             limit = s_tip - freeze_beyond
-            while n_nodes - frozen > MIN_ACTIVE_NODES and node_s[frozen] < limit:
+            while (
+                n_nodes - frozen > MIN_ACTIVE_NODES
+                and node_s[frozen] < limit
+                and (not on_floor or _rests_on_floor(pos, seg_mat, frozen, params))
+            ):
+                if on_floor:
+                    vel[3 * frozen + 2] = 0.0
                 frozen += 1
             istate[2] = frozen
     fstate[0] = t_end

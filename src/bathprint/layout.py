@@ -162,3 +162,6 @@ W_TAIL = 400
 # degrees of freedom of the frozen tail: error and Newton norms are RMS over the whole
 # filament (frozen nodes contribute zero), so freezing does not tighten the step control
 W_NORM_EXTRA = 413
+# the frozen tail on the floor: its supported weight (N) and the floor-mode flag
+W_TAIL_NORMAL = 414
+W_TAIL_ON_FLOOR = 415

@@ -130,8 +130,8 @@ MIN_ACTIVE_SPACINGS = 8  # the active filament keeps at least this many node spa
 
 def _freeze_beyond(scene: Scene, node_spacing_mm: float) -> float:
     """``numerics.freeze_beyond_mm``, checked: 0 (off) or at least ``MIN_ACTIVE_SPACINGS``
-    node spacings, and not with end_load, inertia or floor (the lumped tail of
-    :mod:`bathprint.freezing` carries drag and net weight only)."""
+    node spacings, and not with end_load or inertia (the lumped tail of
+    :mod:`bathprint.freezing` carries drag, net weight and floor friction only)."""
     value = scene.numerics.freeze_beyond_mm
     if value == 0.0:
         return 0.0
@@ -147,12 +147,12 @@ def _freeze_beyond(scene: Scene, node_spacing_mm: float) -> float:
             f"{scene.initial.length_mm!r}: the initial filament would freeze before it settles; "
             "allowed: at least initial.length_mm"
         )
-    clash = [e for e in ("end_load", "inertia", "floor") if e in scene.effects]
+    clash = [e for e in ("end_load", "inertia") if e in scene.effects]
     if clash:
         raise SceneError(
             f"numerics.freeze_beyond_mm = {value!r} with the {clash[0]} effect: the frozen tail "
-            "is lumped into drag and net weight at the active end (no end load, tail mass or "
-            f"floor contact); allowed: 0 with {clash[0]}"
+            "is lumped into drag, net weight and floor friction at the active end (no end load "
+            f"or tail mass); allowed: 0 with {clash[0]}"
         )
     return value
 

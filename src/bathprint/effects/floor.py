@@ -26,6 +26,20 @@ from bathprint.layout import (
 from bathprint.topology import filament_segments, free_nodes
 
 
+@njit(cache=True, inline="always")
+def friction_block(blk, mu_n: float, ux: float, uy: float, s: float) -> None:
+    """-dF/du of the regularised friction F = -mu_n u / s (s = sqrt(|u|^2 + u_eps^2)) on the
+    horizontal velocity u, into the 3x3 ``blk`` (z row and column zero)."""
+    s3 = s * s * s
+    u = (ux, uy)
+    for a in range(3):
+        for b in range(3):
+            blk[a, b] = 0.0
+    for a in range(2):
+        for b in range(2):
+            blk[a, b] = mu_n * ((1.0 if a == b else 0.0) / s - u[a] * u[b] / s3)
+
+
 @njit(cache=True)
 def accumulate(
     pos, vel, acc, n_nodes, seg_rest, seg_mat, params, t, cx, cv, ca, force, band, work, do_jac
@@ -69,16 +83,7 @@ def accumulate(
             force[3 * i] -= mu_f * normal * ux / s
             force[3 * i + 1] -= mu_f * normal * uy / s
             if do_jac:
-                u = (ux, uy)
-                s3 = s * s * s
-                for a in range(3):
-                    for b in range(3):
-                        blk[a, b] = 0.0
-                for a in range(2):
-                    for b in range(2):
-                        blk[a, b] = (
-                            mu_f * normal * ((1.0 if a == b else 0.0) / s - u[a] * u[b] / s3)
-                        )
+                friction_block(blk, mu_f * normal, ux, uy, s)
                 # dF/dz through N: dN/dz = -kn  ->  -dF_a/dz = -mu_f kn u_a / s
                 blk[0, 2] = -cx / cv * mu_f * kn * ux / s if cv != 0.0 else 0.0
                 blk[1, 2] = -cx / cv * mu_f * kn * uy / s if cv != 0.0 else 0.0
