@@ -52,7 +52,14 @@ from bathprint.layout import (
     INTEGRATOR_IMPLICIT_EULER,
     KL,
     KU,
+    MAT_BEND_FACTOR,
+    MAT_DENSITY,
     MAT_RADIUS,
+    MAT_STRETCH_FACTOR,
+    MAT_YOUNGS_MODULUS,
+    P_ADDED_MASS_COEFFICIENT,
+    P_BATH_DENSITY_TOP,
+    P_BUCKLING_STEPS,
     P_CLAMPED,
     P_FIXED_STEP,
     P_FLOOR_Z,
@@ -64,6 +71,7 @@ from bathprint.layout import (
     P_MAX_STRAIN,
     P_MAX_STRAIN_CHANGE,
     P_MIN_STEP,
+    P_MU_S,
     P_NEEDLE_AREA,
     P_NEWTON_REUSE,
     P_NEWTON_TOL,
@@ -585,6 +593,44 @@ def _check_state(pos, vel, seg_rest, n_nodes, params, info) -> int:
 
 
 @njit(cache=True)
+def _buckling_step(pos, seg_rest, seg_mat, n_nodes, params) -> float:
+    """Time over which the fastest buckling mode of the most compressed segment grows by e:
+    1 / sigma, where sigma is the largest root of m sigma^2 + 2 mu_s sigma = Delta with
+    Delta = max_k (P k^2 - B k^4) = P^2 / (4 B) (P = E A |strain| the axial compression, B
+    the bending stiffness, 2 mu_s the transverse drag, m the mass per length with added
+    mass when inertia is on, else 0: sigma = P^2 / (8 B mu_s)). Implicit steps much longer
+    than this damp a growing buckle (an L-stable stage maps h sigma >> 1 to decay) and hold a
+    compressed rod straight; inf when nothing is compressed."""
+    mu_s = params[P_MU_S]
+    inertial = params[P_INERTIA] > 0.0
+    best = np.inf
+    for j in range(filament_segments(n_nodes, params)):
+        ex = pos[3 * j + 3] - pos[3 * j]
+        ey = pos[3 * j + 4] - pos[3 * j + 1]
+        ez = pos[3 * j + 5] - pos[3 * j + 2]
+        strain = math.sqrt(ex * ex + ey * ey + ez * ez) / seg_rest[j] - 1.0
+        if strain >= 0.0:
+            continue
+        r = seg_mat[j, MAT_RADIUS]
+        e = seg_mat[j, MAT_YOUNGS_MODULUS]
+        p_axial = e * seg_mat[j, MAT_STRETCH_FACTOR] * math.pi * r * r * (-strain)
+        bend = e * seg_mat[j, MAT_BEND_FACTOR] * math.pi * r**4 / 4.0
+        delta = p_axial * p_axial / (4.0 * bend)
+        if inertial:
+            area = math.pi * r * r
+            m = area * (
+                seg_mat[j, MAT_DENSITY]
+                + params[P_ADDED_MASS_COEFFICIENT] * params[P_BATH_DENSITY_TOP]
+            )
+            sigma = (math.sqrt(mu_s * mu_s + m * delta) - mu_s) / m
+        else:
+            sigma = delta / (2.0 * mu_s)
+        if sigma > 0.0:  # (rounds to 0 for a vanishing compression)
+            best = min(best, 1.0 / sigma)
+    return best
+
+
+@njit(cache=True)
 def _rests_on_floor(pos, seg_mat, node: int, params) -> bool:
     """Node within 5% of its radius of the floor contact height (z_floor + r)."""
     r = seg_mat[node, MAT_RADIUS]
@@ -659,6 +705,13 @@ def advance(
             v_exit = (qo + qi) / area
             if v_exit > 0.0 and params[P_CLAMPED] > 0.0:
                 h = min(h, params[P_MAX_INLET_GROWTH] * dl / v_exit)
+            if params[P_BUCKLING_STEPS] > 0.0:
+                f = istate[2]
+                h = min(
+                    h,
+                    _buckling_step(pos[3 * f :], seg_rest[f:], seg_mat[f:], n_nodes - f, params)
+                    / params[P_BUCKLING_STEPS],
+                )
         h_taken = min(h, t_end - t)
         if t_end - t - h_taken < 1e-3 * h_taken:
             h_taken = t_end - t

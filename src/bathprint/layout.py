@@ -87,7 +87,8 @@ P_SLUG_FRACTION = 45  # -, droplets wider than this fraction of the filament dia
 P_NEWTON_REUSE = 46  # 1: modified Newton (reuse the factorised Jacobian within a step)
 P_MAX_STRAIN = 47  # -, adaptive steps ending with a larger |l/l0 - 1| are retried shorter
 P_FREEZE_BEYOND = 48  # m, material further behind the needle is frozen (0: off)
-N_PARAMS = 49
+P_BUCKLING_STEPS = 49  # -, adaptive steps per e-folding of the fastest buckling mode (0: off)
+N_PARAMS = 50
 
 # --- effects ------------------------------------------------------------------------
 E_ELASTICITY = 0

@@ -193,6 +193,7 @@ def compile_model(scene: Scene) -> Model:
     p[L.P_MAX_INLET_GROWTH] = num["max_inlet_growth"]
     p[L.P_CLAMPED] = 1.0
     p[L.P_FREEZE_BEYOND] = _freeze_beyond(scene, num["node_spacing_mm"]) * MM
+    p[L.P_BUCKLING_STEPS] = scene.numerics.buckling_steps
     gel = scene.gelation
     if "gelation" in scene.effects and gel.final_modulus_pa < gel.initial_modulus_pa:
         raise SceneError(

@@ -212,6 +212,13 @@ class Numerics:
         },
     )
     max_newton_iterations: int = field(default=12, metadata={"range": (1, 100)})
+    buckling_steps: float = _num(
+        1.0,
+        0.0,
+        100.0,
+        doc="adaptive steps per e-folding time of the fastest buckling mode of the most "
+        "compressed segment (0: no such bound)",
+    )
     freeze_beyond_mm: float = _num(
         0.0,
         0.0,
