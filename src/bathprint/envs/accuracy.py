@@ -17,14 +17,18 @@ where the core offers the choice, ``numerics.newton``; fine keeps the core's def
 "frozen": ``numerics.freeze_beyond_mm``, material further behind the needle leaves the
 solve and moves with the active filament as one lumped drag and weight, see
 :mod:`bathprint.freezing`. On random-action episodes draft's freezing changes the final
-metric 2.4-4.8x less than the draft preset differs from balanced
+metric 2.0-5.9x less than the draft preset differs from balanced
 (``benchmarks/bench_freezing.py``); balanced freezes beyond 60 mm, where the steady coil
-moves less than the balanced tolerance admits.)
+moves less than the balanced tolerance admits. Draft also bounds steps at 8 e-folding times
+of the fastest buckling mode (``numerics.buckling_steps`` = 1/8, the core's default being
+1): up to h sigma = 11.7 an SDIRK2 step still amplifies a growing buckle, so buckling is
+not suppressed, only its growth less accurate; against 1/8 the final metric moves by
+0.002-0.013.)
 ``fine`` is the built-in scenes' own resolution. Coil radius of CoilRadius-v0 at constant
-Q_o = 0.5 / 1 / 2 ml/min (median over the scored part): fine 3.71 / 2.76 / 2.11 mm,
-balanced -0.8 / -2.9 / -0.3 %, draft +1.4 / +0.7 / +10 % (with the freezing above; without
-it balanced was within 2 %, draft 2-11 % too large). Measured costs:
-``benchmarks/bench_envs.py``.
+Q_o = 0.5 / 1 / 2 ml/min (median over the scored part): fine 3.70 / 2.77 / 2.11 mm,
+balanced +2.1 / -2.2 / +0.2 %, draft +1.5 / +0.5 / +9.8 % (with the freezing and buckling
+bounds above; without them balanced was within 2 %, draft 2-11 % too large). Measured
+costs: ``benchmarks/bench_envs.py``.
 """
 
 from __future__ import annotations
@@ -41,6 +45,7 @@ ACCURACY_PRESETS: dict[str, dict[str, Any]] = {
         "numerics.max_inlet_growth": 4.0,
         "numerics.min_step_s": 1e-7,
         "numerics.freeze_beyond_mm": 20.0,
+        "numerics.buckling_steps": 0.125,
     },
     "balanced": {
         "numerics.integrator": "implicit",
