@@ -78,13 +78,6 @@ def coil_table() -> list[dict]:
     return rows
 
 
-def _last_mm(sim: Simulation, mm: float = 30.0) -> np.ndarray:
-    x = sim.centerline()
-    s = sim.node_s[: len(x)]
-    q = s[-1] - np.linspace(0.0, mm * 1e-3, 61)
-    return np.stack([np.interp(q, s, x[:, a]) for a in range(3)], axis=1)
-
-
 def rope_table(duration_s: float = 6.0) -> list[dict]:
     """Changes of the rope-coiling run near the needle and of the pile, and wall ratios."""
 
@@ -101,7 +94,8 @@ def rope_table(duration_s: float = 6.0) -> list[dict]:
         (f"frozen beyond {fb:g} mm", {"numerics.freeze_beyond_mm": fb}) for fb in (15.0, 30.0, 60.0)
     ]:
         sim, w = run(extra)
-        near = np.sqrt(np.mean(np.sum((_last_mm(sim) - _last_mm(base)) ** 2, axis=1)))
+        d = sim.newest_material(30e-3) - base.newest_material(30e-3)
+        near = np.sqrt(np.mean(np.sum(d**2, axis=1)))
         pile = np.linalg.norm(sim.centerline().mean(0) - base.centerline().mean(0))
         rows.append(
             {

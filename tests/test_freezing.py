@@ -228,14 +228,6 @@ def test_the_environment_presets_freeze_less_than_draft_differs_from_balanced() 
     assert not np.array_equal(frozen, draft)  # freezing is on in the preset
 
 
-def _last_mm(sim: Simulation, mm: float = 30.0) -> np.ndarray:
-    """The last ``mm`` of printed material (next to the needle), resampled at 61 points."""
-    x = sim.centerline()
-    s = sim.node_s[: len(x)]
-    q = s[-1] - np.linspace(0.0, mm * 1e-3, 61)
-    return np.stack([np.interp(q, s, x[:, a]) for a in range(3)], axis=1)
-
-
 def test_a_rope_coiling_pile_on_the_floor_freezes_and_slides() -> None:
     """Rope coiling (18G, 10 mm above the floor, 5 s): material resting on the floor more
     than 30 mm behind the needle freezes and slides with the active end at its height; the
@@ -256,7 +248,8 @@ def test_a_rope_coiling_pile_on_the_floor_freezes_and_slides() -> None:
     tighter.advance(5.0)
 
     def rms(a: Simulation) -> float:
-        return float(np.sqrt(np.mean(np.sum((_last_mm(a) - _last_mm(base)) ** 2, axis=1))))
+        d = a.newest_material(30e-3) - base.newest_material(30e-3)
+        return float(np.sqrt(np.mean(np.sum(d**2, axis=1))))
 
     assert rms(frozen) < rms(tighter), (rms(frozen), rms(tighter))
 

@@ -224,10 +224,8 @@ def test_inertia_paper_simulation():
     "extra", [{"numerics.integrator": "implicit_euler"}, {"numerics.accuracy": "draft"}]
 )
 def test_inertia_paper_simulation_workarounds(extra):
-    # the fine preset's own worst stretch at 0.5 s is 0.077, so the bound is 0.1 as in the
-    # test above (draft and implicit Euler stay near 0.02: their long steps damp the whipping)
     overrides = {"effects": [*BASE, "inertia"], **extra}
-    run_and_check("paper_simulation", overrides, 0.5, max_stretch=0.1)
+    run_and_check("paper_simulation", overrides, 0.5, max_stretch=0.05)
 
 
 # ------------------------------------------------------------------ size, length, motion

@@ -223,6 +223,15 @@ class Simulation:
         """Node velocities (m/s) along the centreline."""
         return self.vel[: 3 * (self.n_segments + 1)].reshape(-1, 3).copy()
 
+    def newest_material(self, length_m: float, n_points: int = 61) -> np.ndarray:
+        """Positions (m) of the last ``length_m`` of material out of the needle, resampled at
+        ``n_points`` evenly spaced material coordinates from the tip back: a comparison of
+        two runs near the needle that does not depend on where their nodes fall."""
+        x = self.centerline()
+        s = self.node_s[: len(x)]
+        q = s[-1] - np.linspace(0.0, length_m, n_points)
+        return np.stack([np.interp(q, s, x[:, a]) for a in range(3)], axis=1)
+
     def material(self) -> np.ndarray:
         """Per-segment material records (columns: :data:`bathprint.layout.MATERIAL_COLUMNS`)."""
         return self.seg_mat[: self.n_segments].copy()
