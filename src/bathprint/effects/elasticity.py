@@ -19,6 +19,7 @@ from numba import njit
 
 from bathprint.effects._band import add_block
 from bathprint.layout import (
+    KL,
     MAT_BEND_FACTOR,
     MAT_KAPPA_X,
     MAT_RADIUS,
@@ -115,35 +116,114 @@ def bend_energy_grad_hess(
         t2[a] = e2[a] / l2
     inv_d = 1.0 / D
     inv_d2 = inv_d * inv_d
-    for s in range(2):
-        for q in range(2):
-            for a in range(3):
-                for b in range(3):
-                    jj = 0.0
-                    for m in range(3):
-                        jj += J[s, m, a] * J[q, m, b]
-                    hw = -2.0 * inv_d2 * (Ctw[s, a] * g[q, b] + g[s, a] * Ctw[q, b])
-                    hw += 2.0 * inv_d2 * wk * g[s, a] * g[q, b]
-                    # G_sq = d^2 D / de_s de_q
-                    if s == 0 and q == 0:
-                        gsq = (l2 / l1) * ((1.0 if a == b else 0.0) - t1[a] * t1[b])
-                    elif s == 1 and q == 1:
-                        gsq = (l1 / l2) * ((1.0 if a == b else 0.0) - t2[a] * t2[b])
-                    elif s == 0:
-                        gsq = (1.0 if a == b else 0.0) + t1[a] * t2[b]
-                    else:
-                        gsq = (1.0 if a == b else 0.0) + t2[a] * t1[b]
-                    hw -= inv_d * wk * gsq
-                    if s == 0 and q == 1:
-                        hw -= 2.0 * inv_d * W[a, b]
-                    elif s == 1 and q == 0:
-                        hw += 2.0 * inv_d * W[a, b]
-                    hess[3 * s + a, 3 * q + b] = k * (jj + hw)
+    # the Hessian is symmetric: blocks (0, 0), (0, 1), (1, 1), upper triangles of the diagonal ones
+    for sq in range(3):
+        s = 0 if sq < 2 else 1
+        q = 0 if sq == 0 else 1
+        for a in range(3):
+            for b in range(a if s == q else 0, 3):
+                jj = J[s, 0, a] * J[q, 0, b] + J[s, 1, a] * J[q, 1, b] + J[s, 2, a] * J[q, 2, b]
+                hw = -2.0 * inv_d2 * (Ctw[s, a] * g[q, b] + g[s, a] * Ctw[q, b])
+                hw += 2.0 * inv_d2 * wk * g[s, a] * g[q, b]
+                # G_sq = d^2 D / de_s de_q
+                delta = 1.0 if a == b else 0.0
+                if sq == 0:
+                    gsq = (l2 / l1) * (delta - t1[a] * t1[b])
+                elif sq == 2:
+                    gsq = (l1 / l2) * (delta - t2[a] * t2[b])
+                else:
+                    gsq = delta + t1[a] * t2[b]
+                    hw -= 2.0 * inv_d * W[a, b]
+                hw -= inv_d * wk * gsq
+                value = k * (jj + hw)
+                hess[3 * s + a, 3 * q + b] = value
+                hess[3 * q + b, 3 * s + a] = value
     return energy
 
 
-# node <- edge incidence for a bending stencil (nodes i-1, i, i+1; edges e1, e2)
-_S = np.array([[-1.0, 0.0], [1.0, -1.0], [0.0, 1.0]])
+@njit(cache=True, inline="always")
+def _bend_force(pos: np.ndarray, i: int, kbar: np.ndarray, k: float, force: np.ndarray) -> float:
+    """Bending force of node i's stencil (nodes i-1, i, i+1) added to ``force``; returns
+    the energy. The gradient of :func:`bend_energy_grad_hess` in scalars:
+    dE/de1 = k [(2/D) e2 x w - (kb.w / D) g1], dE/de2 = k [(2/D) w x e1 - (kb.w / D) g2],
+    w = kb - kbar, g1 = (l2/l1) e1 + e2, g2 = (l1/l2) e2 + e1."""
+    b = 3 * i
+    a0 = pos[b] - pos[b - 3]
+    a1 = pos[b + 1] - pos[b - 2]
+    a2 = pos[b + 2] - pos[b - 1]
+    c0 = pos[b + 3] - pos[b]
+    c1 = pos[b + 4] - pos[b + 1]
+    c2 = pos[b + 5] - pos[b + 2]
+    l1 = math.sqrt(a0 * a0 + a1 * a1 + a2 * a2)
+    l2 = math.sqrt(c0 * c0 + c1 * c1 + c2 * c2)
+    inv_d = 1.0 / (l1 * l2 + a0 * c0 + a1 * c1 + a2 * c2)
+    w0 = 2.0 * (a1 * c2 - a2 * c1) * inv_d
+    w1 = 2.0 * (a2 * c0 - a0 * c2) * inv_d
+    w2 = 2.0 * (a0 * c1 - a1 * c0) * inv_d
+    kw = w0 * w0 + w1 * w1 + w2 * w2  # kb.kb so far
+    w0 -= kbar[0]
+    w1 -= kbar[1]
+    w2 -= kbar[2]
+    kw -= (w0 + kbar[0]) * kbar[0] + (w1 + kbar[1]) * kbar[1] + (w2 + kbar[2]) * kbar[2]
+    energy = 0.5 * k * (w0 * w0 + w1 * w1 + w2 * w2)
+    s = 2.0 * k * inv_d
+    q = k * kw * inv_d  # k (kb.w) / D
+    r12 = l2 / l1
+    r21 = l1 / l2
+    # gradients with respect to the two edges
+    g10 = s * (c1 * w2 - c2 * w1) - q * (r12 * a0 + c0)
+    g11 = s * (c2 * w0 - c0 * w2) - q * (r12 * a1 + c1)
+    g12 = s * (c0 * w1 - c1 * w0) - q * (r12 * a2 + c2)
+    g20 = s * (w1 * a2 - w2 * a1) - q * (r21 * c0 + a0)
+    g21 = s * (w2 * a0 - w0 * a2) - q * (r21 * c1 + a1)
+    g22 = s * (w0 * a1 - w1 * a0) - q * (r21 * c2 + a2)
+    # e1 = x_i - x_{i-1}, e2 = x_{i+1} - x_i: force = -dE/dx
+    force[b - 3] += g10
+    force[b - 2] += g11
+    force[b - 1] += g12
+    force[b] += g20 - g10
+    force[b + 1] += g21 - g11
+    force[b + 2] += g22 - g12
+    force[b + 3] -= g20
+    force[b + 4] -= g21
+    force[b + 5] -= g22
+    return energy
+
+
+@njit(cache=True, inline="always")
+def _add_bend_hessian(band: np.ndarray, n_free: int, i: int, hess: np.ndarray, cx: float) -> None:
+    """Add cx * d2E/dx2 of node i's bending stencil to ``band``, from the edge Hessian
+    ``hess`` = [[H11, H12], [H21, H22]] (e1 = x_i - x_{i-1}, e2 = x_{i+1} - x_i): the node
+    blocks are (i-1, i-1) = H11, (i-1, i) = H12 - H11, (i-1, i+1) = -H12,
+    (i, i) = H11 - H12 - H21 + H22, (i, i+1) = H12 - H22, (i+1, i+1) = H22, and transposes.
+    Prescribed nodes (>= n_free) are skipped."""
+    for p in range(3):
+        node_p = i - 1 + p
+        if node_p >= n_free:
+            continue
+        for q in range(3):
+            node_q = i - 1 + q
+            if node_q >= n_free:
+                continue
+            for a in range(3):
+                row = 3 * node_p + a
+                off = 3 * node_q - row + KL
+                for b in range(3):
+                    h11 = hess[a, b]
+                    h12 = hess[a, 3 + b]
+                    h21 = hess[3 + a, b]
+                    h22 = hess[3 + a, 3 + b]
+                    if p == 0:
+                        v = h11 if q == 0 else (h12 - h11 if q == 1 else -h12)
+                    elif p == 1:
+                        v = (
+                            h21 - h11
+                            if q == 0
+                            else (h11 - h12 - h21 + h22 if q == 1 else h12 - h22)
+                        )
+                    else:
+                        v = -h21 if q == 0 else (h21 - h22 if q == 1 else h22)
+                    band[row, off + b] += cx * v
 
 
 @njit(cache=True)
@@ -202,23 +282,15 @@ def accumulate(
             e1[a] = pos[3 * i + a] - pos[3 * i - 3 + a]
             e2[a] = pos[3 * i + 3 + a] - pos[3 * i + a]
             kbar[a] = 0.5 * dl * (seg_mat[ja, MAT_KAPPA_X + a] + seg_mat[jb, MAT_KAPPA_X + a])
-        energy += bend_energy_grad_hess(e1, e2, kbar, k, grad, hess, scratch, do_jac)
-        for p in range(3):
-            node = i - 1 + p
-            for a in range(3):
-                force[3 * node + a] -= _S[p, 0] * grad[a] + _S[p, 1] * grad[3 + a]
-        if do_jac:
-            for p in range(3):
-                for q in range(3):
-                    for a in range(3):
-                        for b in range(3):
-                            h = 0.0
-                            for s in range(2):
-                                if _S[p, s] == 0.0:
-                                    continue
-                                for u in range(2):
-                                    if _S[q, u] != 0.0:
-                                        h += _S[p, s] * _S[q, u] * hess[3 * s + a, 3 * u + b]
-                            blk[a, b] = h
-                    add_block(band, n_free, i - 1 + p, i - 1 + q, blk, cx)
+        if not do_jac:  # residual only: the scalar form, no Hessian work
+            energy += _bend_force(pos, i, kbar, k, force)
+            continue
+        energy += bend_energy_grad_hess(e1, e2, kbar, k, grad, hess, scratch, True)
+        # e1 = x_i - x_{i-1}, e2 = x_{i+1} - x_i: forces and Hessian blocks by node
+        b3 = 3 * i
+        for a in range(3):
+            force[b3 - 3 + a] += grad[a]
+            force[b3 + a] += grad[3 + a] - grad[a]
+            force[b3 + 3 + a] -= grad[3 + a]
+        _add_bend_hessian(band, n_free, i, hess, cx)
     return energy
