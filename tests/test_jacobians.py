@@ -136,6 +136,44 @@ def test_jacobian_matches_finite_differences(effects: list[str], which: str) -> 
     np.testing.assert_allclose(jac, fd, atol=2e-6 * scale, rtol=0)
 
 
+def test_force_is_the_same_with_and_without_the_jacobian() -> None:
+    """Elasticity's residual-only path (scalar bending forces) against the Jacobian path
+    (forces from the edge gradient of :func:`bend_energy_grad_hess`): forces and energies."""
+    sim = _random_rod(["elasticity", "drag", "gravity"])
+    n = sim.n_nodes
+    nd = 3 * (n - 2)
+    acc = np.zeros_like(sim.vel)
+    out = []
+    for do_jac in (False, True):
+        f = np.zeros(3 * sim.capacity)
+        energies = np.zeros(L.N_EFFECTS)
+        assemble(
+            sim.pos,
+            sim.vel,
+            acc,
+            n,
+            sim.seg_rest,
+            sim.seg_mat,
+            sim.model.params,
+            0.0,
+            1.0,
+            0.0,
+            0.0,
+            f,
+            np.zeros_like(sim.band),
+            np.zeros(400),
+            do_jac,
+            sim.model.enabled,
+            np.zeros(L.N_EFFECTS, np.int64),
+            energies,
+        )
+        out.append((f[:nd].copy(), energies.copy()))
+    (f0, e0), (f1, e1) = out
+    assert np.abs(f0).max() > 0.0
+    np.testing.assert_allclose(f0, f1, rtol=0, atol=1e-12 * np.abs(f1).max())
+    np.testing.assert_allclose(e0, e1, rtol=1e-12)
+
+
 def test_bending_gradient_and_hessian_match_finite_differences() -> None:
     rng = np.random.default_rng(0)
     e1 = rng.normal(size=3)
