@@ -17,9 +17,10 @@ g = 9.81 m/s^2 along -z).
 (b) With inertia: the tip deflection z_clamp - z_tip at 200 evenly spaced times in (0, 0.5]
     s (lightly damped oscillation at ~43.8 rad/s). Error of a run: max over the samples of
     |d - d_ref| divided by the beam-theory steady deflection, d_ref being the same code at
-    the same resolution and a much finer time discretisation (bathprint: tolerance 2e-10;
-    PyElastica: dt_max / 32). Spatial discretisation error is therefore not part of these
-    errors; the difference between the two codes' references is printed instead.
+    the same resolution and a much finer time discretisation (bathprint: SDIRK4 at a fixed
+    step of 2.5 ms / 64, full Newton; PyElastica: dt_max / 32). Spatial discretisation
+    error is therefore not part of these errors; the difference between the two codes'
+    references is printed instead.
 
 Each code's accuracy knob is swept at 50 and 100 elements and every (wall time, error)
 point goes to ``benchmarks/results/pyelastica.csv`` and ``.png``. Wall time is the best of
@@ -28,9 +29,13 @@ building the systems is not timed), after a warm-up run that loads numba's compi
 
 Knobs
 -----
-- bathprint: ``numerics.tolerance`` (adaptive SDIRK2). (a) is run overdamped (effects
-  elasticity, drag, gravity) to t = 0.3 s, about 270 relaxation times; (b) adds inertia and
-  calls ``advance(t)`` at each sample time, which clips steps at the 2.5 ms sample spacing.
+- bathprint: (a) ``numerics.tolerance`` (adaptive SDIRK2), run overdamped (effects
+  elasticity, drag, gravity) to t = 0.3 s, about 270 relaxation times. (b) adds inertia and
+  calls ``advance(t)`` at each sample time, which clips steps at the 2.5 ms sample spacing;
+  it sweeps four settings a user can pick: SDIRK2 and SDIRK4 (``numerics.integrator``),
+  each adaptive (``numerics.tolerance``) and at a fixed step (``numerics.time_step_s`` =
+  2.5 ms / m). The comparison takes the cheapest bathprint run at each accuracy over all of
+  them (and states each setting's own ratio at PyElastica's dt_max).
 - PyElastica: ``PositionVerlet`` with a fixed dt. dt_max is found for each resolution by
   halving dt from 4 dl / c (c = sqrt(E / rho), the axial wave speed) until the 0.5 s run of
   (b) stays finite and bounded, then bisecting between the last unstable and the first stable
@@ -145,9 +150,9 @@ class Config:
 
     elements: list[int]
     bp_tolerances_a: list[float]
-    bp_tolerances_b: list[float]
+    bp_settings_b: dict[str, tuple[str, str, list[float]]]  # label: integrator, knob, values
     bp_reference_tolerance_a: float
-    bp_reference_tolerance_b: float
+    bp_reference_divisor_b: int  # SDIRK4 at SAMPLE_DT / this
     pe_dt_divisors_b: list[int]  # dt = dt_max / divisor
     pe_reference_divisor_b: int
     pe_dt_divisors_a: list[int]
@@ -162,9 +167,14 @@ class Config:
 FULL = Config(
     elements=[50, 100],
     bp_tolerances_a=[1e-2, 1e-3, 1e-4, 1e-5, 1e-6, 1e-7, 1e-8],
-    bp_tolerances_b=[1e-2, 1e-3, 1e-4, 1e-5, 1e-6, 1e-7, 1e-8],
+    bp_settings_b={
+        "SDIRK2, tolerance": ("implicit", "tolerance", [1e-3, 1e-4, 1e-5, 1e-6, 1e-7, 1e-8]),
+        "SDIRK4, tolerance": ("sdirk4", "tolerance", [1e-4, 1e-5, 1e-6, 1e-7, 1e-8, 1e-9]),
+        "SDIRK2, fixed step": ("implicit", "steps_per_sample", [1, 2, 4, 8, 16]),
+        "SDIRK4, fixed step": ("sdirk4", "steps_per_sample", [1, 2, 3, 4, 6, 8]),
+    },
     bp_reference_tolerance_a=1e-9,
-    bp_reference_tolerance_b=2e-10,
+    bp_reference_divisor_b=64,
     pe_dt_divisors_b=[1, 2, 4],
     pe_reference_divisor_b=32,
     pe_dt_divisors_a=[1, 2, 4],
@@ -177,9 +187,14 @@ FULL = Config(
 QUICK = Config(
     elements=[50],
     bp_tolerances_a=[1e-2, 1e-4, 1e-6],
-    bp_tolerances_b=[1e-3, 1e-5, 1e-6, 1e-7, 1e-8],
+    bp_settings_b={
+        "SDIRK2, tolerance": ("implicit", "tolerance", [1e-4, 1e-6, 1e-7]),
+        "SDIRK4, tolerance": ("sdirk4", "tolerance", [1e-5, 1e-7, 1e-8]),
+        "SDIRK2, fixed step": ("implicit", "steps_per_sample", [2, 8]),
+        "SDIRK4, fixed step": ("sdirk4", "steps_per_sample", [1, 2, 4]),
+    },
     bp_reference_tolerance_a=1e-8,
-    bp_reference_tolerance_b=1e-9,
+    bp_reference_divisor_b=32,
     pe_dt_divisors_b=[1, 2],
     pe_reference_divisor_b=8,
     pe_dt_divisors_a=[1, 2],
@@ -200,13 +215,23 @@ def relative(err: float) -> float:
 
 
 # ================================================================== bathprint
-def bp_simulation(n: int, tolerance: float, inertia: bool) -> Simulation:
+def bp_simulation(
+    n: int,
+    tolerance: float,
+    inertia: bool,
+    integrator: str = "implicit",
+    time_step: float = 0.0,
+    newton: str = "modified",
+) -> Simulation:
     return Simulation(
         "cantilever_water",
         {
             "effects": INERTIAL if inertia else OVERDAMPED,
             "numerics.node_spacing_mm": LENGTH * 1e3 / n,
             "numerics.tolerance": tolerance,
+            "numerics.integrator": integrator,
+            "numerics.time_step_s": time_step,
+            "numerics.newton": newton,
         },
     )
 
@@ -225,9 +250,15 @@ def bp_steady(n: int, tolerance: float) -> tuple[float, float, dict[str, int]]:
     return wall, bp_deflection(sim), sim.counts()
 
 
-def bp_dynamic(n: int, tolerance: float) -> tuple[float, np.ndarray, dict[str, int]]:
-    """(wall s, deflection at SAMPLE_TIMES, counters) of the inertial run."""
-    sim = bp_simulation(n, tolerance, inertia=True)
+def bp_dynamic(
+    n: int, integrator: str, knob: str, value: float, newton: str = "modified"
+) -> tuple[float, np.ndarray, dict[str, int]]:
+    """(wall s, deflection at SAMPLE_TIMES, counters) of the inertial run; knob is
+    "tolerance" (adaptive) or "steps_per_sample" (fixed step SAMPLE_DT / value)."""
+    if knob == "tolerance":
+        sim = bp_simulation(n, value, True, integrator)
+    else:
+        sim = bp_simulation(n, 1e-6, True, integrator, SAMPLE_DT / value, newton)
     out = np.empty(N_SAMPLES)
     t0 = time.perf_counter()
     for k, t in enumerate(SAMPLE_TIMES):
@@ -240,7 +271,9 @@ def bp_dynamic(n: int, tolerance: float) -> tuple[float, np.ndarray, dict[str, i
 
 def bp_warm_up(n: int) -> None:
     for inertia in (False, True):
-        bp_simulation(n, 1e-3, inertia).advance(0.02)
+        for integrator in ("implicit", "sdirk4"):
+            bp_simulation(n, 1e-3, inertia, integrator).advance(0.02)
+            bp_simulation(n, 1e-3, inertia, integrator, SAMPLE_DT).advance(0.02)
 
 
 # ================================================================== PyElastica
@@ -489,7 +522,7 @@ class Resolution:
 
     n: int
     bp_a: list[tuple[float, float]] = field(default_factory=list)
-    bp_b: list[tuple[float, float]] = field(default_factory=list)
+    bp_b: dict[str, list[tuple[float, float]]] = field(default_factory=dict)  # by setting
     pe_a: list[tuple[float, float]] = field(default_factory=list)
     pe_a_drag_only: list[tuple[float, float]] = field(default_factory=list)
     pe_b: list[tuple[float, float, float]] = field(default_factory=list)  # dt, wall, error
@@ -518,21 +551,32 @@ def run_bathprint(cfg: Config, res: Resolution) -> None:
             f"steps {counts['steps']} newton {counts['newton_iterations']}"
         )
     t0 = time.perf_counter()
-    _, res.bp_ref_b, counts = bp_dynamic(n, cfg.bp_reference_tolerance_b)
+    div = cfg.bp_reference_divisor_b
+    _, res.bp_ref_b, counts = bp_dynamic(n, "sdirk4", "steps_per_sample", div, newton="full")
     log(
-        f"[bathprint] (b) n={n} reference tol={cfg.bp_reference_tolerance_b:g}: "
+        f"[bathprint] (b) n={n} reference SDIRK4 at h = {SAMPLE_DT / div:.3g} s: "
         f"{time.perf_counter() - t0:.1f} s, {counts['steps']} steps"
     )
-    for tol in cfg.bp_tolerances_b:
-        wall, (_, z, counts) = best_of(lambda tol=tol: bp_dynamic(n, tol), cfg.repeats)
-        err = float(np.max(np.abs(z - res.bp_ref_b))) / DEFLECTION_BEAM
-        res.bp_b.append((wall, err))
-        add_row(cfg, "b_dynamic", "bathprint", n, "tolerance", tol, wall, err)
-        log(
-            f"[bathprint] (b) n={n} tol={tol:.0e}: {wall * 1e3:8.2f} ms  error {err:.2e}  "
-            f"steps {counts['steps']} rejected {counts['rejected_steps']} "
-            f"newton {counts['newton_iterations']}"
-        )
+    for label, (integrator, knob, values) in cfg.bp_settings_b.items():
+        points = res.bp_b.setdefault(label, [])
+        for value in values:
+            wall, (_, z, counts) = best_of(
+                lambda v=value, i=integrator, k=knob: bp_dynamic(n, i, k, v), cfg.repeats
+            )
+            err = float(np.max(np.abs(z - res.bp_ref_b))) / DEFLECTION_BEAM
+            points.append((wall, err))
+            knob_name, knob_value = (
+                (f"{integrator} tolerance", value)
+                if knob == "tolerance"
+                else (f"{integrator} time_step_s", SAMPLE_DT / value)
+            )
+            add_row(cfg, "b_dynamic", "bathprint", n, knob_name, knob_value, wall, err)
+            log(
+                f"[bathprint] (b) n={n} {label} {knob_name.split()[1]}={knob_value:.3g}: "
+                f"{wall * 1e3:8.2f} ms  error {err:.2e}  steps {counts['steps']} rejected "
+                f"{counts['rejected_steps']} newton {counts['newton_iterations']} "
+                f"jacobians {counts['jacobians']}"
+            )
 
 
 def run_pyelastica(cfg: Config, res: Resolution) -> None:
@@ -633,10 +677,19 @@ def ratios(res: Resolution) -> list[Ratio]:
                 continue
             bp_wall, note = cost_at_error(res.bp_a, level)
             out.append(Ratio("(a)", res.n, f"relax, {label}", level, pe_wall, bp_wall, note))
+    every = [p for pts in res.bp_b.values() for p in pts]
     for k, (dt, wall, err) in enumerate(res.pe_b):
-        bp_wall, note = cost_at_error(res.bp_b, err)
+        bp_wall, note = cost_at_error(every, err)
         label = "dt_max" if k == 0 else f"dt_max/{round(res.dt_max / dt)}"
-        out.append(Ratio("(b)", res.n, f"{label} = {dt:.3g} s", err, wall, bp_wall, note))
+        out.append(
+            Ratio("(b)", res.n, f"{label} = {dt:.3g} s", err, wall, bp_wall, f"best; {note}")
+        )
+        if k == 0:  # each bathprint setting on its own, at dt_max
+            for setting, pts in res.bp_b.items():
+                bp_wall, note = cost_at_error(pts, err)
+                out.append(
+                    Ratio("(b)", res.n, f"{label} = {dt:.3g} s", err, wall, bp_wall, setting)
+                )
     return out
 
 
@@ -661,13 +714,18 @@ def plot(cfg: Config, resolutions: list[Resolution], all_ratios: list[Ratio], pa
     colors = {50: "tab:blue", 100: "tab:red"}
     for res in resolutions:
         c = colors.get(res.n, "k")
-        for ax, pts, style, label in (
-            (axes[0], res.bp_a, "o-", "bathprint"),
+        markers = {"SDIRK2, tolerance": "o-", "SDIRK4, tolerance": "D-"}
+        markers |= {"SDIRK2, fixed step": "o:", "SDIRK4, fixed step": "D:"}
+        series = [
+            (axes[0], res.bp_a, "o-", "bathprint (SDIRK2)"),
             (axes[0], res.pe_a, "s--", "PyElastica, damped relaxation"),
             (axes[0], res.pe_a_drag_only, "^:", "PyElastica, drag only"),
-            (axes[1], res.bp_b, "o-", "bathprint"),
-            (axes[1], [(w, e) for _, w, e in res.pe_b], "s--", "PyElastica"),
-        ):
+        ]
+        series += [
+            (axes[1], pts, markers.get(k, "o-"), f"bathprint {k}") for k, pts in res.bp_b.items()
+        ]
+        series.append((axes[1], [(w, e) for _, w, e in res.pe_b], "s--", "PyElastica"))
+        for ax, pts, style, label in series:
             if pts:
                 w, e = zip(*pts, strict=True)
                 ax.loglog(
@@ -675,7 +733,7 @@ def plot(cfg: Config, resolutions: list[Resolution], all_ratios: list[Ratio], pa
                 )
     for r in all_ratios:
         ax = axes[0] if r.problem == "(a)" else axes[1]
-        if not math.isnan(r.bp_wall):
+        if not math.isnan(r.bp_wall) and r.note.startswith("best"):
             ax.plot([r.bp_wall, r.pe_wall], [r.pe_error, r.pe_error], color="0.6", lw=0.8)
     axes[0].set_title("(a) steady tip deflection: error vs same-code converged answer")
     axes[1].set_title("(b) z_tip(t), 0-0.5 s: max error / steady deflection")
@@ -685,8 +743,8 @@ def plot(cfg: Config, resolutions: list[Resolution], all_ratios: list[Ratio], pa
         ax.grid(True, which="both", alpha=0.3)
         ax.legend(fontsize=7)
     fig.suptitle(
-        "cantilever in water: bathprint (SDIRK2) vs PyElastica (PositionVerlet); "
-        "grey lines: equal-error comparisons",
+        "cantilever in water: bathprint (SDIRK2 / SDIRK4) vs PyElastica (PositionVerlet); "
+        "grey lines: equal-error comparisons (cheapest bathprint setting)",
         fontsize=10,
     )
     fig.tight_layout()

@@ -84,9 +84,18 @@ def test_chaotic_crumpling_22G():
 )
 def test_thinnest_needle_highest_flow(extra):
     # v = 9.6 m/s: half a node spacing of extrusion per step (numerics.max_inlet_growth)
-    # alone asks for ~2e5 steps/s; a collapse would be orders of magnitude more
+    # alone asks for ~2e5 steps/s; a collapse would be orders of magnitude more.
+    # The largest strain at t_end is a snapshot of a buckling jet: at 0.5 mm spacing it
+    # ranges over 0.15-0.20 as the tolerance goes from 7e-4 to 1.3e-3 (measured with the
+    # Newton of before and after the Jacobian reuse across steps alike; 0.201 at 1.2e-3
+    # before), so that case is held to 0.22, the others to 0.2.
+    coarse = extra.get("numerics.node_spacing_mm", 0.0) >= 0.5
     run_and_check(
-        "chaotic_crumpling_22G", {**THIN, **extra}, 0.002, max_stretch=0.2, max_steps_per_s=1e6
+        "chaotic_crumpling_22G",
+        {**THIN, **extra},
+        0.002,
+        max_stretch=0.22 if coarse else 0.2,
+        max_steps_per_s=1e6,
     )
 
 
@@ -198,8 +207,12 @@ def test_rope_coiling_at_a_tight_tolerance(imperfection_um: float) -> None:
 
 
 def test_without_the_buckling_bound_the_straight_rod_is_held_straight() -> None:
+    """With exact stage solves (full Newton) the L-stable step holds the rod straight. The
+    default modified Newton, which reuses the Jacobian across steps, happens to let the
+    mode grow here through its inexact solves: nothing to rely on, hence the bound."""
     sim = Simulation(
-        "rope_coiling_18G", {"numerics.tolerance": 1e-4, "numerics.buckling_steps": 0.0}
+        "rope_coiling_18G",
+        {"numerics.tolerance": 1e-4, "numerics.buckling_steps": 0.0, "numerics.newton": "full"},
     )
     with pytest.raises(SimulationError, match="max_strain"):
         sim.advance(1.0)

@@ -116,7 +116,8 @@ EFFECT_NAMES = (
 INTEGRATOR_IMPLICIT = 0  # SDIRK2, Newton on the banded Jacobian
 INTEGRATOR_EXPLICIT = 1  # forward / symplectic Euler (reference)
 INTEGRATOR_IMPLICIT_EULER = 2  # backward Euler, Newton on the banded Jacobian
-INTEGRATOR_NAMES = ("implicit", "explicit", "implicit_euler")
+INTEGRATOR_SDIRK4 = 3  # Hairer-Wanner SDIRK4 (order 4, 5 stages), Newton as SDIRK2
+INTEGRATOR_NAMES = ("implicit", "explicit", "implicit_euler", "sdirk4")
 
 # --- status of a call to the stepper ---------------------------------------------------
 STATUS_OK = 0
@@ -144,7 +145,8 @@ C_NEWTON_ITERATIONS = 2
 C_FAIL_NODE = 3
 C_SPLITS = 4
 C_NEWTON_FAILURES = 5
-N_COUNTERS = 6
+C_FACTORIZATIONS = 6  # Jacobians assembled and LU-factorised
+N_COUNTERS = 7
 
 # --- band storage -------------------------------------------------------------------------
 # A node's force depends on nodes i-2..i+2 (bending), so the Jacobian has 8 sub- and
@@ -158,6 +160,15 @@ BAND_WIDTH = 2 * KL + KU + 1
 W_LU_VALID = 390
 # slot counting accepted steps still to take with full Newton after a Newton failure
 W_FULL_NEWTON_STEPS = 391
+# slot with the Newton contraction estimate eta = theta / (1 - theta) of the last stage solve
+# that measured one (0: unknown, taken as 1); it lets a stage stop after one iteration
+W_NEWTON_ETA = 392
+# h gamma and the size of the factorised Jacobian in ``band`` (reused by the next step when
+# both match and Newton contracted fast: see integrators._implicit_step)
+W_LU_HG = 393
+W_LU_ND = 394
+# 1 if a stage of the current step measured a Newton contraction slower than REUSE_THETA
+W_NEWTON_SLOW = 395
 # 13 slots from here: the frozen tail's lumped load (bathprint.freezing)
 W_TAIL = 400
 # degrees of freedom of the frozen tail: error and Newton norms are RMS over the whole

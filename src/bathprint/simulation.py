@@ -171,6 +171,11 @@ class Simulation:
         self.__dict__.update(state)
         if self.istate.shape[0] < 3:
             self.istate = np.concatenate([self.istate, np.zeros(3 - len(self.istate), np.int64)])
+        if self.vecs.shape[0] < N_VECS:  # scratch rows (stage derivatives of SDIRK4)
+            self.vecs = np.zeros((N_VECS, self.vecs.shape[1]))
+        if self.counters.shape[0] < L.N_COUNTERS:
+            pad = np.zeros(L.N_COUNTERS - len(self.counters), np.int64)
+            self.counters = np.concatenate([self.counters, pad])
         if self.work.shape[0] < WORK_SIZE:
             self.work = np.concatenate([self.work, np.zeros(WORK_SIZE - len(self.work))])
 
@@ -298,7 +303,8 @@ class Simulation:
         return float(np.sum(self.rest_lengths() * math.pi * self.material()[:, L.MAT_RADIUS] ** 2))
 
     def counts(self) -> dict[str, int]:
-        """Steps, rejected steps, Newton iterations, node births so far."""
+        """Steps, rejected steps, Newton iterations, node births, Newton failures and
+        Jacobian factorisations so far."""
         c = self.counters
         return {
             "steps": int(c[L.C_STEPS]),
@@ -306,6 +312,7 @@ class Simulation:
             "newton_iterations": int(c[L.C_NEWTON_ITERATIONS]),
             "nodes_born": int(c[L.C_SPLITS]),
             "newton_failures": int(c[L.C_NEWTON_FAILURES]),
+            "jacobians": int(c[L.C_FACTORIZATIONS]),
         }
 
     def effect_calls(self) -> dict[str, int]:
