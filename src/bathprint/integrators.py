@@ -262,10 +262,11 @@ def _stage_solve(
         if not np.isfinite(norm) or norm > 1e12:
             info[1] = _worst_node(rhs, nd)
             return False
-        if it > 0 and norm >= 0.95 * previous:
-            # no contraction: Newton stagnates or cycles, as on the regularised Coulomb
-            # friction of the floor, whose force saturates with the sliding speed; the
-            # friction is monotone in the velocity, so a damped update breaks the cycle
+        if it > 0 and norm >= 0.95 * previous and need_jac:
+            # no contraction with a Jacobian of this very iterate: Newton itself stagnates
+            # or cycles, as on the regularised Coulomb friction of the floor, whose force
+            # saturates with the sliding speed; the friction is monotone in the velocity,
+            # so a damped update breaks the cycle. (A stale Jacobian is refreshed instead.)
             relax *= 0.5
         for k in range(nd):
             pos[k] += relax * rhs[k]
