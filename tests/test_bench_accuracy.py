@@ -38,7 +38,7 @@ def test_quick_run_writes_files_converges_and_resumes(
     points = (tmp_path / "points_quick.jsonl").read_text().splitlines()
     assert len(points) == plan_size(QUICK)
     rows = _rows(tmp_path / "accuracy.csv")
-    for integrator in ("implicit", "implicit_euler"):
+    for integrator in ("implicit", "sdirk4", "implicit_euler"):
         # tighter tolerance: the error may not grow by more than 10 % (it converges, from
         # below, to the spatial error; loose tolerances land up to ~4 % closer by chance)
         tol = curve(rows, "cantilever", integrator, "tolerance")

@@ -137,12 +137,13 @@ def test_jacobian_matches_finite_differences(effects: list[str], which: str) -> 
 
 
 def test_force_is_the_same_with_and_without_the_jacobian() -> None:
-    """Elasticity's residual-only path (scalar bending forces) against the Jacobian path
-    (forces from the edge gradient of :func:`bend_energy_grad_hess`): forces and energies."""
-    sim = _random_rod(["elasticity", "drag", "gravity"])
+    """The residual-only paths (elasticity's scalar bending forces, inertia's scalar mass
+    product) against the Jacobian paths (forces from the edge gradient of
+    :func:`bend_energy_grad_hess`, the 3x3 mass blocks): forces and energies."""
+    sim = _random_rod(["elasticity", "drag", "gravity", "inertia"])
     n = sim.n_nodes
     nd = 3 * (n - 2)
-    acc = np.zeros_like(sim.vel)
+    acc = np.random.default_rng(5).normal(scale=0.1, size=sim.vel.shape)
     out = []
     for do_jac in (False, True):
         f = np.zeros(3 * sim.capacity)
@@ -157,8 +158,8 @@ def test_force_is_the_same_with_and_without_the_jacobian() -> None:
             sim.model.params,
             0.0,
             1.0,
-            0.0,
-            0.0,
+            1.0,
+            1.0,
             f,
             np.zeros_like(sim.band),
             np.zeros(400),

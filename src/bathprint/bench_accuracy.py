@@ -225,6 +225,7 @@ class Plan:
     onset_dt: tuple[float, ...]
     onset_n: tuple[int, ...]
     coil_tol: tuple[float, ...]
+    coil_sdirk4_tol: tuple[float, ...]  # the coil with numerics.integrator = "sdirk4"
     coil_spacing: tuple[float, ...]
     coil_duration: float
     coil_reference: str  # preset used as the coil's reference
@@ -239,6 +240,7 @@ FULL = Plan(
     onset_dt=(0.3, 0.1, 0.03, 0.01),
     onset_n=(5, 10, 20, 40, 80),
     coil_tol=(1e-2, 3e-3, 1e-3, 3e-4),
+    coil_sdirk4_tol=(1e-2, 1e-3, 1e-4),
     coil_spacing=(0.6, 0.45, 0.3, 0.2),
     coil_duration=3.0,
     coil_reference="fine",
@@ -252,11 +254,12 @@ QUICK = Plan(
     onset_dt=(0.1,),
     onset_n=(10, 20),
     coil_tol=(1e-2,),
+    coil_sdirk4_tol=(1e-2,),
     coil_spacing=(0.6,),
     coil_duration=1.5,
     coil_reference="balanced",
 )
-INTEGRATORS = ("implicit", "implicit_euler")
+INTEGRATORS = ("implicit", "sdirk4", "implicit_euler")
 
 
 def plan_size(plan: Plan) -> int:
@@ -265,7 +268,7 @@ def plan_size(plan: Plan) -> int:
     cant = len(INTEGRATORS) * (len(plan.cant_tol) + len(plan.cant_dt) + len(plan.cant_n))
     onset = len(INTEGRATORS) * (len(plan.onset_tol) + len(plan.onset_dt) + len(plan.onset_n))
     coil_presets = list(ACCURACY_PRESETS).index(plan.coil_reference) + 1
-    coil = len(plan.coil_tol) + len(plan.coil_spacing) + coil_presets
+    coil = len(plan.coil_tol) + len(plan.coil_sdirk4_tol) + len(plan.coil_spacing) + coil_presets
     return cant + len(plan.cant_explicit_n) + n_presets + onset + n_presets + coil
 
 
@@ -359,11 +362,13 @@ def run_coil(plan: Plan) -> tuple[list[Row], dict[str, Row]]:
     )
     _log(f"  reference R = {r_ref * 1e3:.4f} mm, omega = {om_ref:.4f} rad/s ({w_ref:.1f} s)")
 
-    def rows_for(refine: str, knob: str, value: float, wall: float, res: tuple) -> list[Row]:
+    def rows_for(
+        refine: str, knob: str, value: float, wall: float, res: tuple, integ: str = "implicit"
+    ) -> list[Row]:
         r, om = res if res is not None else (math.nan, math.nan)
         return [
-            Row("coil_radius", "implicit", refine, knob, value, wall, abs(r / r_ref - 1.0)),
-            Row("coil_frequency", "implicit", refine, knob, value, wall, abs(om / om_ref - 1.0)),
+            Row("coil_radius", integ, refine, knob, value, wall, abs(r / r_ref - 1.0)),
+            Row("coil_frequency", integ, refine, knob, value, wall, abs(om / om_ref - 1.0)),
         ]
 
     rows: list[Row] = []
@@ -373,6 +378,13 @@ def run_coil(plan: Plan) -> tuple[list[Row], dict[str, Row]]:
         )
         rows += rows_for("tolerance", "numerics.tolerance", tol, w, res)
         _log(f"  coil tolerance {tol:g}: {w:.1f} s")
+    for tol in plan.coil_sdirk4_tol:
+        w, res = measure(
+            f"coil|{dur!r}|sdirk4|tol|{tol!r}",
+            lambda t=tol: coil_run({"numerics.tolerance": t, "numerics.integrator": "sdirk4"}, dur),
+        )
+        rows += rows_for("tolerance", "numerics.tolerance", tol, w, res, "sdirk4")
+        _log(f"  coil sdirk4 tolerance {tol:g}: {w:.1f} s")
     for dx in plan.coil_spacing:
         w, res = measure(
             f"coil|{dur!r}|dx|{dx!r}",
@@ -432,7 +444,7 @@ def plot(path: Path, rows: Sequence[Row], presets: Sequence[Row]) -> None:
 
     fig, axes = plt.subplots(1, len(PROBLEMS), figsize=(5.2 * len(PROBLEMS), 4.6))
     styles = {"tolerance": "o-", "time_step": "s--", "node_spacing": "^-."}
-    colors = {"implicit": "C0", "implicit_euler": "C1", "explicit": "C2"}
+    colors = {"implicit": "C0", "sdirk4": "C3", "implicit_euler": "C1", "explicit": "C2"}
     floor = 1e-16  # errors of exactly 0 (a reference against itself) are not drawn
     for ax, problem in zip(axes, PROBLEMS, strict=True):
         for integ in colors:

@@ -206,11 +206,10 @@ def _stage_solve(
     relax = 1.0  # fraction of the Newton update applied
     # Hairer & Wanner's stopping test (Radau5): stop once eta * |dX| < newton_tol, where
     # eta = theta / (1 - theta) bounds the error left after the update dX from the
-    # contraction rate theta; before a rate is measured, the last one relaxed to eta^0.8.
-    # With a fast contraction a stage often stops after one iteration.
+    # contraction rate theta; before a rate is measured, the last one (relaxed to eta^0.8
+    # once per step, see _implicit_step). With a fast contraction a stage often stops after
+    # one iteration.
     eta = work[W_NEWTON_ETA] if work[W_NEWTON_ETA] > 0.0 else 1.0
-    eta = max(eta, 1e-16) ** 0.8
-    work[W_NEWTON_ETA] = eta
     for it in range(int(params[P_MAX_NEWTON])):
         set_boundary(
             pos, vel, node_s, seg_rest, n_nodes, t_stage, flow, flow_cum, needle, params, work
@@ -399,6 +398,7 @@ def _implicit_step(
     else:
         a_mat, c_vec, b_hat = SDIRK2_A, SDIRK2_C, SDIRK2_BHAT
     euler = integrator == INTEGRATOR_IMPLICIT_EULER
+    inertial = params[P_INERTIA] > 0.0
     n_stages = 1 if euler else a_mat.shape[0]
     gamma = 1.0 if euler else a_mat[0, 0]
     hg = h * gamma
@@ -420,6 +420,8 @@ def _implicit_step(
     ):
         work[W_LU_VALID] = 0.0
     work[W_NEWTON_SLOW] = 0.0
+    if work[W_NEWTON_ETA] > 0.0:  # the last measured contraction, relaxed once per step
+        work[W_NEWTON_ETA] = max(work[W_NEWTON_ETA], 1e-16) ** 0.8
     for i in range(n_stages):
         c_i = 1.0 if euler else c_vec[i]
         v_prev = vel0 if i == 0 else vecs[V_KV + i - 1]
@@ -434,6 +436,13 @@ def _implicit_step(
             for k in range(nd):
                 sx[k] += ha * kv[k]
                 sv[k] += ha * ka[k]
+        if i > 0:  # predict the stage from the last one's rate: V_i ~ V_{i-1} (or A_i ~ A_{i-1})
+            a_prev = vecs[V_KA + i - 1]
+            for k in range(nd):
+                if inertial:
+                    pos[k] = sx[k] + hg * (sv[k] + hg * a_prev[k])
+                else:
+                    pos[k] = sx[k] + hg * v_prev[k]
         ok = _stage_solve(
             hg,
             t + c_i * h,

@@ -49,7 +49,7 @@ def _cross_matrix(w0: float, w1: float, w2: float, out: np.ndarray) -> None:
     out[2, 2] = 0.0
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def bend_energy_grad_hess(
     e1: np.ndarray,
     e2: np.ndarray,

@@ -38,6 +38,18 @@ def accumulate(
         half_vol = 0.5 * math.pi * r * r * seg_rest[j]
         rho = seg_mat[j, MAT_DENSITY]
         rho_b, _ = bath_density(params, 0.5 * (pos[3 * j + 2] + pos[3 * j + 5]), r)
+        if not do_jac:  # force only, in scalars: M u = half_vol (rho u + c_a rho_b P u)
+            m_full = half_vol * (rho + c_a * rho_b)
+            m_axis = half_vol * c_a * rho_b  # removed along the tangent: no axial added mass
+            for side in range(2):
+                b = 3 * (j + side)
+                ta = tt[0] * acc[b] + tt[1] * acc[b + 1] + tt[2] * acc[b + 2]
+                tv = tt[0] * vel[b] + tt[1] * vel[b + 1] + tt[2] * vel[b + 2]
+                vv = vel[b] * vel[b] + vel[b + 1] * vel[b + 1] + vel[b + 2] * vel[b + 2]
+                for a in range(3):
+                    force[b + a] -= m_full * acc[b + a] - m_axis * ta * tt[a]
+                kinetic += 0.5 * (m_full * vv - m_axis * tv * tv)
+            continue
         for a in range(3):
             for b in range(3):
                 eye = 1.0 if a == b else 0.0
