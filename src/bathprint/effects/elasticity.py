@@ -36,20 +36,6 @@ def _bending_stiffness(seg_mat: np.ndarray, j: int) -> float:
 
 
 @njit(cache=True, inline="always")
-def _cross_matrix(w0: float, w1: float, w2: float, out: np.ndarray) -> None:
-    """out = [w]x, so that out @ u = w x u."""
-    out[0, 0] = 0.0
-    out[0, 1] = -w2
-    out[0, 2] = w1
-    out[1, 0] = w2
-    out[1, 1] = 0.0
-    out[1, 2] = -w0
-    out[2, 0] = -w1
-    out[2, 1] = w0
-    out[2, 2] = 0.0
-
-
-@njit(cache=True, inline="always")
 def bend_energy_grad_hess(
     e1: np.ndarray,
     e2: np.ndarray,
@@ -57,84 +43,115 @@ def bend_energy_grad_hess(
     k: float,
     grad: np.ndarray,
     hess: np.ndarray,
-    work: np.ndarray,
+    sc: np.ndarray,
     want_hess: bool,
 ) -> float:
-    """Energy 1/2 k |kb(e1, e2) - kbar|^2, its gradient (6) and Hessian (6x6) in (e1, e2)."""
-    l1 = math.sqrt(e1[0] ** 2 + e1[1] ** 2 + e1[2] ** 2)
-    l2 = math.sqrt(e2[0] ** 2 + e2[1] ** 2 + e2[2] ** 2)
-    c0 = e1[1] * e2[2] - e1[2] * e2[1]
-    c1 = e1[2] * e2[0] - e1[0] * e2[2]
-    c2 = e1[0] * e2[1] - e1[1] * e2[0]
-    dot = e1[0] * e2[0] + e1[1] * e2[1] + e1[2] * e2[2]
-    D = l1 * l2 + dot
-    kb = work[0:3]
-    kb[0] = 2.0 * c0 / D
-    kb[1] = 2.0 * c1 / D
-    kb[2] = 2.0 * c2 / D
-    w = work[3:6]
-    for a in range(3):
-        w[a] = kb[a] - kbar[a]
-    energy = 0.5 * k * (w[0] ** 2 + w[1] ** 2 + w[2] ** 2)
-    # g_a = dD/de_a ; C_a = dc/de_a ; J_a = dkb/de_a = (2/D) C_a - kb g_a^T / D
-    g = work[6:12].reshape((2, 3))
-    for a in range(3):
-        g[0, a] = (l2 / l1) * e1[a] + e2[a]
-        g[1, a] = (l1 / l2) * e2[a] + e1[a]
-    C = work[12:30].reshape((2, 3, 3))
-    _cross_matrix(-e2[0], -e2[1], -e2[2], C[0])
-    _cross_matrix(e1[0], e1[1], e1[2], C[1])
-    J = work[30:48].reshape((2, 3, 3))
-    for s in range(2):
-        for a in range(3):
-            for b in range(3):
-                J[s, a, b] = (2.0 / D) * C[s, a, b] - kb[a] * g[s, b] / D
-    # gradient: k J_s^T w
-    for s in range(2):
-        for b in range(3):
-            acc = 0.0
-            for a in range(3):
-                acc += J[s, a, b] * w[a]
-            grad[3 * s + b] = k * acc
+    """Energy 1/2 k |kb(e1, e2) - kbar|^2, its gradient (6) and Hessian (6x6) in (e1, e2).
+
+    With D = |e1||e2| + e1.e2, w = kb - kbar, g_s = dD/de_s and C_s = d(e1 x e2)/de_s
+    ([-e2]x, [e1]x): J_s = dkb/de_s = (2/D) C_s - kb g_s^T / D, gradient k J_s^T w and
+    Hessian k (J_s^T J_q + sum_m w_m d2kb_m/de_s de_q). ``sc`` is scratch (>= 42 slots)."""
+    a0 = e1[0]
+    a1 = e1[1]
+    a2 = e1[2]
+    c0 = e2[0]
+    c1 = e2[1]
+    c2 = e2[2]
+    l1 = math.sqrt(a0 * a0 + a1 * a1 + a2 * a2)
+    l2 = math.sqrt(c0 * c0 + c1 * c1 + c2 * c2)
+    inv_d = 1.0 / (l1 * l2 + a0 * c0 + a1 * c1 + a2 * c2)
+    # flat scratch: kb 0:3, w 3:6, g1 6:9, g2 9:12, cw1 12:15, cw2 15:18, t1 18:21, t2 21:24,
+    # J1 24:33, J2 33:42 (row m, column a at 3 m + a)
+    sc[0] = 2.0 * (a1 * c2 - a2 * c1) * inv_d
+    sc[1] = 2.0 * (a2 * c0 - a0 * c2) * inv_d
+    sc[2] = 2.0 * (a0 * c1 - a1 * c0) * inv_d
+    for m in range(3):
+        sc[3 + m] = sc[m] - kbar[m]
+    w0 = sc[3]
+    w1 = sc[4]
+    w2 = sc[5]
+    energy = 0.5 * k * (w0 * w0 + w1 * w1 + w2 * w2)
+    wk = w0 * sc[0] + w1 * sc[1] + w2 * sc[2]
+    r12 = l2 / l1
+    r21 = l1 / l2
+    for m in range(3):
+        sc[6 + m] = r12 * e1[m] + e2[m]
+        sc[9 + m] = r21 * e2[m] + e1[m]
+        sc[18 + m] = e1[m] / l1
+        sc[21 + m] = e2[m] / l2
+    # C1^T w = e2 x w, C2^T w = w x e1
+    sc[12] = c1 * w2 - c2 * w1
+    sc[13] = c2 * w0 - c0 * w2
+    sc[14] = c0 * w1 - c1 * w0
+    sc[15] = w1 * a2 - w2 * a1
+    sc[16] = w2 * a0 - w0 * a2
+    sc[17] = w0 * a1 - w1 * a0
+    s2 = 2.0 * inv_d
+    for b in range(3):
+        grad[b] = k * (s2 * sc[12 + b] - wk * inv_d * sc[6 + b])
+        grad[3 + b] = k * (s2 * sc[15 + b] - wk * inv_d * sc[9 + b])
     if not want_hess:
         return energy
-    # Hessian blocks: k [J_a^T J_b + Hw_ab]
-    Ctw = work[48:54].reshape((2, 3))  # C_a^T w
-    for s in range(2):
-        for b in range(3):
-            acc = 0.0
-            for a in range(3):
-                acc += C[s, a, b] * w[a]
-            Ctw[s, b] = acc
-    wk = w[0] * kb[0] + w[1] * kb[1] + w[2] * kb[2]
-    W = work[54:63].reshape((3, 3))
-    _cross_matrix(w[0], w[1], w[2], W)
-    t1 = work[63:66]
-    t2 = work[66:69]
-    for a in range(3):
-        t1[a] = e1[a] / l1
-        t2[a] = e2[a] / l2
-    inv_d = 1.0 / D
+    # J1 = (2/D) [-e2]x - kb g1^T / D ;  J2 = (2/D) [e1]x - kb g2^T / D
+    for m in range(3):
+        for a in range(3):
+            sc[24 + 3 * m + a] = -sc[m] * sc[6 + a] * inv_d
+            sc[33 + 3 * m + a] = -sc[m] * sc[9 + a] * inv_d
+    # [v]x: (0,1) = -v2, (0,2) = v1, (1,0) = v2, (1,2) = -v0, (2,0) = -v1, (2,1) = v0
+    sc[24 + 1] += s2 * c2
+    sc[24 + 2] -= s2 * c1
+    sc[24 + 3] -= s2 * c2
+    sc[24 + 5] += s2 * c0
+    sc[24 + 6] += s2 * c1
+    sc[24 + 7] -= s2 * c0
+    sc[33 + 1] -= s2 * a2
+    sc[33 + 2] += s2 * a1
+    sc[33 + 3] += s2 * a2
+    sc[33 + 5] -= s2 * a0
+    sc[33 + 6] -= s2 * a1
+    sc[33 + 7] += s2 * a0
     inv_d2 = inv_d * inv_d
-    # the Hessian is symmetric: blocks (0, 0), (0, 1), (1, 1), upper triangles of the diagonal ones
+    c_gg = 2.0 * inv_d2 * wk
+    c_g = wk * inv_d
     for sq in range(3):
         s = 0 if sq < 2 else 1
         q = 0 if sq == 0 else 1
+        js = 24 + 9 * s
+        jq = 24 + 9 * q
+        gs = 6 + 3 * s
+        gq = 6 + 3 * q
+        cs = 12 + 3 * s
+        cq = 12 + 3 * q
         for a in range(3):
             for b in range(a if s == q else 0, 3):
-                jj = J[s, 0, a] * J[q, 0, b] + J[s, 1, a] * J[q, 1, b] + J[s, 2, a] * J[q, 2, b]
-                hw = -2.0 * inv_d2 * (Ctw[s, a] * g[q, b] + g[s, a] * Ctw[q, b])
-                hw += 2.0 * inv_d2 * wk * g[s, a] * g[q, b]
-                # G_sq = d^2 D / de_s de_q
+                jj = (
+                    sc[js + a] * sc[jq + b]
+                    + sc[js + 3 + a] * sc[jq + 3 + b]
+                    + sc[js + 6 + a] * sc[jq + 6 + b]
+                )
+                hw = -2.0 * inv_d2 * (sc[cs + a] * sc[gq + b] + sc[gs + a] * sc[cq + b])
+                hw += c_gg * sc[gs + a] * sc[gq + b]
                 delta = 1.0 if a == b else 0.0
                 if sq == 0:
-                    gsq = (l2 / l1) * (delta - t1[a] * t1[b])
+                    gsq = r12 * (delta - sc[18 + a] * sc[18 + b])
                 elif sq == 2:
-                    gsq = (l1 / l2) * (delta - t2[a] * t2[b])
+                    gsq = r21 * (delta - sc[21 + a] * sc[21 + b])
                 else:
-                    gsq = delta + t1[a] * t2[b]
-                    hw -= 2.0 * inv_d * W[a, b]
-                hw -= inv_d * wk * gsq
+                    gsq = delta + sc[18 + a] * sc[21 + b]
+                    # -(2/D) [w]x (a, b)
+                    if a == 0 and b == 1:
+                        hw += s2 * w2
+                    elif a == 0 and b == 2:
+                        hw -= s2 * w1
+                    elif a == 1 and b == 0:
+                        hw -= s2 * w2
+                    elif a == 1 and b == 2:
+                        hw += s2 * w0
+                    elif a == 2 and b == 0:
+                        hw += s2 * w1
+                    elif a == 2 and b == 1:
+                        hw -= s2 * w0
+                hw -= c_g * gsq
                 value = k * (jj + hw)
                 hess[3 * s + a, 3 * q + b] = value
                 hess[3 * q + b, 3 * s + a] = value
