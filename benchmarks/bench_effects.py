@@ -35,7 +35,7 @@ def kernel_costs() -> list[dict]:
     n = sim.n_nodes
     acc = np.zeros_like(sim.vel)
     force = np.zeros_like(sim.pos)
-    work = np.zeros(400)
+    work = np.zeros_like(sim.work)
     rows = []
     for name, mod in KERNELS.items():
 

@@ -38,10 +38,14 @@ def _random_rod(effects: list[str], seed: int = 1, **extra) -> Simulation:
     return sim
 
 
-def _force(sim: Simulation, pos, vel, acc) -> np.ndarray:
+def _assemble(
+    sim: Simulation, pos, vel, acc, do_jac: bool, coeffs=(0.0, 0.0, 0.0)
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(force on the free nodes, band, energies) of ``assemble`` at this state."""
     n = sim.n_nodes
     f = np.zeros(3 * sim.capacity)
     band = np.zeros_like(sim.band)
+    energies = np.zeros(L.N_EFFECTS)
     assemble(
         pos,
         vel,
@@ -51,45 +55,25 @@ def _force(sim: Simulation, pos, vel, acc) -> np.ndarray:
         sim.seg_mat,
         sim.model.params,
         0.0,
-        0.0,
-        0.0,
-        0.0,
+        *coeffs,
         f,
         band,
-        np.zeros(400),
-        False,
+        np.zeros_like(sim.work),
+        do_jac,
         sim.model.enabled,
         np.zeros(L.N_EFFECTS, np.int64),
-        np.zeros(L.N_EFFECTS),
+        energies,
     )
-    return f[: 3 * (n - 2)].copy()
+    return f[: 3 * (n - 2)].copy(), band, energies
+
+
+def _force(sim: Simulation, pos, vel, acc) -> np.ndarray:
+    return _assemble(sim, pos, vel, acc, False)[0]
 
 
 def _dense_jacobian(sim: Simulation, pos, vel, acc, cx, cv, ca) -> np.ndarray:
-    n = sim.n_nodes
-    nd = 3 * (n - 2)
-    f = np.zeros(3 * sim.capacity)
-    band = np.zeros_like(sim.band)
-    assemble(
-        pos,
-        vel,
-        acc,
-        n,
-        sim.seg_rest,
-        sim.seg_mat,
-        sim.model.params,
-        0.0,
-        cx,
-        cv,
-        ca,
-        f,
-        band,
-        np.zeros(400),
-        True,
-        sim.model.enabled,
-        np.zeros(L.N_EFFECTS, np.int64),
-        np.zeros(L.N_EFFECTS),
-    )
+    nd = 3 * (sim.n_nodes - 2)
+    band = _assemble(sim, pos, vel, acc, True, (cx, cv, ca))[1]
     dense = np.zeros((nd, nd))
     for i in range(nd):
         for j in range(max(0, i - L.KL), min(nd, i + L.KU + 1)):
@@ -137,38 +121,13 @@ def test_jacobian_matches_finite_differences(effects: list[str], which: str) -> 
 
 
 def test_force_is_the_same_with_and_without_the_jacobian() -> None:
-    """The residual-only paths (elasticity's scalar bending forces, inertia's scalar mass
-    product) against the Jacobian paths (forces from the edge gradient of
-    :func:`bend_energy_grad_hess`, the 3x3 mass blocks): forces and energies."""
+    """Forces and energies with and without the Jacobian: the residual-only paths (bending
+    without its Hessian, inertia's scalar mass product) against the Jacobian paths (the
+    3x3 mass blocks)."""
     sim = _random_rod(["elasticity", "drag", "gravity", "inertia"])
-    n = sim.n_nodes
-    nd = 3 * (n - 2)
     acc = np.random.default_rng(5).normal(scale=0.1, size=sim.vel.shape)
-    out = []
-    for do_jac in (False, True):
-        f = np.zeros(3 * sim.capacity)
-        energies = np.zeros(L.N_EFFECTS)
-        assemble(
-            sim.pos,
-            sim.vel,
-            acc,
-            n,
-            sim.seg_rest,
-            sim.seg_mat,
-            sim.model.params,
-            0.0,
-            1.0,
-            1.0,
-            1.0,
-            f,
-            np.zeros_like(sim.band),
-            np.zeros(400),
-            do_jac,
-            sim.model.enabled,
-            np.zeros(L.N_EFFECTS, np.int64),
-            energies,
-        )
-        out.append((f[:nd].copy(), energies.copy()))
+    # coefficients 1: elasticity assembles its Hessian only when cx != 0
+    out = [_assemble(sim, sim.pos, sim.vel, acc, j, (1.0, 1.0, 1.0))[::2] for j in (False, True)]
     (f0, e0), (f1, e1) = out
     assert np.abs(f0).max() > 0.0
     np.testing.assert_allclose(f0, f1, rtol=0, atol=1e-12 * np.abs(f1).max())

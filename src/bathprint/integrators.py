@@ -381,8 +381,9 @@ def _implicit_step(
     or -1 on failure.
 
     Stage i solves for X_i with X_i = Sx_i + h gamma V_i and V_i = Sv_i + h gamma A_i,
-    Sx_i = x_n + h sum_{j<i} a_ij V_j, Sv_i = v_n + h sum_{j<i} a_ij A_j; the predictor is
-    x_n + c_i h V_{i-1} (V_{-1} = v_n). The result is the last stage (stiffly accurate);
+    Sx_i = x_n + h sum_{j<i} a_ij V_j, Sv_i = v_n + h sum_{j<i} a_ij A_j. The first stage
+    starts from x_n + c_1 h v_n, later ones from the last stage's rate: V_i ~ V_{i-1}
+    (overdamped) or A_i ~ A_{i-1} (inertia). The result is the last stage (stiffly accurate);
     the error estimate is X_s - x_n - h sum_i b_hat_i V_i, filtered (:func:`_filtered_norm`).
     """
     nd = 3 * free_nodes(n_nodes, params)
@@ -402,32 +403,26 @@ def _implicit_step(
     n_stages = 1 if euler else a_mat.shape[0]
     gamma = 1.0 if euler else a_mat[0, 0]
     hg = h * gamma
-    # the factorised Jacobian of the last step serves this one too (modified Newton across
+    # The factorised Jacobian of the last step serves this one too (modified Newton across
     # steps, as Radau5) if h gamma and the unknowns are the same and no stage there measured
     # a contraction slower than REUSE_THETA; otherwise it is refreshed at the first
-    # iteration. The contraction that the stopping test uses is measured afresh in each
-    # step, with the matrix actually used: when it was carried over from earlier steps, a
-    # stale estimate let stages stop early, which with inertia (velocities (X - Sx)/(h gamma)
-    # amplify Newton's position error) made SDIRK4's error on the inertial cantilever 5x its
-    # truncation error; measured per step, reuse changes that error by under 10%.
+    # iteration. The contraction that Newton's stopping test uses is measured afresh in each
+    # step, with the matrix actually used, and then serves the later stages. Carried over
+    # from earlier steps (as Radau5 does) a stale estimate let stages stop early: extruding
+    # draft runs moved the environments' metrics by ~0.08, and with inertia (velocities
+    # (X - Sx)/(h gamma) amplify Newton's position error) SDIRK4's error on the inertial
+    # cantilever grew to 5x its truncation error; measured per step, reuse changes it <10%.
     if not (
         abs(work[W_LU_HG] - hg) <= 1e-9 * hg and work[W_LU_ND] == nd and work[W_NEWTON_SLOW] == 0.0
     ):
         work[W_LU_VALID] = 0.0
     work[W_NEWTON_SLOW] = 0.0
-    # the contraction is measured afresh in every step (first stage: at least two iterations
-    # unless the first correction is already below the tolerance) and then serves the later
-    # stages, which share the factorised Jacobian. Carrying it over from earlier steps, as
-    # Radau5 does, let stages of extruding draft-preset runs stop on a stale estimate and
-    # shifted the environments' metrics by ~0.08 (CoilRadius-v0 baselines).
     work[W_NEWTON_ETA] = 0.0
     for i in range(n_stages):
         c_i = 1.0 if euler else c_vec[i]
-        v_prev = vel0 if i == 0 else vecs[V_KV + i - 1]
         for k in range(nd):
             sx[k] = pos0[k]
             sv[k] = vel0[k]
-            pos[k] = pos0[k] + h * c_i * v_prev[k]
         for j in range(i):
             ha = h * a_mat[i, j]
             kv = vecs[V_KV + j]
@@ -435,13 +430,17 @@ def _implicit_step(
             for k in range(nd):
                 sx[k] += ha * kv[k]
                 sv[k] += ha * ka[k]
-        if i > 0:  # predict the stage from the last one's rate: V_i ~ V_{i-1} (or A_i ~ A_{i-1})
+        if i == 0:
+            for k in range(nd):
+                pos[k] = pos0[k] + h * c_i * vel0[k]
+        elif inertial:  # A_i ~ A_{i-1}
             a_prev = vecs[V_KA + i - 1]
             for k in range(nd):
-                if inertial:
-                    pos[k] = sx[k] + hg * (sv[k] + hg * a_prev[k])
-                else:
-                    pos[k] = sx[k] + hg * v_prev[k]
+                pos[k] = sx[k] + hg * (sv[k] + hg * a_prev[k])
+        else:  # V_i ~ V_{i-1}
+            v_prev = vecs[V_KV + i - 1]
+            for k in range(nd):
+                pos[k] = sx[k] + hg * v_prev[k]
         ok = _stage_solve(
             hg,
             t + c_i * h,

@@ -160,8 +160,8 @@ BAND_WIDTH = 2 * KL + KU + 1
 W_LU_VALID = 390
 # slot counting accepted steps still to take with full Newton after a Newton failure
 W_FULL_NEWTON_STEPS = 391
-# slot with the Newton contraction estimate eta = theta / (1 - theta) of the last stage solve
-# that measured one (0: unknown, taken as 1); it lets a stage stop after one iteration
+# slot with the Newton contraction estimate eta = theta / (1 - theta) measured in the current
+# step (0: not yet, taken as 1); it lets the step's later stages stop after one iteration
 W_NEWTON_ETA = 392
 # h gamma and the size of the factorised Jacobian in ``band`` (reused by the next step when
 # both match and Newton contracted fast: see integrators._implicit_step)

@@ -35,7 +35,7 @@ def _dense(sim: Simulation, cx: float, cv: float, ca: float) -> np.ndarray:
         ca,
         force,
         band,
-        np.zeros(400),
+        np.zeros_like(sim.work),
         True,
         sim.model.enabled,
         np.zeros(L.N_EFFECTS, np.int64),

@@ -223,7 +223,7 @@ def translating_rod_drag(
         0.0,
         force,
         band,
-        np.zeros(400),
+        np.zeros_like(sim.work),
         False,
     )
     total = force[: 3 * (n - 1)].reshape(-1, 3).sum(axis=0)  # every filament node, tip included

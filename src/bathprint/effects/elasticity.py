@@ -159,55 +159,6 @@ def bend_energy_grad_hess(
 
 
 @njit(cache=True, inline="always")
-def _bend_force(pos: np.ndarray, i: int, kbar: np.ndarray, k: float, force: np.ndarray) -> float:
-    """Bending force of node i's stencil (nodes i-1, i, i+1) added to ``force``; returns
-    the energy. The gradient of :func:`bend_energy_grad_hess` in scalars:
-    dE/de1 = k [(2/D) e2 x w - (kb.w / D) g1], dE/de2 = k [(2/D) w x e1 - (kb.w / D) g2],
-    w = kb - kbar, g1 = (l2/l1) e1 + e2, g2 = (l1/l2) e2 + e1."""
-    b = 3 * i
-    a0 = pos[b] - pos[b - 3]
-    a1 = pos[b + 1] - pos[b - 2]
-    a2 = pos[b + 2] - pos[b - 1]
-    c0 = pos[b + 3] - pos[b]
-    c1 = pos[b + 4] - pos[b + 1]
-    c2 = pos[b + 5] - pos[b + 2]
-    l1 = math.sqrt(a0 * a0 + a1 * a1 + a2 * a2)
-    l2 = math.sqrt(c0 * c0 + c1 * c1 + c2 * c2)
-    inv_d = 1.0 / (l1 * l2 + a0 * c0 + a1 * c1 + a2 * c2)
-    w0 = 2.0 * (a1 * c2 - a2 * c1) * inv_d
-    w1 = 2.0 * (a2 * c0 - a0 * c2) * inv_d
-    w2 = 2.0 * (a0 * c1 - a1 * c0) * inv_d
-    kw = w0 * w0 + w1 * w1 + w2 * w2  # kb.kb so far
-    w0 -= kbar[0]
-    w1 -= kbar[1]
-    w2 -= kbar[2]
-    kw -= (w0 + kbar[0]) * kbar[0] + (w1 + kbar[1]) * kbar[1] + (w2 + kbar[2]) * kbar[2]
-    energy = 0.5 * k * (w0 * w0 + w1 * w1 + w2 * w2)
-    s = 2.0 * k * inv_d
-    q = k * kw * inv_d  # k (kb.w) / D
-    r12 = l2 / l1
-    r21 = l1 / l2
-    # gradients with respect to the two edges
-    g10 = s * (c1 * w2 - c2 * w1) - q * (r12 * a0 + c0)
-    g11 = s * (c2 * w0 - c0 * w2) - q * (r12 * a1 + c1)
-    g12 = s * (c0 * w1 - c1 * w0) - q * (r12 * a2 + c2)
-    g20 = s * (w1 * a2 - w2 * a1) - q * (r21 * c0 + a0)
-    g21 = s * (w2 * a0 - w0 * a2) - q * (r21 * c1 + a1)
-    g22 = s * (w0 * a1 - w1 * a0) - q * (r21 * c2 + a2)
-    # e1 = x_i - x_{i-1}, e2 = x_{i+1} - x_i: force = -dE/dx
-    force[b - 3] += g10
-    force[b - 2] += g11
-    force[b - 1] += g12
-    force[b] += g20 - g10
-    force[b + 1] += g21 - g11
-    force[b + 2] += g22 - g12
-    force[b + 3] -= g20
-    force[b + 4] -= g21
-    force[b + 5] -= g22
-    return energy
-
-
-@njit(cache=True, inline="always")
 def _add_bend_hessian(band: np.ndarray, n_free: int, i: int, hess: np.ndarray, cx: float) -> None:
     """Add cx * d2E/dx2 of node i's bending stencil to ``band``, from the edge Hessian
     ``hess`` = [[H11, H12], [H21, H22]] (e1 = x_i - x_{i-1}, e2 = x_{i+1} - x_i): the node
@@ -299,15 +250,13 @@ def accumulate(
             e1[a] = pos[3 * i + a] - pos[3 * i - 3 + a]
             e2[a] = pos[3 * i + 3 + a] - pos[3 * i + a]
             kbar[a] = 0.5 * dl * (seg_mat[ja, MAT_KAPPA_X + a] + seg_mat[jb, MAT_KAPPA_X + a])
-        if not do_jac:  # residual only: the scalar form, no Hessian work
-            energy += _bend_force(pos, i, kbar, k, force)
-            continue
-        energy += bend_energy_grad_hess(e1, e2, kbar, k, grad, hess, scratch, True)
+        energy += bend_energy_grad_hess(e1, e2, kbar, k, grad, hess, scratch, do_jac)
         # e1 = x_i - x_{i-1}, e2 = x_{i+1} - x_i: forces and Hessian blocks by node
         b3 = 3 * i
         for a in range(3):
             force[b3 - 3 + a] += grad[a]
             force[b3 + a] += grad[3 + a] - grad[a]
             force[b3 + 3 + a] -= grad[3 + a]
-        _add_bend_hessian(band, n_free, i, hess, cx)
+        if do_jac:
+            _add_bend_hessian(band, n_free, i, hess, cx)
     return energy
