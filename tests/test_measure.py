@@ -280,3 +280,42 @@ def test_odd_arguments_do_not_raise():
     assert buckling_length("x") is None and curvature_variance(np.ones(7)) is None
     assert plume_angle(np.zeros((4, 3))) is None
     assert classify_regime(None) == "straight"
+
+
+@pytest.mark.parametrize("roundoff_slope_m_s", [1.7e-18, -1.7e-18, 0.0])
+def test_constant_length_is_not_growth_whatever_the_roundoff(monkeypatch, roundoff_slope_m_s):
+    """A rotating coil of constant length: whatever sign the round-off of the length fit
+    takes on a CPU (np.polyfit returned +1.7e-18 m/s on one, about -1e-18 on another), no
+    growth rate is read from it, so the tracked frequency stands and aliased frames give
+    None instead of a turn rate of ~0."""
+    import bathprint.measure as measure
+
+    real_polyfit = np.polyfit
+
+    def polyfit(x, y, deg):  # the fit of a constant (the length) returns the round-off slope
+        fit = real_polyfit(x, y, deg)
+        y = np.asarray(y, dtype=float)
+        if deg == 1 and np.ptp(y) <= 1e-12 * np.max(np.abs(y)):
+            fit[0] = roundoff_slope_m_s
+        return fit
+
+    monkeypatch.setattr(measure.np, "polyfit", polyfit)
+    frames, times = rotating([P] * 6)
+    assert measure._length_rate(frames, times) is None
+    assert coil_frequency(frames, times, NEEDLE, DOWN) == pytest.approx(OMEGA, rel=0.02)
+    t8 = np.linspace(0.0, 3.0, 8)
+    aliased = [helix_frame([P] * 4, phase=6.0 * t) for t in t8]
+    assert coil_frequency(aliased, t8, NEEDLE, DOWN) is None
+
+
+def test_length_rate_reads_real_growth():
+    """A filament growing at v: the fitted rate is v (the threshold only removes round-off)."""
+    import bathprint.measure as measure
+
+    v, times = 0.01, np.linspace(0.0, 1.0, 11)
+    frames = []
+    for t in times:
+        f = helix_frame([P] * 6)
+        tail = f[0] - np.outer(np.arange(1, round(v * t / H) + 1) * H, [0.0, 0.0, 1.0])
+        frames.append(np.vstack([tail[::-1], f]))
+    assert measure._length_rate(frames, times) == pytest.approx(v, rel=0.1)

@@ -78,6 +78,7 @@ CV_MAX = 0.3  # robust coefficient of variation of per-turn radius / pitch
 PD_ALTERNATION = 0.75  # fraction of successive pitch differences that change sign
 PD_AMPLITUDE = 0.1  # |mean(even turns) - mean(odd turns)| / mean pitch
 N_VOTE = 5  # classify_regime: majority over the last N_VOTE frames
+GROWTH_RTOL = 1e-9  # relative arclength growth over the frame window below which nothing grows
 
 _DOWN = np.array([0.0, 0.0, -1.0])
 _T = TypeVar("_T")
@@ -685,14 +686,21 @@ def coil_frequency(
 
 
 def _length_rate(frames: list[np.ndarray], times: np.ndarray, n: int = 10) -> float | None:
-    """Growth rate (m/s) of the filament's arclength over the last <= n frames."""
+    """Growth rate (m/s) of the filament's arclength over the last <= n frames, or None if
+    it does not grow: a fitted growth over the window below ``GROWTH_RTOL`` of the length
+    is round-off (a constant length fits to a slope of ~1e-18 m/s of either sign, the sign
+    depending on the CPU's BLAS), not extrusion."""
     t = np.asarray(times[-n:], dtype=float)
     lengths = np.array([_arclength(f)[-1] if len(f) > 1 else 0.0 for f in frames[-n:]])
     ok = np.isfinite(t)
-    if ok.sum() < 2 or np.ptp(t[ok]) <= 0:
+    if ok.sum() < 2:
+        return None
+    span = float(np.ptp(t[ok]))
+    scale = float(np.max(np.abs(lengths[ok])))
+    if span <= 0.0 or scale <= 0.0:
         return None
     rate = float(np.polyfit(t[ok], lengths[ok], 1)[0])
-    return rate if rate > 0 else None
+    return rate if rate * span > GROWTH_RTOL * scale else None
 
 
 def _track_probe(
