@@ -119,6 +119,7 @@ def build_parser() -> argparse.ArgumentParser:
     v = sub.add_parser("validate", help="run the analytic checks and print the table")
     v.set_defaults(func=_cmd_validate)
     sub.add_parser("theory", help="scaling laws and linear stability: bathprint theory [--json]")
+    sub.add_parser("warmup", help="compile the numba kernels now (once after an install)")
     sub.add_parser("play", help="one episode of an environment to a GIF: bathprint play ENV ...")
     sub.add_parser("train", help="train an agent: bathprint train --algo ppo --env ENV ...")
     sub.add_parser("evaluate", help="held-out rollouts: bathprint evaluate POLICY... --env ENV")
@@ -156,6 +157,10 @@ def main(argv: list[str] | None = None) -> int:
         from bathprint.bench_accuracy import main as bench_accuracy
 
         return bench_accuracy(argv[2:])
+    if argv[:1] == ["warmup"]:
+        from bathprint.warmup import main as warmup_main
+
+        return warmup_main(argv[1:])
     if argv[:1] == ["play"]:  # so does the environments' player
         from bathprint.envs import play_main
 

@@ -4,7 +4,8 @@ Outputs (``bathprint simulate --out DIR``):
 - ``trajectory.npz``: ``positions_m`` (all frames' nodes stacked, shape (total, 3)),
   ``frame_start`` (frame k is rows frame_start[k]:frame_start[k+1]), ``time_s``,
   ``material`` (final per-segment records) and ``material_columns``;
-- ``summary.json``: wall time, steps, rejected steps, final length, mass balance, and
+- ``summary.json``: wall time (``compile_s``, numba compiling or loading its kernels
+  before the run, is kept apart), steps, rejected steps, final length, mass balance, and
   ``measurements`` for the analyses other modules add;
 - ``filament.png``: 3D view of the final filament coloured by material age.
 """
@@ -23,7 +24,7 @@ import numpy as np
 from bathprint import layout as L
 from bathprint.extrusion import extruded_length
 from bathprint.model import ML_MIN, effective_numerics
-from bathprint.scene import Scene
+from bathprint.scene import Scene, load_scene
 from bathprint.simulation import Simulation
 
 
@@ -188,6 +189,10 @@ def simulate(
     Returns a :class:`Result`; with ``out_dir`` also writes its files. A progress bar is
     shown when ``progress`` is true (default: when the run is long and stderr is a TTY).
     """
+    from bathprint.warmup import ensure_compiled
+
+    load_scene(scene, overrides)  # bad input is refused before anything compiles
+    compile_s = ensure_compiled(announce=True)
     sim = Simulation(scene, overrides)
     sc = sim.scene
     n_frames = max(1, int(math.ceil(sc.duration_s / sc.outputs.frame_interval_s - 1e-9)))
@@ -212,6 +217,7 @@ def simulate(
     wall = time.perf_counter() - wall0
     sim._node_steps = node_steps
     summary = summarize(sim, wall)
+    summary["compile_s"] = compile_s
     summary["measurements"] = measure_run(sim, frames, np.array(t_out))
     result = Result(sc, np.array(t_out), frames, sim.material(), summary)
     if out_dir is not None:
