@@ -12,7 +12,7 @@ import time
 from _common import write_csv
 
 from bathprint import Simulation
-from bathprint.stability import explicit_step_limit
+from bathprint.analysis.stability import explicit_step_limit
 
 
 def main() -> None:

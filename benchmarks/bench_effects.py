@@ -14,8 +14,8 @@ import numpy as np
 from _common import best_of, write_csv
 
 from bathprint import Simulation
-from bathprint import layout as L
-from bathprint.effects import drag, elasticity, end_load, floor, gravity, inertia
+from bathprint.core import layout as L
+from bathprint.core.effects import drag, elasticity, end_load, floor, gravity, inertia
 
 KERNELS = {
     "elasticity": elasticity,

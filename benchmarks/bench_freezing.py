@@ -28,8 +28,8 @@ import numpy as np
 from _common import write_csv
 
 import bathprint.envs as E
-from bathprint.bench_accuracy import coil_run
-from bathprint.simulation import Simulation
+from bathprint.core.simulation import Simulation
+from bathprint.studies.accuracy import coil_run
 
 COIL = "gelation_coiling_22G"
 FREEZE_MM = (20.0, 40.0, 60.0)

@@ -17,7 +17,7 @@ import numpy as np
 from _common import write_csv
 
 from bathprint import Simulation, SimulationError
-from bathprint.run import integrated_flow_volume
+from bathprint.core.run import integrated_flow_volume
 
 BASE = ["elasticity", "drag", "gravity"]
 THIN = {"needle.inner_diameter_mm": 0.21, "flow.q_outer_ml_min": 20.0}

@@ -37,14 +37,14 @@ import numpy as np
 from _common import RESULTS, best_of, sagging_filament, write_csv
 from numba import njit
 
-import bathprint.integrators as integ
+import bathprint.core.integrators as integ
 from bathprint import Simulation
-from bathprint import layout as L
-from bathprint.assemble import assemble
-from bathprint.banded import band_lu, band_matvec, band_solve
-from bathprint.effects import drag, elasticity, end_load, floor, gravity, inertia
-from bathprint.extrusion import set_boundary
-from bathprint.topology import free_nodes
+from bathprint.core import layout as L
+from bathprint.core.assemble import assemble
+from bathprint.core.banded import band_lu, band_matvec, band_solve
+from bathprint.core.effects import drag, elasticity, end_load, floor, gravity, inertia
+from bathprint.core.extrusion import set_boundary
+from bathprint.core.topology import free_nodes
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
@@ -59,7 +59,7 @@ EFFECTS: dict[int, ModuleType] = {
     L.E_INERTIA: inertia,
     L.E_END_LOAD: end_load,
 }
-# kernels the replay counts: the names under which bathprint.integrators calls them
+# kernels the replay counts: the names under which bathprint.core.integrators calls them
 COUNTED = ("assemble", "band_lu", "band_solve", "band_matvec", "set_boundary")
 # integrator functions replayed from their Python source so the counted kernels are seen
 REPLAYED = ("_stage_solve", "_filtered_norm", "_implicit_step", "_explicit_step")

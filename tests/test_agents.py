@@ -1,6 +1,6 @@
 """Agents: tiny end-to-end training with checkpoints, interruption and resume; evaluation
 determinism; every baseline on every environment; the feedforward controller against the
-scaling law (bathprint.theory, an independent implementation)."""
+scaling law (bathprint.analysis.theory, an independent implementation)."""
 
 from __future__ import annotations
 
@@ -21,6 +21,7 @@ from bathprint.agents.policies import (
     law_q_outer_ml_min,
 )
 from bathprint.agents.train import checkpoints, train
+from bathprint.analysis.theory import bending_stiffness, coil_radius
 from bathprint.cli import main as cli_main
 from bathprint.envs import ENV_IDS, make
 from bathprint.envs.core import (
@@ -32,7 +33,6 @@ from bathprint.envs.core import (
     obs_slices,
 )
 from bathprint.envs.targets import helix_curvature_torsion
-from bathprint.theory import bending_stiffness, coil_radius
 
 ENV = "bathprint/CoilRadius-v0"
 
@@ -172,7 +172,7 @@ def test_feedforward_q_outer_inverts_the_scaling_law(radius_mm):
     lo, hi = env.unwrapped.q_outer_range
     assert lo < qo < hi  # inside the range, so not clipped
     assert ctl["q_inner_ml_min"] == 0.0  # pure gel: the density is free
-    # independent check with bathprint.theory: R = 0.4 (B / (mu v))^(1/3) at this Q_o
+    # independent check with bathprint.analysis.theory: R = 0.4 (B / (mu v))^(1/3) at this Q_o
     v = qo * 1e-6 / 60.0 / c.needle_area
     B = bending_stiffness(30000.0, c.filament_radius)  # set gel of gelation_coiling_22G
     assert coil_radius(B, 1.0e-3, v, 0.4) * 1e3 == pytest.approx(radius_mm, rel=1e-3)

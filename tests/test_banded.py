@@ -5,8 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from bathprint.banded import band_lu, band_matvec, band_solve
-from bathprint.layout import BAND_WIDTH, KL, KU
+from bathprint.core.banded import band_lu, band_matvec, band_solve
+from bathprint.core.layout import BAND_WIDTH, KL, KU
 
 
 def _random_band(n: int, seed: int, diag_shift: float) -> tuple[np.ndarray, np.ndarray]:

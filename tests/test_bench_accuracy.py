@@ -8,8 +8,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-import bathprint.bench_accuracy as B
-from bathprint.bench_accuracy import QUICK, Row, curve, is_monotone, main, plan_size
+import bathprint.studies.accuracy as B
+from bathprint.studies.accuracy import QUICK, Row, curve, is_monotone, main, plan_size
 
 
 def _rows(path: Path) -> list[Row]:

@@ -10,7 +10,7 @@ import numpy as np
 
 import bathprint
 from bathprint.cli import main
-from bathprint.run import load_trajectory
+from bathprint.core.run import load_trajectory
 
 
 def test_simulate_writes_trajectory_summary_and_picture(tmp_path) -> None:
@@ -44,7 +44,7 @@ def test_simulate_writes_trajectory_summary_and_picture(tmp_path) -> None:
     assert summary["q_outer_ml_min_at_end"] == 1.0
     times, frames, material = load_trajectory(out / "trajectory.npz")
     assert times[-1] == 0.3 and len(frames) == len(times)
-    assert material.shape == (len(frames[-1]) - 1, bathprint.layout.N_MAT)
+    assert material.shape == (len(frames[-1]) - 1, bathprint.core.layout.N_MAT)
     assert (out / "filament.png").stat().st_size > 10_000
 
 

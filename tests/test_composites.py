@@ -7,10 +7,11 @@ import math
 import numpy as np
 import pytest
 
-from bathprint import SceneError, Simulation, lab, load_scene, simulate
-from bathprint import layout as L
-from bathprint.composite import INNER_FLUIDS, composite_properties
-from bathprint.run import integrated_flow_volume
+from bathprint import SceneError, Simulation, load_scene, simulate
+from bathprint.analysis import lab
+from bathprint.core import layout as L
+from bathprint.core.composite import INNER_FLUIDS, composite_properties
+from bathprint.core.run import integrated_flow_volume
 
 COMPOSITE = {"effects": ["elasticity", "drag", "gravity", "inclusions"]}
 

@@ -9,13 +9,13 @@ import numpy as np
 import pytest
 
 import bathprint.envs as E
-from bathprint import layout as L
+from bathprint.core import layout as L
+from bathprint.core.extrusion import extruded_length, flow_rate, inner_volume
+from bathprint.core.model import flow_cumulative
 from bathprint.envs import core
 from bathprint.envs._kernels import pairwise_sum
 from bathprint.envs.metric import MetricParams, PrintedSamples, evaluate
 from bathprint.envs.targets import Target, discrete_curvature
-from bathprint.extrusion import extruded_length, flow_rate, inner_volume
-from bathprint.model import flow_cumulative
 
 
 # ------------------------------------------------------------------ references (numpy)

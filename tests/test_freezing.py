@@ -1,4 +1,4 @@
-"""Freezing settled material (``numerics.freeze_beyond_mm``, :mod:`bathprint.freezing`).
+"""Freezing settled material (``numerics.freeze_beyond_mm``, :mod:`bathprint.core.freezing`).
 
 Material further behind the needle than the set arclength leaves the solve; it moves
 rigidly with the active end and acts on it through its lumped drag and net weight. The
@@ -13,10 +13,10 @@ import numpy as np
 import pytest
 
 from bathprint import SceneError, Simulation
-from bathprint import layout as L
-from bathprint.bench_accuracy import coil_run
-from bathprint.effects import drag, gravity
-from bathprint.freezing import accumulate_tail, tail_is_frozen, tail_load
+from bathprint.core import layout as L
+from bathprint.core.effects import drag, gravity
+from bathprint.core.freezing import accumulate_tail, tail_is_frozen, tail_load
+from bathprint.studies.accuracy import coil_run
 
 COIL = "gelation_coiling_22G"  # 22G, 0.5 ml/min, gelation with curvature memory
 

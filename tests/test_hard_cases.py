@@ -13,8 +13,8 @@ import numpy as np
 import pytest
 
 from bathprint import Simulation, SimulationError
-from bathprint import layout as L
-from bathprint.run import integrated_flow_volume
+from bathprint.core import layout as L
+from bathprint.core.run import integrated_flow_volume
 
 BASE = ["elasticity", "drag", "gravity"]
 THIN = {"needle.inner_diameter_mm": 0.21, "flow.q_outer_ml_min": 20.0}
@@ -322,7 +322,7 @@ def test_buckling_step_is_the_growth_time_of_the_fastest_mode() -> None:
     sigma = P^2 / (8 B mu_s); with inertia m sigma^2 + 2 mu_s sigma = P^2 / (4 B)."""
     import math
 
-    from bathprint.integrators import _buckling_step
+    from bathprint.core.integrators import _buckling_step
 
     sim = Simulation("rope_coiling_18G", {})
     p = sim.model.params.copy()

@@ -6,10 +6,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from bathprint import layout as L
-from bathprint.assemble import assemble
-from bathprint.effects.elasticity import bend_energy_grad_hess
-from bathprint.simulation import Simulation
+from bathprint.core import layout as L
+from bathprint.core.assemble import assemble
+from bathprint.core.effects.elasticity import bend_energy_grad_hess
+from bathprint.core.simulation import Simulation
 
 
 def _random_rod(effects: list[str], seed: int = 1, **extra) -> Simulation:

@@ -1,4 +1,4 @@
-"""bathprint.measure on synthetic curves with known answers."""
+"""bathprint.analysis.measure on synthetic curves with known answers."""
 
 from __future__ import annotations
 
@@ -8,7 +8,7 @@ import math
 import numpy as np
 import pytest
 
-from bathprint.measure import (
+from bathprint.analysis.measure import (
     MEASURE_KEYS,
     REGIMES,
     buckling_length,
@@ -288,7 +288,7 @@ def test_constant_length_is_not_growth_whatever_the_roundoff(monkeypatch, roundo
     takes on a CPU (np.polyfit returned +1.7e-18 m/s on one, about -1e-18 on another), no
     growth rate is read from it, so the tracked frequency stands and aliased frames give
     None instead of a turn rate of ~0."""
-    import bathprint.measure as measure
+    import bathprint.analysis.measure as measure
 
     real_polyfit = np.polyfit
 
@@ -310,7 +310,7 @@ def test_constant_length_is_not_growth_whatever_the_roundoff(monkeypatch, roundo
 
 def test_length_rate_reads_real_growth():
     """A filament growing at v: the fitted rate is v (the threshold only removes round-off)."""
-    import bathprint.measure as measure
+    import bathprint.analysis.measure as measure
 
     v, times = 0.01, np.linspace(0.0, 1.0, 11)
     frames = []

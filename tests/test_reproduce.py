@@ -5,8 +5,8 @@ from __future__ import annotations
 import json
 import math
 
+from bathprint.analysis.theory import beta_critical
 from bathprint.cli import main
-from bathprint.theory import beta_critical
 
 
 def test_reproduce_quick_writes_every_figure_with_sane_numbers(tmp_path) -> None:

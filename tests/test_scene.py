@@ -7,7 +7,7 @@ import math
 import pytest
 
 from bathprint import SceneError, builtin_scene_names, load_scene
-from bathprint.scene import parse_override
+from bathprint.core.scene import parse_override
 
 REQUIRED_SCENES = {
     "paper_simulation",
@@ -113,7 +113,7 @@ def test_scene_round_trips_through_a_dict() -> None:
 
 
 def test_accuracy_presets_set_tolerance_growth_and_resolution() -> None:
-    from bathprint.model import compile_model, effective_numerics
+    from bathprint.core.model import compile_model, effective_numerics
 
     base = load_scene("drag_coiling_22G")
     draft = load_scene("drag_coiling_22G", {"numerics.accuracy": "draft"})

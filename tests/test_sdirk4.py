@@ -13,12 +13,12 @@ import math
 import numpy as np
 import pytest
 
-from bathprint import integrators as I
-from bathprint import layout as L
-from bathprint import validation as V
-from bathprint.run import integrated_flow_volume
-from bathprint.simulation import Simulation
-from bathprint.theory import cantilever_release_error
+from bathprint.analysis import validation as V
+from bathprint.analysis.theory import cantilever_release_error
+from bathprint.core import integrators as I
+from bathprint.core import layout as L
+from bathprint.core.run import integrated_flow_volume
+from bathprint.core.simulation import Simulation
 
 INERTIAL = ["elasticity", "drag", "gravity", "inertia"]
 SAMPLES = 2.5e-3 * np.arange(1, 201)  # s, as benchmarks/bench_pyelastica.py

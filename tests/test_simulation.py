@@ -9,9 +9,9 @@ import numpy as np
 import pytest
 
 from bathprint import Simulation, SimulationError, simulate
-from bathprint import layout as L
-from bathprint.stability import explicit_step_limit
-from bathprint.validation import CANTILEVER
+from bathprint.analysis.stability import explicit_step_limit
+from bathprint.analysis.validation import CANTILEVER
+from bathprint.core import layout as L
 
 SHORT = {"duration_s": 0.4, "outputs.frame_interval_s": 0.1, "outputs.plot": False}
 
@@ -215,7 +215,7 @@ def test_floor_contact_does_not_stall_newton(q_ml_min: float) -> None:
     # regressions: contacts switching made the reused Jacobian fail every step (h ~ 1e-6 s
     # forever), and so did friction regularised over 0.1 mm/s; after a Newton failure the
     # stepper now uses full Newton for a while, and the default regularisation is 1 mm/s
-    from bathprint.reproduce.runs import run_overrides
+    from bathprint.studies.reproduce.runs import run_overrides
 
     sim = Simulation("drag_coiling_22G", run_overrides(0.41, q_ml_min, 30.0, 6.0, 6.0))
     sim.advance(3.0, max_steps=3000)

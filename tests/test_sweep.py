@@ -8,8 +8,8 @@ import json
 import numpy as np
 import pytest
 
-from bathprint import sweep
-from bathprint.sweep import (
+from bathprint.studies import sweep
+from bathprint.studies.sweep import (
     expand_grid,
     latest_rows,
     parse_grid_arg,

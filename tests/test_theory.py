@@ -1,4 +1,4 @@
-"""Scaling laws and the extruded rod's linear stability (bathprint.theory)."""
+"""Scaling laws and the extruded rod's linear stability (bathprint.analysis.theory)."""
 
 from __future__ import annotations
 
@@ -10,7 +10,7 @@ import pytest
 from scipy.optimize import brentq
 from scipy.special import lambertw
 
-from bathprint import theory as T
+from bathprint.analysis import theory as T
 
 
 def test_beta_critical_to_four_significant_figures() -> None:
@@ -123,7 +123,7 @@ def test_main_json_output(capsys: pytest.CaptureFixture[str]) -> None:
 def test_cantilever_modes_sum_to_the_static_deflection() -> None:
     """Eigenvalues of the clamped-free beam (tabulated 1.8751, 4.6941, 7.8548, 10.9955) and
     the uniform-load expansion: the tip amplitudes sum to the static q L^4 / (8 B)."""
-    from bathprint.theory import cantilever_modes
+    from bathprint.analysis.theory import cantilever_modes
 
     modes = cantilever_modes(5)
     np.testing.assert_allclose(

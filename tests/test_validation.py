@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from bathprint import validation as V
+from bathprint.analysis import validation as V
 
 
 def test_cantilever_tip_deflection_within_1_percent() -> None:

@@ -11,8 +11,8 @@ from bathprint.errors import SceneError, SimulationError
 
 
 def _cmd_simulate(args: argparse.Namespace) -> int:
-    from bathprint.run import simulate
-    from bathprint.scene import parse_override
+    from bathprint.core.run import simulate
+    from bathprint.core.scene import parse_override
 
     overrides = dict(parse_override(s) for s in args.set or [])
     if args.accuracy:
@@ -34,7 +34,7 @@ def _cmd_simulate(args: argparse.Namespace) -> int:
 
 
 def _cmd_scenes(args: argparse.Namespace) -> int:
-    from bathprint.scene import builtin_scene_names, load_scene, scene_summary_line
+    from bathprint.core.scene import builtin_scene_names, load_scene, scene_summary_line
 
     for name in builtin_scene_names():
         print(scene_summary_line(load_scene(name)))
@@ -42,7 +42,7 @@ def _cmd_scenes(args: argparse.Namespace) -> int:
 
 
 def _cmd_show(args: argparse.Namespace) -> int:
-    from bathprint.scene import load_scene, parse_override
+    from bathprint.core.scene import load_scene, parse_override
 
     overrides = dict(parse_override(s) for s in args.set or [])
     print(json.dumps(load_scene(args.scene, overrides).to_dict(), indent=2))
@@ -50,7 +50,7 @@ def _cmd_show(args: argparse.Namespace) -> int:
 
 
 def _cmd_validate(args: argparse.Namespace) -> int:
-    from bathprint.validation import run_all
+    from bathprint.analysis.validation import run_all
 
     checks = run_all()
     print(f"{'check':<58} {'simulated':>12} {'exact':>12} {'rel. error':>10} {'tol':>6}  ok")
@@ -63,7 +63,7 @@ def _cmd_validate(args: argparse.Namespace) -> int:
 
 
 def _cmd_composites(args: argparse.Namespace) -> int:
-    from bathprint.reproduce import fig3
+    from bathprint.studies.reproduce import fig3
 
     res = fig3.run(args.out, quick=args.quick)
     print(f"{'flow ratio':>10} {'phi':>6} {'E_c/E_alg':>10} {'rho_c (kg/m^3)':>15}")
@@ -127,12 +127,12 @@ def build_parser() -> argparse.ArgumentParser:
     sub.add_parser(
         "bench", help="work-precision study: bathprint bench accuracy --out DIR [--quick]"
     )
-    from bathprint import sweep
+    from bathprint.studies import sweep
 
     sw = sub.add_parser("sweep", help="run a grid of scenes; resumable; process pool or Dask")
     sweep.add_arguments(sw)
     sw.set_defaults(func=sweep.run_args)
-    from bathprint.reproduce import cli as reproduce_cli
+    from bathprint.studies.reproduce import cli as reproduce_cli
 
     rp = sub.add_parser("reproduce", help="the paper's figures: fig1c|fig2|fig3|stability|all")
     reproduce_cli.add_arguments(rp)
@@ -150,11 +150,11 @@ def build_parser() -> argparse.ArgumentParser:
 def main(argv: list[str] | None = None) -> int:
     argv = sys.argv[1:] if argv is None else argv
     if argv[:1] == ["theory"]:  # the theory module parses its own options
-        from bathprint import theory
+        from bathprint.analysis import theory
 
         return theory.main(argv[1:])
     if argv[:2] == ["bench", "accuracy"]:  # the work-precision study parses its own options
-        from bathprint.bench_accuracy import main as bench_accuracy
+        from bathprint.studies.accuracy import main as bench_accuracy
 
         return bench_accuracy(argv[2:])
     if argv[:1] == ["warmup"]:

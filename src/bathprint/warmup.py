@@ -20,7 +20,7 @@ def kernels_cached() -> bool | None:
     """True if numba's on-disk cache holds the stepper's kernel, False if not, None if that
     cannot be told (numba's cache layout is private API)."""
     try:
-        from bathprint.integrators import advance
+        from bathprint.core.integrators import advance
 
         return Path(advance._cache._cache_file._index_path).exists()
     except Exception:  # noqa: BLE001 - any change of numba's internals means "unknown"
@@ -30,7 +30,7 @@ def kernels_cached() -> bool | None:
 def _run_tiny() -> None:
     """A throwaway run that calls every kernel a simulation, its measurements and the
     environments use, with the same argument types (so nothing compiles again later)."""
-    from bathprint.simulation import Simulation
+    from bathprint.core.simulation import Simulation
 
     for effects in (
         ["elasticity", "drag", "gravity", "floor", "gelation", "inclusions"],

@@ -37,7 +37,7 @@ from typing import Any, Protocol
 
 import numpy as np
 
-from bathprint import layout as L
+from bathprint.core import layout as L
 from bathprint.envs.core import (
     OBS_CURVATURE_MM,
     OBS_DENSITY_REF_KG_M3,
@@ -136,7 +136,7 @@ class LawConstants:
 
 
 def _probe_simulation(env: Any) -> Any:
-    from bathprint.simulation import Simulation
+    from bathprint.core.simulation import Simulation
 
     return Simulation(env.scene_base, env.scene_overrides)
 
@@ -146,7 +146,7 @@ def law_q_outer_ml_min(
 ) -> float:
     """Q_o (ml/min, unclipped) that the scaling law maps to coil radius ``radius_m`` at inner
     fraction ``phi``: v = B(phi) prefactor^3 / (mu R^3), Q_o = (1 - phi) v A."""
-    from bathprint.composite import stiffness_factors
+    from bathprint.core.composite import stiffness_factors
 
     if not (radius_m > 0 and math.isfinite(radius_m)):
         raise ValueError(f"radius_m = {radius_m!r}; must be positive and finite")
@@ -161,7 +161,7 @@ def law_radius_m(
 ) -> float:
     """Coil radius (m) the scaling law gives for Q_o at inner fraction phi (the inverse of
     :func:`law_q_outer_ml_min`)."""
-    from bathprint.composite import stiffness_factors
+    from bathprint.core.composite import stiffness_factors
 
     v = q_outer_ml_min / 60.0e6 / ((1.0 - phi) * c.needle_area)
     B = stiffness_factors(float(phi), 0.8)[0] * c.bending_stiffness_gel

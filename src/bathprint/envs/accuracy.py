@@ -16,7 +16,7 @@ extruded per adaptive step at most; see the README's Scenes table; "(full)": ful
 where the core offers the choice, ``numerics.newton``; fine keeps the core's default;
 "frozen": ``numerics.freeze_beyond_mm``, material further behind the needle leaves the
 solve and moves with the active filament as one lumped drag and weight, see
-:mod:`bathprint.freezing`. On random-action episodes draft's freezing changes the final
+:mod:`bathprint.core.freezing`. On random-action episodes draft's freezing changes the final
 metric 2.0-5.9x less than the draft preset differs from balanced
 (``benchmarks/bench_freezing.py``); balanced freezes beyond 60 mm, where the steady coil
 moves less than the balanced tolerance admits. Draft also bounds steps at 8 e-folding times
@@ -77,7 +77,7 @@ def accuracy_overrides(accuracy: str) -> dict[str, Any]:
     # are what runs); draft and balanced use full Newton (a factorisation per iteration):
     # modified Newton fails to converge on about every other step at their loose tolerances
     # and 4-spacing steps (2.5x slower on CoilRadius-v0 draft), while at fine it is 2x faster.
-    from bathprint.scene import Numerics
+    from bathprint.core.scene import Numerics
 
     fields = {f.name for f in dataclasses.fields(Numerics)}
     if "accuracy" in fields:

@@ -18,7 +18,8 @@ import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 
-from bathprint import layout as L
+from bathprint.core import layout as L
+from bathprint.core.simulation import Simulation
 from bathprint.envs._kernels import interp_rows, observe, printed_at, read_state
 from bathprint.envs.accuracy import accuracy_overrides
 from bathprint.envs.metric import (
@@ -40,7 +41,6 @@ from bathprint.envs.targets import (
     load_target_file,
 )
 from bathprint.errors import SimulationError
-from bathprint.simulation import Simulation
 
 ML_MIN = 1e-6 / 60.0  # m^3/s per ml/min
 MM = 1e-3  # m per mm

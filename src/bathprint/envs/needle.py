@@ -4,8 +4,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from bathprint.extrusion import needle_state
-from bathprint.simulation import Simulation
+from bathprint.core.extrusion import needle_state
+from bathprint.core.simulation import Simulation
 
 KEEP_ROWS = 8  # past rows kept: material records look up the needle direction at birth
 

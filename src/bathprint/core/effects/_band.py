@@ -1,0 +1,27 @@
+"""Helpers the effect kernels share: writing 3x3 blocks into the banded Jacobian."""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+from bathprint.core.layout import KL
+
+
+@njit(cache=True, inline="always")
+def add_block(band: np.ndarray, n_free: int, i: int, j: int, blk: np.ndarray, scale: float) -> None:
+    """Add ``scale * blk`` (3x3) at node block (i, j); prescribed nodes (>= n_free) are skipped."""
+    if i >= n_free or j >= n_free:
+        return
+    for a in range(3):
+        r = 3 * i + a
+        for b in range(3):
+            band[r, 3 * j + b - r + KL] += scale * blk[a, b]
+
+
+@njit(cache=True, inline="always")
+def add_diag(band: np.ndarray, n_free: int, i: int, a: int, value: float) -> None:
+    """Add ``value`` to the diagonal entry of node i, component a."""
+    if i >= n_free:
+        return
+    band[3 * i + a, KL] += value

@@ -1,0 +1,153 @@
+"""Frozen tail: settled material far behind the needle, out of the solve, as one lumped load.
+
+With ``numerics.freeze_beyond_mm`` > 0 the nodes more than that arclength of material
+behind the needle are frozen (:func:`bathprint.core.integrators.advance`): the steps work on
+array views that start at the first active node, and the frozen nodes translate with it,
+so the tail keeps its shape and stays attached. Far from the needle the filament moves as
+a rigid body (a laid helix sinks or is pushed away as a whole), so what the tail does to
+the active filament is its total drag at the velocity of that node, and its net weight:
+
+    F_tail = W - D (v_a - u_bath),   D = sum_j mu_s l_j (2 I - t_j t_j^T),
+    W = -sum_j (rho_j - rho_bath(z_j)) A_j l_j g e_z     (only when gravity is listed)
+
+summed over the frozen segments (the one joining the tail to the active end included).
+
+With the floor listed, only material resting on the floor freezes, and the tail slides
+with the active end horizontally (its height stays): its weight is carried by the floor
+and it acts on the active end through its horizontal drag and the floor's friction on it,
+-mu_f N u_h / sqrt(|u_h|^2 + u_eps^2) with N its total net weight, the law of
+:mod:`bathprint.core.effects.floor` (a rope-coiling pile is pushed over the floor as a whole).
+D and W are computed at the start of each step (O(frozen nodes), no Newton work) and
+applied to the active end with the Jacobian block D, the same drag law as
+:mod:`bathprint.core.effects.drag`. In a density gradient W is thus lagged by one step and has no
+Jacobian; its restoring time mu_s / (g A drho/dz) (~0.2 s in BuoyantLayers-v0) is longer than
+the largest step, so this stays stable.
+The tail's bending moment is not transmitted (the active end is free to turn). The error
+and Newton norms stay RMS over the whole filament, as without freezing (the frozen nodes
+count with zero error: they only follow the active end), so freezing does not tighten the
+step-size control.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+from bathprint.core.effects._band import add_block
+from bathprint.core.effects.floor import friction_block
+from bathprint.core.effects.gravity import bath_density
+from bathprint.core.layout import (
+    MAT_DENSITY,
+    MAT_RADIUS,
+    P_FLOW_X,
+    P_FRICTION_COEFFICIENT,
+    P_FRICTION_VELOCITY,
+    P_GRAVITY,
+    P_MU_S,
+    W_NORM_EXTRA,
+    W_TAIL,
+    W_TAIL_NORMAL,
+    W_TAIL_ON_FLOOR,
+)
+from bathprint.core.topology import free_nodes
+
+# layout of the tail's slots in ``work`` (from W_TAIL): on flag, force (3), drag tensor (9)
+_ON = 0
+_FORCE = 1
+_DRAG = 4
+
+
+@njit(cache=True)
+def tail_load(
+    pos, seg_rest, seg_mat, n_frozen: int, params, gravity_on: bool, on_floor: bool, work
+) -> None:
+    """Lumped drag tensor and net weight of the frozen segments 0..n_frozen-1 into ``work``
+    (the flag is 0 when nothing is frozen). ``on_floor``: the tail rests on the floor, which
+    carries its weight (stored as the normal force for friction); drag acts on its
+    horizontal motion only."""
+    base = W_TAIL
+    for k in range(13):
+        work[base + k] = 0.0
+    work[W_NORM_EXTRA] = 3.0 * n_frozen
+    work[W_TAIL_NORMAL] = 0.0
+    work[W_TAIL_ON_FLOOR] = 1.0 if on_floor else 0.0
+    if n_frozen <= 0:
+        return
+    work[base + _ON] = 1.0
+    mu_s = params[P_MU_S]
+    g = params[P_GRAVITY]
+    weight = 0.0
+    for j in range(n_frozen):
+        ex = pos[3 * j + 3] - pos[3 * j]
+        ey = pos[3 * j + 4] - pos[3 * j + 1]
+        ez = pos[3 * j + 5] - pos[3 * j + 2]
+        length = math.sqrt(ex * ex + ey * ey + ez * ez)
+        tt = (ex / length, ey / length, ez / length)
+        for a in range(3):
+            for b in range(3):
+                work[base + _DRAG + 3 * a + b] += (
+                    mu_s * length * ((2.0 if a == b else 0.0) - tt[a] * tt[b])
+                )
+        if gravity_on:
+            r = seg_mat[j, MAT_RADIUS]
+            half_vol = 0.5 * math.pi * r * r * seg_rest[j]
+            rho = seg_mat[j, MAT_DENSITY]
+            for side in range(2):
+                rho_b, _ = bath_density(params, pos[3 * (j + side) + 2], r)
+                weight += half_vol * g * (rho - rho_b)
+    if on_floor:  # the tail moves horizontally only: D P_h; the floor carries the weight
+        for a in range(3):
+            work[base + _DRAG + 3 * a + 2] = 0.0
+        work[W_TAIL_NORMAL] = max(weight, 0.0)
+        weight = 0.0
+    # drag of a tail at rest in the bath's flow: D u_bath
+    for a in range(3):
+        push = 0.0
+        for b in range(3):
+            push += work[base + _DRAG + 3 * a + b] * params[P_FLOW_X + b]
+        work[base + _FORCE + a] = push
+    work[base + _FORCE + 2] -= weight
+
+
+@njit(cache=True)
+def accumulate_tail(
+    pos, vel, acc, n_nodes, seg_rest, seg_mat, params, t, cx, cv, ca, force, band, work, do_jac
+) -> float:
+    """Add the frozen tail's load to the active end (node 0 of the active views) and cv D
+    to its Jacobian block; returns the tail drag's dissipation rate (v - u) D (v - u) (W),
+    u the bath's flow."""
+    base = W_TAIL
+    if work[base + _ON] <= 0.0:
+        return 0.0
+    drag = work[base + _DRAG : base + _DRAG + 9].reshape((3, 3))
+    power = 0.0
+    for a in range(3):
+        f = work[base + _FORCE + a]
+        for b in range(3):
+            f -= drag[a, b] * vel[b]
+            power += (vel[a] - params[P_FLOW_X + a]) * drag[a, b] * (vel[b] - params[P_FLOW_X + b])
+        force[a] += f
+    n_free = free_nodes(n_nodes, params)
+    if do_jac:
+        add_block(band, n_free, 0, 0, drag, cv)
+    normal = work[W_TAIL_NORMAL]
+    mu_f = params[P_FRICTION_COEFFICIENT]
+    if work[W_TAIL_ON_FLOOR] > 0.0 and normal > 0.0 and mu_f > 0.0:
+        eps = params[P_FRICTION_VELOCITY]
+        ux, uy = vel[0], vel[1]
+        s = math.sqrt(ux * ux + uy * uy + eps * eps)
+        force[0] -= mu_f * normal * ux / s
+        force[1] -= mu_f * normal * uy / s
+        power += mu_f * normal * (ux * ux + uy * uy) / s
+        if do_jac:
+            blk = work[100:109].reshape((3, 3))  # the effects' scratch block
+            friction_block(blk, mu_f * normal, ux, uy, s)
+            add_block(band, n_free, 0, 0, blk, cv)
+    return power
+
+
+def tail_is_frozen(work: np.ndarray) -> bool:
+    """True when a tail load is set (for tests)."""
+    return bool(work[W_TAIL + _ON] > 0.0)

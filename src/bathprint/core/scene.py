@@ -1,0 +1,542 @@
+"""Scenes: what the user asks for, as TOML or as Python dataclasses, validated on load.
+
+A scene names its bath, needle, material, flow schedule, the effects to simulate, the
+numerics, the duration and the outputs. Values crossing this boundary carry their unit
+in their name (``flow.q_outer_ml_min``); :mod:`bathprint.core.model` converts to SI.
+
+Overrides use dotted keys, the same from the CLI (``--set flow.q_outer_ml_min=5``) and
+from Python (``overrides={"flow.q_outer_ml_min": 5}``). Every key is checked: unknown
+keys and effects, missing or non-finite values, and values outside the physical range
+(the paper's range widened by orders of magnitude) raise one :class:`SceneError` that
+names the key, the value and what is allowed.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import tomllib
+from dataclasses import dataclass, field
+from importlib import resources
+from pathlib import Path
+from typing import Any
+
+from bathprint.core.composite import INNER_FLUIDS
+from bathprint.core.layout import EFFECT_NAMES, INTEGRATOR_NAMES
+from bathprint.errors import SceneError
+
+# accuracy presets: (tolerance, max_inlet_growth, node spacing factor); "custom" uses the
+# raw numerics keys as given. Measured error and cost of each: README, "Accuracy".
+ACCURACY_PRESETS: dict[str, tuple[float, float, float]] = {
+    "draft": (1e-2, 2.0, 2.0),
+    "balanced": (1e-3, 0.5, 1.0),
+    "fine": (1e-5, 0.25, 0.5),
+}
+
+
+def _num(default: float, lo: float, hi: float, *, lo_open: bool = False, doc: str = "") -> Any:
+    """A float field with its allowed range [lo, hi] (or (lo, hi] when lo_open)."""
+    return field(default=default, metadata={"range": (lo, hi), "lo_open": lo_open, "doc": doc})
+
+
+def _vec(default: tuple[float, ...], lo: float, hi: float, doc: str = "") -> Any:
+    return field(default=default, metadata={"range": (lo, hi), "vector": 3, "doc": doc})
+
+
+@dataclass
+class Bath:
+    """The CaCl2 bath: viscosity, density (optionally a linear gradient with depth)."""
+
+    viscosity_pa_s: float = _num(1e-3, 1e-5, 1e2, lo_open=True, doc="dynamic viscosity mu")
+    density_kg_m3: float = _num(
+        1051.0, 0.5, 3000.0, doc="density at the free surface (air, ~1.2, for lab tests)"
+    )
+    density_bottom_kg_m3: float = _num(
+        0.0, 0.0, 3000.0, doc="density at the floor; 0 means uniform (no gradient)"
+    )
+    depth_mm: float = _num(125.0, 1.0, 1e4, doc="free surface to floor")
+    gravity_m_s2: float = _num(9.81, 0.0, 100.0, doc="gravitational acceleration")
+    flow_velocity_mm_s: tuple[float, float, float] = _vec(
+        (0.0, 0.0, 0.0), -1e4, 1e4, doc="uniform bath flow"
+    )
+
+
+@dataclass
+class Needle:
+    """The needle: inner diameter, tip position (z up, free surface at z = 0) and direction."""
+
+    inner_diameter_mm: float = _num(1.0, 0.01, 20.0, lo_open=True, doc="inner diameter d")
+    position_mm: tuple[float, float, float] = _vec((0.0, 0.0, -10.0), -1e4, 1e4)
+    direction: tuple[float, float, float] = _vec((0.0, 0.0, -1.0), -1.0, 1.0)
+    path: list = field(
+        default_factory=list,
+        metadata={"doc": "optional waypoints [[t_s, x_mm, y_mm, z_mm, dx, dy, dz], ...]"},
+    )
+    imperfection_um: float = _num(
+        1.0, 0.0, 1e3, doc="transverse offset given to each node born at the needle"
+    )
+    release_s: float = _num(0.0, 0.0, 1e6, doc="> 0: cut the filament free at this time")
+
+
+@dataclass
+class Material:
+    """The gel as it leaves the needle (pure 2% alginate unless inclusions say otherwise)."""
+
+    youngs_modulus_pa: float = _num(4800.0, 1.0, 1e8, lo_open=True, doc="Young's modulus E")
+    density_kg_m3: float = _num(1054.0, 100.0, 20000.0, lo_open=True, doc="density rho")
+    radius_mm: float = _num(0.0, 0.0, 20.0, doc="filament radius; 0 means d / 2")
+
+
+@dataclass
+class Flow:
+    """Flow rates through the needle: constant, or a piecewise-linear schedule."""
+
+    q_outer_ml_min: float = _num(10.0, 0.0, 1000.0, doc="alginate flow rate Q_o")
+    q_inner_ml_min: float = _num(0.0, 0.0, 1000.0, doc="co-extruded inner flow rate Q_i")
+    schedule: list = field(
+        default_factory=list,
+        metadata={"doc": "optional [[t_s, q_outer_ml_min, q_inner_ml_min], ...], times rising"},
+    )
+    schedule_csv: str = field(
+        default="",
+        metadata={"doc": "CSV with columns t_s, q_outer_ml_min, q_inner_ml_min (header row)"},
+    )
+
+
+@dataclass
+class Gelation:
+    """Modulus growing with material age; optional curvature memory (effect 'gelation')."""
+
+    initial_modulus_pa: float = _num(300.0, 1.0, 1e7, lo_open=True, doc="E at age 0")
+    final_modulus_pa: float = _num(30000.0, 1.0, 1e8, lo_open=True, doc="E of set gel")
+    rate_1_s: float = _num(1.0 / 60.0, 1e-6, 1e4, lo_open=True, doc="crosslinking rate k")
+    curvature_memory: bool = True
+
+
+@dataclass
+class Inclusions:
+    """Co-extruded inner fluid (effect 'inclusions'); its flow is flow.q_inner_ml_min."""
+
+    fluid: str = field(default="silicone_oil", metadata={"choices": tuple(INNER_FLUIDS)})
+    ferrofluid_density_kg_m3: float = _num(1210.0, 500.0, 5000.0, lo_open=True)
+    offset: float = _num(0.0, -1.0, 1.0, doc="Delta = (r1 - r2) / r of the inclusions")
+    offset_angle_deg: float = _num(0.0, -360.0, 360.0, doc="direction of the offset")
+    curvature_coefficient: float = _num(
+        0.1, 0.0, 10.0, doc="C in kappa0 = C Delta phi / r (phenomenological)"
+    )
+    max_inner_fraction: float = _num(
+        0.9, 0.01, 0.99, lo_open=True, doc="largest Q_i / (Q_o + Q_i) the needle allows"
+    )
+    slug_fraction: float = _num(
+        0.8, 0.1, 1.0, lo_open=True, doc="drops wider than this x 2r run as slugs"
+    )
+
+
+@dataclass
+class Drag:
+    """Slender-body drag: mu_s = 2 pi mu / ln(L/r) (Cox) or a constant."""
+
+    model: str = field(default="cox", metadata={"choices": ("cox", "constant")})
+    length_scale_mm: float = _num(20.0, 0.1, 1e5, lo_open=True, doc="L in Cox's ln(L/r)")
+    coefficient_pa_s: float = _num(
+        0.0, 0.0, 1e3, doc="mu_s for model = 'constant'; 0 means the bath viscosity"
+    )
+
+
+@dataclass
+class Floor:
+    """The container floor (at z = -bath.depth_mm): penalty contact and friction."""
+
+    stiffness_pa: float = _num(1e4, 1.0, 1e9, lo_open=True, doc="contact force/length/depth")
+    friction_coefficient: float = _num(0.3, 0.0, 10.0, doc="Coulomb mu_f")
+    friction_velocity_mm_s: float = _num(
+        1.0, 1e-6, 1e3, lo_open=True, doc="regularisation (smaller: sharper, harder for Newton)"
+    )
+
+
+@dataclass
+class Inertia:
+    """Filament mass plus added mass C_a rho_bath A across the axis."""
+
+    added_mass_coefficient: float = _num(1.0, 0.0, 10.0, doc="C_a")
+
+
+@dataclass
+class EndLoad:
+    """A dead force on the free end (validation scenes: column buckling)."""
+
+    force_n: tuple[float, float, float] = _vec((0.0, 0.0, 0.0), -1e3, 1e3)
+
+
+@dataclass
+class Initial:
+    """The filament at t = 0: a straight rod out of the needle, optionally perturbed."""
+
+    length_mm: float = _num(0.0, 0.0, 1e5, doc="0 means a stub of two node spacings")
+    age_s: float = _num(0.0, 0.0, 1e7, doc="age of that material at t = 0")
+    perturbation_mm: float = _num(0.0, 0.0, 1e3, doc="amplitude of a transverse sine mode")
+
+
+@dataclass
+class Numerics:
+    """Resolution and time stepping."""
+
+    accuracy: str = field(
+        default="custom",
+        metadata={
+            "choices": ("custom", *ACCURACY_PRESETS),
+            "doc": "a preset sets tolerance, inlet growth and scales the node spacing",
+        },
+    )
+    node_spacing_mm: float = _num(0.5, 1e-3, 100.0, lo_open=True, doc="segment rest length")
+    integrator: str = field(default="implicit", metadata={"choices": INTEGRATOR_NAMES})
+    tolerance: float = _num(1e-3, 1e-10, 1.0, lo_open=True, doc="local error / node spacing")
+    time_step_s: float = _num(0.0, 0.0, 10.0, doc="> 0: fixed step; 0: adaptive")
+    max_step_s: float = _num(0.05, 1e-9, 100.0, lo_open=True)
+    min_step_s: float = _num(1e-10, 1e-15, 1.0, lo_open=True)
+    stretch_limit: float = _num(0.5, 1e-3, 10.0, lo_open=True, doc="bound on |l/l0 - 1|")
+    max_strain: float = _num(
+        0.25, 1e-3, 10.0, lo_open=True, doc="adaptive steps ending with a larger strain are retried"
+    )
+    max_strain_change: float = _num(
+        0.05, 1e-4, 10.0, lo_open=True, doc="adaptive steps changing a strain more are retried"
+    )
+    max_inlet_growth: float = _num(
+        0.5, 1e-3, 100.0, lo_open=True, doc="node spacings extruded per adaptive step, at most"
+    )
+    newton: str = field(
+        default="modified",
+        metadata={
+            "choices": ("modified", "full"),
+            "doc": "modified: factorise the Jacobian once per step; full: every iteration",
+        },
+    )
+    max_newton_iterations: int = field(default=12, metadata={"range": (1, 100)})
+    buckling_steps: float = _num(
+        1.0,
+        0.0,
+        100.0,
+        doc="adaptive steps per e-folding time of the fastest buckling mode of the most "
+        "compressed segment (0: no such bound)",
+    )
+    freeze_beyond_mm: float = _num(
+        0.0,
+        0.0,
+        1e6,
+        doc="material further than this behind the needle (arclength) leaves the solve and "
+        "follows the active filament's end rigidly; 0: off",
+    )
+    newton_tolerance: float = _num(0.01, 1e-8, 1.0, lo_open=True, doc="in units of tolerance")
+
+
+@dataclass
+class Outputs:
+    """What a run writes."""
+
+    frame_interval_s: float = _num(0.05, 1e-6, 1e4, lo_open=True)
+    plot: bool = True
+
+
+@dataclass
+class Scene:
+    """A complete scene. ``effects`` lists what is simulated; nothing else is computed."""
+
+    name: str = "custom"
+    description: str = ""
+    duration_s: float = _num(2.0, 0.0, 1e6, lo_open=True, doc="simulated time")
+    seed: int = field(default=0, metadata={"range": (0, 2**31 - 1)})
+    effects: list = field(default_factory=lambda: ["elasticity", "drag", "gravity"])
+    bath: Bath = field(default_factory=Bath)
+    needle: Needle = field(default_factory=Needle)
+    material: Material = field(default_factory=Material)
+    flow: Flow = field(default_factory=Flow)
+    drag: Drag = field(default_factory=Drag)
+    gelation: Gelation = field(default_factory=Gelation)
+    inclusions: Inclusions = field(default_factory=Inclusions)
+    floor: Floor = field(default_factory=Floor)
+    inertia: Inertia = field(default_factory=Inertia)
+    end_load: EndLoad = field(default_factory=EndLoad)
+    initial: Initial = field(default_factory=Initial)
+    numerics: Numerics = field(default_factory=Numerics)
+    outputs: Outputs = field(default_factory=Outputs)
+
+    def to_dict(self) -> dict[str, Any]:
+        """Plain nested dict (TOML-serialisable)."""
+        return dataclasses.asdict(self)
+
+
+# ------------------------------------------------------------------------------------
+def _allowed(f: dataclasses.Field) -> str:
+    md = f.metadata
+    if "choices" in md:
+        return "one of " + ", ".join(repr(c) for c in md["choices"])
+    if "range" in md:
+        lo, hi = md["range"]
+        left = "(" if md.get("lo_open") else "["
+        kind = f"a list of 3 numbers each in {left}{lo:g}, {hi:g}]" if "vector" in md else None
+        return kind or f"a number in {left}{lo:g}, {hi:g}]"
+    return f"a value of type {type(f.default).__name__}"
+
+
+def _check_number(key: str, value: Any, f: dataclasses.Field) -> float:
+    if isinstance(value, bool) or not isinstance(value, int | float):
+        raise SceneError(f"{key} = {value!r} is not a number; allowed: {_allowed(f)}")
+    v = float(value)
+    lo, hi = f.metadata["range"]
+    bad = not math.isfinite(v) or v < lo or v > hi or (f.metadata.get("lo_open") and v <= lo)
+    if bad:
+        raise SceneError(f"{key} = {value!r} is outside the physical range; allowed: {_allowed(f)}")
+    return v
+
+
+def _coerce(key: str, value: Any, f: dataclasses.Field) -> Any:
+    md = f.metadata
+    if "choices" in md:
+        if value not in md["choices"]:
+            raise SceneError(f"{key} = {value!r} is unknown; allowed: {_allowed(f)}")
+        return value
+    if "vector" in md:
+        if not isinstance(value, list | tuple) or len(value) != 3:
+            raise SceneError(f"{key} = {value!r} must be {_allowed(f)}")
+        return tuple(_check_number(key, x, f) for x in value)
+    if f.type == "int":
+        v = _check_number(key, value, f)
+        if v != int(v):
+            raise SceneError(f"{key} = {value!r} must be an integer; allowed: {_allowed(f)}")
+        return int(v)
+    if "range" in md:
+        return _check_number(key, value, f)
+    if isinstance(f.default, bool):
+        if not isinstance(value, bool):
+            raise SceneError(f"{key} = {value!r} must be true or false")
+        return value
+    if isinstance(f.default, str):
+        if not isinstance(value, str):
+            raise SceneError(f"{key} = {value!r} must be a string")
+        return value
+    return value
+
+
+def _build(cls: type, data: dict[str, Any], prefix: str) -> Any:
+    names = {f.name: f for f in dataclasses.fields(cls)}
+    kwargs: dict[str, Any] = {}
+    for key, value in data.items():
+        full = f"{prefix}{key}"
+        if key not in names:
+            raise SceneError(
+                f"unknown key {full!r} (value {value!r}); allowed keys here: "
+                + ", ".join(f"{prefix}{n}" for n in names)
+            )
+        f = names[key]
+        if value is None:
+            raise SceneError(f"{full} is missing a value; allowed: {_allowed(f)}")
+        if isinstance(f.default_factory, type) and dataclasses.is_dataclass(f.default_factory):
+            if not isinstance(value, dict):
+                raise SceneError(f"{full} = {value!r} must be a table of keys")
+            kwargs[key] = _build(f.default_factory, value, f"{full}.")
+        else:
+            kwargs[key] = _coerce(full, value, f)
+    return cls(**kwargs)
+
+
+def _check_tables(scene: Scene) -> None:
+    for e in scene.effects:
+        if e not in EFFECT_NAMES:
+            raise SceneError(f"effects: unknown effect {e!r}; allowed: {', '.join(EFFECT_NAMES)}")
+    if len(set(scene.effects)) != len(scene.effects):
+        raise SceneError(f"effects = {scene.effects!r} lists an effect twice")
+    if "drag" not in scene.effects and "inertia" not in scene.effects:
+        raise SceneError(
+            f"effects = {scene.effects!r}: an overdamped scene needs 'drag' "
+            "(without drag or inertia the equations of motion are singular)"
+        )
+    d = scene.needle.direction
+    if math.hypot(*d) < 1e-6:
+        raise SceneError(f"needle.direction = {list(d)!r} must be a non-zero vector")
+    if scene.flow.schedule and scene.flow.schedule_csv:
+        raise SceneError("flow.schedule and flow.schedule_csv are both set; give one of them")
+    rows = flow_rows(scene)
+    key = "flow.schedule_csv" if scene.flow.schedule_csv else "flow.schedule"
+    if len(rows) > 1 or scene.flow.schedule or scene.flow.schedule_csv:
+        _check_schedule(key, rows, 3, (1000.0, 1000.0))
+    _check_inner_flow(scene, rows, key)
+    if scene.needle.path:
+        _check_schedule("needle.path", scene.needle.path, 7, None)
+    if scene.bath.density_bottom_kg_m3 and scene.bath.density_bottom_kg_m3 < 500.0:
+        raise SceneError(
+            f"bath.density_bottom_kg_m3 = {scene.bath.density_bottom_kg_m3!r}; allowed: 0 "
+            "(uniform bath) or a number in [500, 3000]"
+        )
+    if scene.numerics.min_step_s >= scene.numerics.max_step_s:
+        raise SceneError(
+            f"numerics.min_step_s = {scene.numerics.min_step_s!r} must be below "
+            f"numerics.max_step_s = {scene.numerics.max_step_s!r}"
+        )
+    r_mm = scene.material.radius_mm or scene.needle.inner_diameter_mm / 2
+    if scene.numerics.node_spacing_mm < 0.2 * r_mm:
+        raise SceneError(
+            f"numerics.node_spacing_mm = {scene.numerics.node_spacing_mm!r} is below 0.2 times "
+            f"the filament radius ({r_mm:g} mm); a rod model needs segments at least that long"
+        )
+
+
+def flow_rows(scene: Scene) -> list[list[float]]:
+    """The flow schedule as rows [t_s, q_outer_ml_min, q_inner_ml_min] (from the table, the
+    CSV file, or the constant rates)."""
+    if scene.flow.schedule_csv:
+        path = Path(scene.flow.schedule_csv)
+        if not path.exists():
+            raise SceneError(f"flow.schedule_csv = {str(path)!r} does not exist")
+        import csv
+
+        with path.open(newline="") as f:
+            reader = csv.DictReader(f)
+            need = ["t_s", "q_outer_ml_min", "q_inner_ml_min"]
+            if reader.fieldnames is None or any(c not in reader.fieldnames for c in need):
+                raise SceneError(
+                    f"flow.schedule_csv = {str(path)!r} has columns {reader.fieldnames!r}; "
+                    f"allowed: a header with {', '.join(need)}"
+                )
+            rows = []
+            for k, rec in enumerate(reader):
+                try:
+                    rows.append([float(rec[c]) for c in need])
+                except (TypeError, ValueError) as exc:
+                    raise SceneError(
+                        f"flow.schedule_csv = {str(path)!r} row {k + 1}: {rec!r} is not numeric"
+                    ) from exc
+        if not rows:
+            raise SceneError(f"flow.schedule_csv = {str(path)!r} holds no rows")
+        return rows
+    if scene.flow.schedule:
+        return [list(r) for r in scene.flow.schedule]
+    return [[0.0, scene.flow.q_outer_ml_min, scene.flow.q_inner_ml_min]]
+
+
+def _check_inner_flow(scene: Scene, rows: list, key: str) -> None:
+    phi_max = scene.inclusions.max_inner_fraction
+    for k, (_, qo, qi) in enumerate(rows):
+        where = f"{key}[{k}]" if len(rows) > 1 or key != "flow.schedule" else "flow.q_inner_ml_min"
+        if qi > 0 and "inclusions" not in scene.effects:
+            raise SceneError(
+                f"{where}: q_inner_ml_min = {qi!r} > 0 but effects = {scene.effects!r} does not "
+                "list 'inclusions'; allowed: add 'inclusions', or set the inner flow to 0"
+            )
+        if qi > 0 and qi > phi_max / (1.0 - phi_max) * qo:
+            raise SceneError(
+                f"{where}: q_inner_ml_min = {qi!r} is more than the needle allows with "
+                f"q_outer_ml_min = {qo!r}: the inner fluid may take at most "
+                f"{phi_max:g} of the flow (inclusions.max_inner_fraction), i.e. "
+                f"q_inner_ml_min <= {phi_max / (1.0 - phi_max) * qo:.4g}"
+            )
+
+
+def _check_schedule(key: str, rows: list, width: int, limits: tuple | None) -> None:
+    last = -math.inf
+    for k, row in enumerate(rows):
+        if not isinstance(row, list | tuple) or len(row) != width:
+            raise SceneError(f"{key}[{k}] = {row!r} must be a list of {width} numbers")
+        for x in row:
+            if isinstance(x, bool) or not isinstance(x, int | float) or not math.isfinite(x):
+                raise SceneError(f"{key}[{k}] = {row!r} holds a non-finite or non-number value")
+        t = row[0]
+        if t < 0:
+            raise SceneError(f"{key}[{k}] time = {t!r} s is negative; times must be >= 0")
+        if t <= last:
+            raise SceneError(f"{key}[{k}] time = {t!r} s does not rise after {last!r} s")
+        last = t
+        if limits is not None:
+            for x, hi in zip(row[1:], limits, strict=True):
+                if x < 0 or x > hi:
+                    raise SceneError(
+                        f"{key}[{k}] flow = {x!r} ml/min; allowed: a number in [0, {hi:g}]"
+                    )
+
+
+def scene_from_dict(data: dict[str, Any]) -> Scene:
+    """Build and validate a scene from a nested dict (as read from TOML)."""
+    scene = _build(Scene, data, "")
+    _check_tables(scene)
+    return scene
+
+
+def parse_override(text: str) -> tuple[str, Any]:
+    """Parse ``key=value`` from the CLI; the value is read as TOML (number, list, string)."""
+    if "=" not in text:
+        raise SceneError(f"override {text!r} must look like key=value (e.g. duration_s=1.5)")
+    key, raw = text.split("=", 1)
+    key = key.strip()
+    raw = raw.strip()
+    try:
+        value = tomllib.loads(f"v = {raw}")["v"]
+    except tomllib.TOMLDecodeError:
+        value = raw  # a bare word: a string
+    return key, value
+
+
+def apply_overrides(data: dict[str, Any], overrides: dict[str, Any] | None) -> dict[str, Any]:
+    """Set dotted keys in a nested dict (a copy); unknown keys fail at validation."""
+    out = _deep_copy(data)
+    for key, value in (overrides or {}).items():
+        parts = key.split(".")
+        node = out
+        for p in parts[:-1]:
+            nxt = node.setdefault(p, {})
+            if not isinstance(nxt, dict):
+                raise SceneError(f"override {key!r}: {p!r} is a value, not a table of keys")
+            node = nxt
+        node[parts[-1]] = value
+    return out
+
+
+def _deep_copy(d: Any) -> Any:
+    if isinstance(d, dict):
+        return {k: _deep_copy(v) for k, v in d.items()}
+    if isinstance(d, list):
+        return [_deep_copy(v) for v in d]
+    return d
+
+
+def builtin_scene_names() -> list[str]:
+    """Names of the scenes shipped with bathprint."""
+    files = resources.files("bathprint") / "scenes"
+    return sorted(p.name[:-5] for p in files.iterdir() if p.name.endswith(".toml"))
+
+
+def read_scene_data(name_or_path: str | Path) -> dict[str, Any]:
+    """Raw dict of a built-in scene (by name) or a TOML file (by path)."""
+    p = Path(name_or_path)
+    if p.suffix == ".toml" or p.exists():
+        if not p.exists():
+            raise SceneError(f"scene file {str(p)!r} does not exist")
+        text = p.read_text()
+    else:
+        names = builtin_scene_names()
+        if str(name_or_path) not in names:
+            raise SceneError(
+                f"scene {str(name_or_path)!r} is neither a TOML file nor a built-in scene; "
+                f"built-in scenes: {', '.join(names)}"
+            )
+        text = (resources.files("bathprint") / "scenes" / f"{name_or_path}.toml").read_text()
+    try:
+        return tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise SceneError(f"scene {str(name_or_path)!r} is not valid TOML: {exc}") from exc
+
+
+def load_scene(
+    name_or_path: str | Path | Scene | dict, overrides: dict[str, Any] | None = None
+) -> Scene:
+    """A validated :class:`Scene` from a built-in name, a TOML path, a dict or a Scene."""
+    if isinstance(name_or_path, Scene):
+        data = name_or_path.to_dict()
+    elif isinstance(name_or_path, dict):
+        data = name_or_path
+    else:
+        data = read_scene_data(name_or_path)
+    return scene_from_dict(apply_overrides(data, overrides))
+
+
+def scene_summary_line(scene: Scene) -> str:
+    """One line for ``bathprint scenes``."""
+    return f"{scene.name:<24} {scene.description}"

@@ -1,0 +1,418 @@
+"""The state of a filament and the stepper that moves it: :class:`Simulation`.
+
+Node order runs from the free end (node 0, the oldest material) to the needle tip
+(node n-2) and a ghost node inside the needle (node n-1) that clamps the tangent.
+All arrays are preallocated with spare capacity and grown (doubled) between calls.
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from bathprint.core import layout as L
+from bathprint.core.assemble import assemble
+from bathprint.core.extrusion import (
+    extruded_length,
+    flow_rate,
+    flow_step,
+    material_row,
+    needle_state,
+    set_boundary,
+)
+from bathprint.core.integrators import N_VECS, V_POS0, V_VEL0, _explicit_step, advance
+from bathprint.core.model import Model, compile_model
+from bathprint.core.scene import Scene, load_scene
+from bathprint.errors import SimulationError
+
+WORK_SIZE = 416
+
+
+def _perpendicular(d: np.ndarray) -> np.ndarray:
+    axis = np.array([1.0, 0.0, 0.0]) if abs(d[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
+    u = np.cross(d, axis)
+    return u / np.linalg.norm(u)
+
+
+class Simulation:
+    """A running simulation of one scene.
+
+    >>> sim = Simulation("paper_simulation", overrides={"duration_s": 0.5})
+    >>> sim.advance(0.1)           # integrate to t = 0.1 s
+    >>> sim.centerline().shape     # (n, 3) node positions, free end first, needle tip last
+    """
+
+    def __init__(
+        self, scene: str | Path | Scene | dict, overrides: dict[str, Any] | None = None
+    ) -> None:
+        self.scene = load_scene(scene, overrides)
+        self.model: Model = compile_model(self.scene)
+        self._init_state()
+
+    # ------------------------------------------------------------------ state
+    def _capacity_estimate(self, n0: int) -> int:
+        m = self.model
+        s_end = extruded_length(m.flow, m.flow_cum, m.needle_area, self.scene.duration_s)
+        return int(n0 + 1.2 * max(s_end, 0.0) / m.node_spacing + 16)
+
+    def _init_state(self) -> None:
+        m = self.model
+        sc = self.scene
+        dl = m.node_spacing
+        length0 = sc.initial.length_mm * 1e-3 or 2.0 * dl
+        n_seg = max(1, int(math.floor(length0 / dl + 1e-9)))
+        seg_len = length0 / n_seg
+        n_nodes = n_seg + 2  # free nodes, tip, ghost
+        cap = max(64, self._capacity_estimate(n_nodes))
+        self._alloc(cap)
+        p = np.empty(3)
+        d = np.empty(3)
+        v = np.empty(3)
+        needle_state(m.needle, 0.0, p, d, v)
+        perp = _perpendicular(d)
+        amp = sc.initial.perturbation_mm * 1e-3
+        pos = self.pos.reshape(-1, 3)
+        # a straight rod, or one bent in the first clamped-free mode shape
+        # w(s) = amp (1 - cos(pi s / 2 L)), built segment by segment from the tip so that
+        # every segment keeps its rest length (no stretching transient at t = 0)
+        pos[n_seg] = p
+        for i in range(n_seg - 1, -1, -1):
+            s_mid = length0 - (i + 0.5) * seg_len  # arclength from the tip
+            slope = amp * 0.5 * math.pi / length0 * math.sin(0.5 * math.pi * s_mid / length0)
+            angle = math.atan(slope)
+            pos[i] = pos[i + 1] + seg_len * (math.cos(angle) * d + math.sin(angle) * perp)
+        for i in range(n_seg + 1):
+            self.node_s[i] = -(length0 - i * seg_len)
+        row = np.empty(L.N_MAT)
+        qo, qi = flow_rate(m.flow, 0.0)
+        phi0 = qi / (qo + qi) if qo + qi > 0 else 0.0
+        material_row(phi0, -sc.initial.age_s, 0.0, d, m.params, row)
+        self.seg_mat[: n_seg + 1] = row
+        self.seg_rest[:n_seg] = seg_len
+        self.istate[:] = (n_nodes, 0, 0)
+        h0 = sc.numerics.time_step_s or min(sc.numerics.max_step_s, 1e-4)
+        self.fstate[:] = (0.0, h0)
+        set_boundary(
+            self.pos,
+            self.vel,
+            self.node_s,
+            self.seg_rest,
+            n_nodes,
+            0.0,
+            m.flow,
+            m.flow_cum,
+            m.needle,
+            m.params,
+            self.work,
+        )
+        if m.params[L.P_INERTIA] == 0.0:
+            self._consistent_velocity()
+        self.initial_volume = float(np.sum(self.seg_rest[:n_seg]) * m.needle_area)
+        self.initial_length = float(length0)
+
+    def _consistent_velocity(self) -> None:
+        """Overdamped scenes start with the velocity the forces give (D v = F), not zero,
+        so that error estimates that use the previous velocity are right from step one."""
+        m = self.model
+        n3 = 3 * self.n_nodes
+        self.vecs[V_POS0, :n3] = self.pos[:n3]
+        self.vecs[V_VEL0, :n3] = self.vel[:n3]
+        _explicit_step(
+            0.0,
+            0.0,
+            self.n_nodes,
+            self.pos,
+            self.vel,
+            self.node_s,
+            self.seg_rest,
+            self.seg_mat,
+            m.params,
+            m.enabled,
+            m.flow,
+            m.flow_cum,
+            m.needle,
+            self.vecs,
+            self.band,
+            self.piv,
+            self.work,
+            self.calls,
+            self.counters,
+            self.energies,
+            self.info,
+        )
+        if not np.isfinite(self.vel[:n3]).all():
+            self.vel[:n3] = 0.0
+
+    def _alloc(self, cap: int) -> None:
+        self.pos = np.zeros(3 * cap)
+        self.vel = np.zeros(3 * cap)
+        self.node_s = np.zeros(cap)
+        self.seg_rest = np.zeros(cap)
+        self.seg_mat = np.zeros((cap, L.N_MAT))
+        self.vecs = np.zeros((N_VECS, 3 * cap))
+        self.band = np.zeros((3 * cap, L.BAND_WIDTH))
+        self.band2 = np.zeros((3 * cap, L.BAND_WIDTH))
+        self.piv = np.zeros(3 * cap, dtype=np.int64)
+        if not hasattr(self, "istate"):
+            self.istate = np.zeros(3, dtype=np.int64)  # n_nodes, n_splits, n_frozen
+            self.fstate = np.zeros(2)
+            self.work = np.zeros(WORK_SIZE)
+            self.calls = np.zeros(L.N_EFFECTS, dtype=np.int64)
+            self.counters = np.zeros(L.N_COUNTERS, dtype=np.int64)
+            self.energies = np.zeros(L.N_EFFECTS)
+            self.info = np.zeros(3)
+
+    def __setstate__(self, state: dict) -> None:
+        """Unpickle, padding the state arrays of older versions (fewer integer states or
+        work slots) so that the kernels never read past them."""
+        self.__dict__.update(state)
+        if self.istate.shape[0] < 3:
+            self.istate = np.concatenate([self.istate, np.zeros(3 - len(self.istate), np.int64)])
+        if self.vecs.shape[0] < N_VECS:  # scratch rows (stage derivatives of SDIRK4)
+            self.vecs = np.zeros((N_VECS, self.vecs.shape[1]))
+        if self.counters.shape[0] < L.N_COUNTERS:
+            pad = np.zeros(L.N_COUNTERS - len(self.counters), np.int64)
+            self.counters = np.concatenate([self.counters, pad])
+        if self.work.shape[0] < WORK_SIZE:
+            self.work = np.concatenate([self.work, np.zeros(WORK_SIZE - len(self.work))])
+
+    def _grow(self) -> None:
+        n = self.n_nodes
+        old = (self.pos, self.vel, self.node_s, self.seg_rest, self.seg_mat)
+        self._alloc(2 * self.capacity)
+        self.pos[: 3 * n] = old[0][: 3 * n]
+        self.vel[: 3 * n] = old[1][: 3 * n]
+        self.node_s[:n] = old[2][:n]
+        self.seg_rest[:n] = old[3][:n]
+        self.seg_mat[:n] = old[4][:n]
+
+    # ------------------------------------------------------------------ properties
+    @property
+    def t(self) -> float:
+        """Simulated time (s)."""
+        return float(self.fstate[0])
+
+    @property
+    def n_nodes(self) -> int:
+        """Nodes including the needle tip and the ghost node."""
+        return int(self.istate[0])
+
+    @property
+    def n_frozen(self) -> int:
+        """Nodes frozen at the free end (``numerics.freeze_beyond_mm``): out of the solve,
+        translated with the first active node."""
+        return int(self.istate[2])
+
+    @property
+    def capacity(self) -> int:
+        return self.pos.shape[0] // 3
+
+    @property
+    def clamped(self) -> bool:
+        """True while the filament hangs from the needle; False once released."""
+        return bool(self.model.params[L.P_CLAMPED] > 0.0)
+
+    @property
+    def n_segments(self) -> int:
+        """Filament segments (the ghost segment inside the needle excluded)."""
+        return self.n_nodes - 2 if self.clamped else self.n_nodes - 1
+
+    def centerline(self) -> np.ndarray:
+        """Filament node positions (m), free end first, needle tip last: shape (n, 3)."""
+        return self.pos[: 3 * (self.n_segments + 1)].reshape(-1, 3).copy()
+
+    def velocities(self) -> np.ndarray:
+        """Node velocities (m/s) along the centreline."""
+        return self.vel[: 3 * (self.n_segments + 1)].reshape(-1, 3).copy()
+
+    def newest_material(self, length_m: float, n_points: int = 61) -> np.ndarray:
+        """Positions (m) of the last ``length_m`` of material out of the needle, resampled at
+        ``n_points`` evenly spaced material coordinates from the tip back: a comparison of
+        two runs near the needle that does not depend on where their nodes fall."""
+        x = self.centerline()
+        s = self.node_s[: len(x)]
+        q = s[-1] - np.linspace(0.0, length_m, n_points)
+        return np.stack([np.interp(q, s, x[:, a]) for a in range(3)], axis=1)
+
+    def material(self) -> np.ndarray:
+        """Per-segment material records (columns: ``layout.MATERIAL_COLUMNS``)."""
+        return self.seg_mat[: self.n_segments].copy()
+
+    def rest_lengths(self) -> np.ndarray:
+        """Rest length of each filament segment (m)."""
+        return self.seg_rest[: self.n_segments].copy()
+
+    def release(self) -> None:
+        """Cut the filament from the needle: the ghost node goes, every node moves freely."""
+        if not self.clamped:
+            return
+        self.model.params[L.P_CLAMPED] = 0.0
+        self.istate[2] = 0  # a released filament has no needle to measure from: all active
+        ghost = self.n_nodes - 1
+        self.pos[3 * ghost : 3 * ghost + 3] = 0.0
+        self.vel[3 * ghost : 3 * ghost + 3] = 0.0
+        self.seg_rest[ghost - 1 :] = 0.0
+        self.seg_mat[ghost - 1 :] = 0.0
+        self.istate[0] = ghost
+
+    def set_flow(self, q_outer_m3_s: float, q_inner_m3_s: float = 0.0) -> None:
+        """Set the flow rates (m^3/s) from now on (a step change; the API environments use).
+
+        Past knots stay (birth times and inner fractions of the material already out are
+        derived from them); the schedule is held constant after the new knot.
+        """
+        for name, q in (("q_outer_m3_s", q_outer_m3_s), ("q_inner_m3_s", q_inner_m3_s)):
+            if not math.isfinite(q) or q < 0:
+                raise ValueError(f"{name} = {q!r}; allowed: a finite number >= 0")
+        if q_inner_m3_s > 0 and self.model.params[L.P_INCLUSIONS] <= 0:
+            raise ValueError(f"q_inner_m3_s = {q_inner_m3_s!r} > 0 needs the 'inclusions' effect")
+        phi_max = self.scene.inclusions.max_inner_fraction
+        if q_inner_m3_s > phi_max / (1 - phi_max) * q_outer_m3_s + 1e-30:
+            raise ValueError(
+                f"q_inner_m3_s = {q_inner_m3_s!r} is more than the needle allows with "
+                f"q_outer_m3_s = {q_outer_m3_s!r} (inner fraction at most {phi_max:g})"
+            )
+        m = self.model
+        m.flow, m.flow_cum = flow_step(
+            m.flow, m.flow_cum, m.needle_area, self.t, q_outer_m3_s, q_inner_m3_s
+        )
+
+    def set_inclusion_offset(self, offset: float) -> None:
+        """Set the inclusions' offset Delta = (r1 - r2) / r, in [-1, 1], from now on."""
+        if not math.isfinite(offset) or abs(offset) > 1:
+            raise ValueError(f"offset = {offset!r}; allowed: a number in [-1, 1]")
+        self.model.params[L.P_INCLUSION_OFFSET] = offset
+
+    def inner_volume(self) -> float:
+        """Inner-fluid volume in the printed filament (m^3), from the segments' records."""
+        mat = self.material()
+        return float(
+            np.sum(
+                self.rest_lengths()
+                * math.pi
+                * mat[:, L.MAT_RADIUS] ** 2
+                * mat[:, L.MAT_INNER_FRACTION]
+            )
+        )
+
+    def printed_volume(self) -> float:
+        """Volume of gel out of the needle (m^3), from the segments' rest lengths."""
+        return float(np.sum(self.rest_lengths() * math.pi * self.material()[:, L.MAT_RADIUS] ** 2))
+
+    def counts(self) -> dict[str, int]:
+        """Steps, rejected steps, Newton iterations, node births, Newton failures and
+        Jacobian factorisations so far."""
+        c = self.counters
+        return {
+            "steps": int(c[L.C_STEPS]),
+            "rejected_steps": int(c[L.C_REJECTED]),
+            "newton_iterations": int(c[L.C_NEWTON_ITERATIONS]),
+            "nodes_born": int(c[L.C_SPLITS]),
+            "newton_failures": int(c[L.C_NEWTON_FAILURES]),
+            "jacobians": int(c[L.C_FACTORIZATIONS]),
+        }
+
+    def effect_calls(self) -> dict[str, int]:
+        """How often each effect's kernel has run (0 for effects the scene does not list)."""
+        return {name: int(self.calls[k]) for k, name in enumerate(L.EFFECT_NAMES)}
+
+    def energies_now(self) -> dict[str, float]:
+        """Energy of each listed effect at the current state (J; drag: dissipation rate, W),
+        over the whole filament (a frozen tail's lumped load is not added again)."""
+        work = self.work.copy()
+        work[L.W_TAIL] = 0.0
+        zero = np.zeros_like(self.vel)
+        force = np.zeros_like(self.pos)
+        calls = np.zeros_like(self.calls)
+        energies = np.zeros_like(self.energies)
+        assemble(
+            self.pos,
+            self.vel,
+            zero,
+            self.n_nodes,
+            self.seg_rest,
+            self.seg_mat,
+            self.model.params,
+            self.t,
+            1.0,
+            0.0,
+            0.0,
+            force,
+            self.band,
+            work,
+            False,
+            self.model.enabled,
+            calls,
+            energies,
+        )
+        return {n: float(energies[k]) for k, n in enumerate(L.EFFECT_NAMES) if calls[k]}
+
+    # ------------------------------------------------------------------ stepping
+    def advance(self, t_end: float, max_steps: int = 10**9) -> None:
+        """Integrate to ``t_end`` (s). Raises :class:`SimulationError` on divergence."""
+        if not math.isfinite(t_end):
+            raise ValueError(f"t_end = {t_end!r} must be finite")
+        release = self.scene.needle.release_s
+        if self.clamped and release > 0.0 and t_end > release:
+            if self.t < release:
+                self.advance(release, max_steps)
+                if self.t < release:
+                    return  # step budget used up before the release
+            self.release()
+        m = self.model
+        budget = max_steps
+        while True:
+            before = int(self.counters[L.C_STEPS])
+            status = advance(
+                float(t_end),
+                int(budget),
+                m.integrator,
+                self.pos,
+                self.vel,
+                self.node_s,
+                self.seg_rest,
+                self.seg_mat,
+                self.istate,
+                self.fstate,
+                m.params,
+                m.enabled,
+                m.flow,
+                m.flow_cum,
+                m.needle,
+                self.vecs,
+                self.band,
+                self.band2,
+                self.piv,
+                self.work,
+                self.calls,
+                self.counters,
+                self.energies,
+                self.info,
+            )
+            budget -= int(self.counters[L.C_STEPS]) - before
+            if status == L.STATUS_OK:
+                return
+            if status == L.STATUS_CAPACITY:
+                self._grow()
+                continue
+            if status == L.STATUS_STEP_LIMIT:
+                return
+            self._raise(status)
+
+    def _raise(self, status: int) -> None:
+        cause = L.STATUS_MESSAGES.get(status, f"status {status}")
+        t, node, value = self.info
+        detail = ""
+        if status == L.STATUS_STRETCH:
+            detail = f"strain {value:+.3g} beyond numerics.stretch_limit"
+        elif status in (L.STATUS_NEWTON, L.STATUS_ERROR, L.STATUS_STRAIN):
+            detail = (
+                f"integrator {self.scene.numerics.integrator}, "
+                f"step {self.fstate[1]:.3g} s, min step {self.scene.numerics.min_step_s:g} s"
+                if self.scene.numerics.time_step_s == 0
+                else f"fixed step {self.scene.numerics.time_step_s:g} s"
+            )
+        raise SimulationError(cause, t, int(node), detail)
