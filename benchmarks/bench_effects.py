@@ -14,7 +14,6 @@ import numpy as np
 from _common import best_of, write_csv
 
 from bathprint import Simulation
-from bathprint.core import layout as L
 from bathprint.core.effects import drag, elasticity, end_load, floor, gravity, inertia
 
 KERNELS = {
@@ -31,33 +30,15 @@ def kernel_costs() -> list[dict]:
     sim = Simulation("paper_simulation", {"effects": list(KERNELS), "duration_s": 5.0})
     sim.advance(1.8)
     # put the lowest nodes on the floor so the contact branch is exercised
-    sim.model.params[L.P_FLOOR_Z] = float(np.min(sim.centerline()[:, 2])) + 0.02
+    sim.model.p.floor_z = float(np.min(sim.centerline()[:, 2])) + 0.02
     n = sim.n_nodes
-    acc = np.zeros_like(sim.vel)
-    force = np.zeros_like(sim.pos)
-    work = np.zeros_like(sim.work)
+    inputs = sim.kernel_inputs(1.0, 100.0, 1e4, True)
     rows = []
     for name, mod in KERNELS.items():
 
         def call(mod=mod) -> None:
             for _ in range(200):
-                mod.accumulate(
-                    sim.pos,
-                    sim.vel,
-                    acc,
-                    n,
-                    sim.seg_rest,
-                    sim.seg_mat,
-                    sim.model.params,
-                    sim.t,
-                    1.0,
-                    100.0,
-                    1e4,
-                    force,
-                    sim.band,
-                    work,
-                    True,
-                )
+                mod.accumulate(*inputs)
 
         call()
         per_call = best_of(call, 5) / 200

@@ -15,7 +15,7 @@ from stable_baselines3.common.env_checker import check_env as sb3_check_env
 
 import bathprint
 import bathprint.envs as E
-from bathprint import SimulationError, layout
+from bathprint import SimulationError
 from bathprint.envs.metric import MetricParams, PrintedSamples, evaluate, windowed_kabsch_rmsd
 from bathprint.envs.targets import CoilScheduleFamily, TargetSampler, params_key
 
@@ -301,7 +301,7 @@ def test_a_stalled_simulation_is_truncated_too() -> None:
     """Integrator steps far below the control interval use up the per-step budget."""
     env = make("bathprint/CoilRadius-v0", spec_overrides={"episode": {"max_substeps": 5}})
     env.reset(seed=0)
-    env.unwrapped.sim.model.params[layout.P_MAX_STEP] = 1e-6  # as if the step size collapsed
+    env.unwrapped.sim.model.p.max_step = 1e-6  # as if the step size collapsed
     _, _, term, trunc, info = env.step(env.action_space.sample())
     assert trunc and not term and "step budget" in info["sim_error"]
 

@@ -16,6 +16,7 @@ from bathprint import SceneError, Simulation
 from bathprint.core import layout as L
 from bathprint.core.effects import drag, gravity
 from bathprint.core.freezing import accumulate_tail, tail_is_frozen, tail_load
+from bathprint.core.records import Out, Rod, Stage, new_scratch, new_workspace
 from bathprint.studies.accuracy import coil_run
 
 COIL = "gelation_coiling_22G"  # 22G, 0.5 ml/min, gelation with curvature memory
@@ -29,7 +30,7 @@ def test_tail_freezes_keeps_its_shape_and_stays_attached() -> None:
     sim = Simulation(COIL, {"numerics.accuracy": "draft", "numerics.freeze_beyond_mm": 20.0})
     sim.advance(1.0)
     k = sim.n_frozen
-    assert k > 10 and tail_is_frozen(sim.work)
+    assert k > 10 and tail_is_frozen(sim.ws.tail)
     # every frozen node is more than 20 mm of material behind the needle, no active one is
     # (node_s: extruded length at each node; the tip is the last filament node)
     s_tip = sim.node_s[sim.n_segments]
@@ -80,7 +81,7 @@ def test_freezing_changes_a_steady_coil_less_than_the_tolerance_does() -> None:
 def test_without_freezing_nothing_is_frozen() -> None:
     sim = Simulation(COIL, {"numerics.accuracy": "draft"})
     sim.advance(0.5)
-    assert sim.n_frozen == 0 and not tail_is_frozen(sim.work)
+    assert sim.n_frozen == 0 and not tail_is_frozen(sim.ws.tail)
 
 
 @pytest.mark.parametrize(
@@ -112,7 +113,7 @@ def test_release_unfreezes() -> None:
     sim.advance(0.79)
     assert sim.n_frozen > 0
     sim.advance(1.0)
-    assert not sim.clamped and sim.n_frozen == 0 and not tail_is_frozen(sim.work)
+    assert not sim.clamped and sim.n_frozen == 0 and not tail_is_frozen(sim.ws.tail)
     assert np.isfinite(sim.centerline()).all()
 
 
@@ -132,48 +133,34 @@ def test_lumped_tail_equals_drag_and_weight_of_the_tail_moving_with_the_active_e
     sim.advance(0.8)
     k = sim.n_frozen
     assert k > 5
-    p = sim.model.params
-    work = np.zeros_like(sim.work)
-    tail_load(sim.pos, sim.seg_rest, sim.seg_mat, k, p, True, False, work)
+    ws = new_workspace(sim.capacity, 1)
+    whole = Rod(sim.pos, sim.vel, sim.vel, sim.n_nodes, sim.node_s, sim.seg_rest, sim.seg_mat)
+    tail_load(sim.model.record, whole, k, True, False, ws)
     v_end = np.array([1e-3, -2e-3, 5e-4])
     vel = np.tile(v_end, sim.capacity)  # every node moves with the active end
     zero = np.zeros_like(vel)
     # the tail alone: nodes 0..k (node k is the active end), segments 0..k-1
     n_tail = k + 1
     f_ref = np.zeros(3 * sim.capacity)
-    args = (sim.pos, vel, zero, n_tail, sim.seg_rest, sim.seg_mat)
+    band = np.zeros_like(ws.band)
+    tail_rod = Rod(sim.pos, vel, zero, n_tail, sim.node_s, sim.seg_rest, sim.seg_mat)
+    free = _unclamped(sim.model.record)
+    off = Stage(0.0, 0.0, 0.0, 0.0, False)
     for mod in (drag, gravity):
-        mod.accumulate(
-            *args, _unclamped(p), 0.0, 0.0, 0.0, 0.0, f_ref, sim.band, work.copy(), False
-        )
+        mod.accumulate(free, tail_rod, off, Out(f_ref, band, ws.tail.copy(), new_scratch()))
     lumped = np.zeros(3 * sim.capacity)
-    accumulate_tail(
-        sim.pos[3 * k :],
-        vel,
-        zero,
-        10,
-        sim.seg_rest,
-        sim.seg_mat,
-        p,
-        0.0,
-        0.0,
-        0.0,
-        0.0,
-        lumped,
-        sim.band,
-        work,
-        False,
-    )
+    active = Rod(sim.pos[3 * k :], vel, zero, 10, sim.node_s, sim.seg_rest, sim.seg_mat)
+    accumulate_tail(sim.model.record, active, off, Out(lumped, band, ws.tail, new_scratch()))
     total = f_ref[: 3 * n_tail].reshape(-1, 3).sum(axis=0)
     np.testing.assert_allclose(lumped[:3], total, rtol=1e-10, atol=1e-18)
     assert abs(total[2]) > 0  # the weight is in it
 
 
-def _unclamped(params: np.ndarray) -> np.ndarray:
-    """Params of a free filament: the effects then count every node and segment."""
-    q = params.copy()
-    q[L.P_CLAMPED] = 0.0
-    return q
+def _unclamped(model):
+    """The model of a free filament: the effects then count every node and segment."""
+    params = model.params.copy()
+    params[0]["clamped"] = False
+    return model._replace(params=params)
 
 
 @pytest.mark.parametrize("integrator", ["implicit_euler", "explicit"])
@@ -238,7 +225,7 @@ def test_a_rope_coiling_pile_on_the_floor_freezes_and_slides() -> None:
     frozen.advance(3.5)
     k = frozen.n_frozen
     assert k > 10
-    z_floor = frozen.model.params[L.P_FLOOR_Z]
+    z_floor = frozen.model.p.floor_z
     r = frozen.material()[0, L.MAT_RADIUS]
     z_before = frozen.centerline()[:k, 2].copy()
     assert np.all(z_before <= z_floor + 1.05 * r)  # only material resting on the floor
@@ -267,11 +254,12 @@ def test_the_tail_load_jacobian_matches_finite_differences(on_floor: bool) -> No
         },
     )
     sim.advance(0.8)
-    k, p = sim.n_frozen, sim.model.params
-    work = np.zeros_like(sim.work)
-    tail_load(sim.pos, sim.seg_rest, sim.seg_mat, k, p, True, on_floor, work)
+    k = sim.n_frozen
+    ws = new_workspace(sim.capacity, 1)
+    whole = Rod(sim.pos, sim.vel, sim.vel, sim.n_nodes, sim.node_s, sim.seg_rest, sim.seg_mat)
+    tail_load(sim.model.record, whole, k, True, on_floor, ws)
     if on_floor:
-        assert work[L.W_TAIL_NORMAL] > 0.0
+        assert ws.tail[0]["normal"] > 0.0
     n_act = 10
     vel = np.zeros(3 * n_act)
     vel[:3] = (4e-4, -7e-4, 2e-4)  # comparable with the friction velocity (1 mm/s)
@@ -280,23 +268,11 @@ def test_the_tail_load_jacobian_matches_finite_differences(on_floor: bool) -> No
 
     def force(v: np.ndarray, do_jac: bool) -> np.ndarray:
         f = np.zeros(3 * n_act)
-        accumulate_tail(
-            sim.pos[3 * k :],
-            v,
-            zero,
-            n_act,
-            sim.seg_rest[k:],
-            sim.seg_mat[k:],
-            p,
-            0.0,
-            0.0,
-            1.0,
-            0.0,
-            f,
-            band,
-            work,
-            do_jac,
+        rod = Rod(
+            sim.pos[3 * k :], v, zero, n_act, sim.node_s[k:], sim.seg_rest[k:], sim.seg_mat[k:]
         )
+        stage = Stage(0.0, 0.0, 1.0, 0.0, do_jac)
+        accumulate_tail(sim.model.record, rod, stage, Out(f, band, ws.tail, new_scratch()))
         return f[:3]
 
     force(vel, True)

@@ -183,7 +183,7 @@ def test_flow_jump_without_inclusions():
 # ------------------------------------------------------------------ floor
 def test_rope_coiling_floor_pile_up():
     sim = run_and_check("rope_coiling_18G", {}, 1.5, max_stretch=0.05)
-    floor_z = float(sim.model.params[L.P_FLOOR_Z])
+    floor_z = float(sim.model.p.floor_z)
     z = sim.centerline()[:, 2]
     r = float(sim.material()[:, L.MAT_RADIUS].max())
     assert z.min() > floor_z - 2 * r  # penalty contact: no tunnelling through the floor
@@ -322,11 +322,13 @@ def test_buckling_step_is_the_growth_time_of_the_fastest_mode() -> None:
     sigma = P^2 / (8 B mu_s); with inertia m sigma^2 + 2 mu_s sigma = P^2 / (4 B)."""
     import math
 
-    from bathprint.core.integrators import _buckling_step
+    from bathprint.core.integrators import buckling_time
+    from bathprint.core.records import Rod
 
     sim = Simulation("rope_coiling_18G", {})
-    p = sim.model.params.copy()
-    p[L.P_CLAMPED] = 0.0  # a free 3-node rod: both segments count
+    params = sim.model.params.copy()
+    p = params.view(np.recarray)[0]
+    p.clamped = False  # a free 3-node rod: both segments count
     seg_rest = np.array([1e-3, 1e-3, 0.0])
     seg_mat = sim.seg_mat[:3].copy()
     strain = -0.02
@@ -335,18 +337,22 @@ def test_buckling_step_is_the_growth_time_of_the_fastest_mode() -> None:
     e = seg_mat[0, L.MAT_YOUNGS_MODULUS]
     force = e * seg_mat[0, L.MAT_STRETCH_FACTOR] * math.pi * r * r * (-strain)
     bend = e * seg_mat[0, L.MAT_BEND_FACTOR] * math.pi * r**4 / 4
-    mu_s = p[L.P_MU_S]
+    mu_s = p.mu_s
     sigma = force**2 / (8 * bend * mu_s)
-    assert _buckling_step(pos, seg_rest, seg_mat, 3, p) == pytest.approx(1 / sigma, rel=1e-9)
-    p[L.P_INERTIA] = 1.0
+
+    def bound(x):
+        return buckling_time(Rod(x, x, x, 3, seg_rest, seg_rest, seg_mat), params[0])
+
+    assert bound(pos) == pytest.approx(1 / sigma, rel=1e-9)
+    p.inertial = True
     m = (
         math.pi
         * r
         * r
-        * (seg_mat[0, L.MAT_DENSITY] + p[L.P_ADDED_MASS_COEFFICIENT] * p[L.P_BATH_DENSITY_TOP])
+        * (seg_mat[0, L.MAT_DENSITY] + p.added_mass_coefficient * p.bath_density_top)
     )
-    s_in = _buckling_step(pos, seg_rest, seg_mat, 3, p)
+    s_in = bound(pos)
     assert m / s_in**2 + 2 * mu_s / s_in == pytest.approx(force**2 / (4 * bend), rel=1e-9)
     stretched = pos.copy()
     stretched[5], stretched[8] = 1.01e-3, 2.02e-3
-    assert _buckling_step(stretched, seg_rest, seg_mat, 3, p) == math.inf
+    assert bound(stretched) == math.inf

@@ -9,6 +9,7 @@ import pytest
 from bathprint.core import layout as L
 from bathprint.core.assemble import assemble
 from bathprint.core.effects.elasticity import bend_energy_grad_hess
+from bathprint.core.records import Rod, Stage
 from bathprint.core.simulation import Simulation
 
 
@@ -43,28 +44,12 @@ def _assemble(
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(force on the free nodes, band, energies) of ``assemble`` at this state."""
     n = sim.n_nodes
-    f = np.zeros(3 * sim.capacity)
-    band = np.zeros_like(sim.band)
     energies = np.zeros(L.N_EFFECTS)
-    assemble(
-        pos,
-        vel,
-        acc,
-        n,
-        sim.seg_rest,
-        sim.seg_mat,
-        sim.model.params,
-        0.0,
-        *coeffs,
-        f,
-        band,
-        np.zeros_like(sim.work),
-        do_jac,
-        sim.model.enabled,
-        np.zeros(L.N_EFFECTS, np.int64),
-        energies,
-    )
-    return f[: 3 * (n - 2)].copy(), band, energies
+    model, _, _, out = sim.kernel_inputs()
+    rod = Rod(pos, vel, acc, n, sim.node_s, sim.seg_rest, sim.seg_mat)
+    stage = Stage(0.0, *coeffs, do_jac)
+    assemble(model, rod, stage, out, np.zeros(L.N_EFFECTS, np.int64), energies)
+    return out.force[: 3 * (n - 2)].copy(), out.band, energies
 
 
 def _force(sim: Simulation, pos, vel, acc) -> np.ndarray:

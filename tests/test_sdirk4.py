@@ -54,15 +54,15 @@ def reference() -> np.ndarray:
 def _modal_scales(sim: Simulation) -> tuple[float, float, float]:
     """(omega_1 rad/s, drag decay rate 1/s, static tip deflection m) of the scene."""
     m = sim.model
-    p = m.params
+    p = m.p
     area = math.pi * m.radius**2
     rho = float(sim.material()[0, L.MAT_DENSITY])
-    rho_bath = float(p[L.P_BATH_DENSITY_TOP])
-    mass = (rho + p[L.P_ADDED_MASS_COEFFICIENT] * rho_bath) * area  # kg/m, transverse
+    rho_bath = float(p.bath_density_top)
+    mass = (rho + p.added_mass_coefficient * rho_bath) * area  # kg/m, transverse
     length = 10e-3
     omega_1 = 1.8751040687**2 * math.sqrt(m.bending_stiffness / (mass * length**4))
     static = (rho - rho_bath) * 9.81 * area * length**4 / (8.0 * m.bending_stiffness)
-    return omega_1, float(p[L.P_MU_S]) / mass, static
+    return omega_1, float(p.mu_s) / mass, static
 
 
 @pytest.mark.parametrize("integrator", ["implicit", "sdirk4"])

@@ -123,17 +123,17 @@ def test_implicit_is_stable_at_1e4_times_the_explicit_limit_on_the_default_scene
     state = pickle.dumps(sim)
     # the limit is real: explicit just below it runs, just above it diverges
     below = pickle.loads(state)
-    below.model.params[L.P_FIXED_STEP] = 0.9 * h_explicit
-    below.model.integrator = L.INTEGRATOR_EXPLICIT
+    below.model.p.fixed_step = 0.9 * h_explicit
+    below.model.p.integrator = L.INTEGRATOR_EXPLICIT
     below.advance(0.3 + 300 * 0.9 * h_explicit)
     above = pickle.loads(state)
-    above.model.params[L.P_FIXED_STEP] = 1.1 * h_explicit
-    above.model.integrator = L.INTEGRATOR_EXPLICIT
+    above.model.p.fixed_step = 1.1 * h_explicit
+    above.model.p.integrator = L.INTEGRATOR_EXPLICIT
     with pytest.raises(SimulationError):
         above.advance(0.3 + 3000 * 1.1 * h_explicit)
     # implicit at 1e4 x the limit: runs on through buckling with bounded stretch
     implicit = pickle.loads(state)
-    implicit.model.params[L.P_FIXED_STEP] = 1e4 * h_explicit
+    implicit.model.p.fixed_step = 1e4 * h_explicit
     implicit.advance(1.0)
     c = implicit.centerline()
     assert np.isfinite(c).all()

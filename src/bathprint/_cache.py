@@ -17,11 +17,12 @@ _STAMP = _PACKAGE / "__pycache__" / "kernel_sources.sha1"
 
 def _sources_hash() -> str:
     """Hash of the kernel sources: modules with numba functions, and the index layout
-    (its constants are compiled into the kernels). Other modules do not invalidate."""
+    and the records (their constants and types are compiled into the kernels). Other
+    modules do not invalidate."""
     h = hashlib.sha1()
     for path in sorted(_PACKAGE.rglob("*.py")):
         text = path.read_bytes()
-        if b"njit" in text or path.name == "layout.py":
+        if b"njit" in text or path.name in ("layout.py", "records.py"):
             h.update(path.relative_to(_PACKAGE).as_posix().encode())
             h.update(text)
     return h.hexdigest()

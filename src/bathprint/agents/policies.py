@@ -37,7 +37,6 @@ from typing import Any, Protocol
 
 import numpy as np
 
-from bathprint.core import layout as L
 from bathprint.envs.core import (
     OBS_CURVATURE_MM,
     OBS_DENSITY_REF_KG_M3,
@@ -120,17 +119,17 @@ class LawConstants:
     def from_env(cls, env: Any) -> LawConstants:
         u = env.unwrapped
         sim0 = _probe_simulation(u)
-        p = sim0.model.params
-        E = float(p[L.P_GEL_FINAL_MODULUS] if p[L.P_GELATION] > 0 else p[L.P_EXIT_YOUNGS_MODULUS])
-        r = float(p[L.P_EXIT_RADIUS])
+        p = sim0.model.p
+        E = float(p.gel_final_modulus if p.gelation else p.exit_youngs_modulus)
+        r = float(p.exit_radius)
         return cls(
             bending_stiffness_gel=E * math.pi * r**4 / 4.0,
             bath_viscosity=float(sim0.scene.bath.viscosity_pa_s),
             needle_area=float(u.needle_area),
             filament_radius=r,
             rho_gel=float(u.rho_gel),
-            rho_inner=float(p[L.P_INNER_DENSITY]),
-            curvature_coefficient=float(p[L.P_CURVATURE_COEFFICIENT]),
+            rho_inner=float(p.inner_density),
+            curvature_coefficient=float(p.curvature_coefficient),
             phi_max=float(u.phi_max),
         )
 

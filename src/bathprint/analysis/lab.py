@@ -43,7 +43,7 @@ def _segment_sim(overrides: dict[str, Any], phi: float, age_s: float = 0.0) -> S
     sim = Simulation("paper_simulation", {**base, **overrides})
     row = np.empty(L.N_MAT)
     d = sim.model.needle[0, 4:7].copy()
-    material_row(phi, -age_s, 0.0, d, sim.model.params, row)
+    material_row(phi, -age_s, 0.0, d, sim.model.p, row)
     n = sim.n_nodes
     sim.seg_mat[: n - 1] = row  # every segment and the ghost
     return sim

@@ -11,36 +11,12 @@ from __future__ import annotations
 import numpy as np
 
 from bathprint.core import layout as L
-from bathprint.core.assemble import assemble
 from bathprint.core.simulation import Simulation
 
 
 def _dense(sim: Simulation, cx: float, cv: float, ca: float) -> np.ndarray:
-    n = sim.n_nodes
-    nd = 3 * (n - 2)
-    band = np.zeros_like(sim.band)
-    force = np.zeros_like(sim.pos)
-    acc = np.zeros_like(sim.vel)
-    assemble(
-        sim.pos,
-        sim.vel,
-        acc,
-        n,
-        sim.seg_rest,
-        sim.seg_mat,
-        sim.model.params,
-        sim.t,
-        cx,
-        cv,
-        ca,
-        force,
-        band,
-        np.zeros_like(sim.work),
-        True,
-        sim.model.enabled,
-        np.zeros(L.N_EFFECTS, np.int64),
-        np.zeros(L.N_EFFECTS),
-    )
+    nd = 3 * (sim.n_nodes - 2)
+    _, band = sim.forces(cx, cv, ca, jacobian=True, acc=np.zeros_like(sim.vel))
     dense = np.zeros((nd, nd))
     for i in range(nd):
         lo, hi = max(0, i - L.KL), min(nd, i + L.KU + 1)
@@ -51,7 +27,7 @@ def _dense(sim: Simulation, cx: float, cv: float, ca: float) -> np.ndarray:
 def explicit_step_limit(sim: Simulation) -> float:
     """Largest stable step (s) of the explicit integrator at the simulation's current state."""
     stiffness = _dense(sim, 1.0, 0.0, 0.0)
-    inertial = sim.model.params[L.P_INERTIA] > 0
+    inertial = bool(sim.model.p.inertial)
     damping_or_mass = _dense(sim, 0.0, 0.0 if inertial else 1.0, 1.0 if inertial else 0.0)
     lam = np.linalg.eigvals(np.linalg.solve(damping_or_mass, stiffness))
     lam_max = float(np.max(np.abs(lam)))

@@ -133,7 +133,7 @@ def column_growth_rate(load_ratio: float, n_segments: int = 40) -> float:
         },
     )
     p_c = math.pi**2 * sim.model.bending_stiffness / (4.0 * (length_mm * 1e-3) ** 2)
-    sim.model.params[13:16] = (0.0, 0.0, -load_ratio * p_c)  # P_END_LOAD_X..Z
+    sim.model.p.end_load = (0.0, 0.0, -load_ratio * p_c)
     return _lateral_growth_rate(sim, 1.0)
 
 
@@ -175,7 +175,7 @@ def extruded_rod_growth_rate_for(
         sim = Simulation("paper_simulation", overrides)
         m = sim.model
     v = beta * m.bending_stiffness / (m.mu_s * length**3)
-    m.params[5:8] = (0.0, 0.0, v)  # P_FLOW_X..Z: from the free end toward the needle
+    m.p.bath_flow = (0.0, 0.0, v)  # from the free end toward the needle
     return _lateral_growth_rate(sim, 10.0 / scale), scale, v
 
 
@@ -198,7 +198,6 @@ def translating_rod_drag(
 
     Returns (force, mu_s, L); the exact answer is -mu_s L (2 v_perp + v_par).
     """
-    from bathprint.core import layout as L
     from bathprint.core.effects import drag
 
     sim = Simulation(
@@ -207,25 +206,9 @@ def translating_rod_drag(
     )
     n = sim.n_nodes
     vel = np.tile(np.asarray(velocity, dtype=float), sim.capacity)
-    force = np.zeros_like(sim.pos)
-    band = np.zeros((3 * n, L.BAND_WIDTH))
-    drag.accumulate(
-        sim.pos,
-        vel,
-        vel,
-        n,
-        sim.seg_rest,
-        sim.seg_mat,
-        sim.model.params,
-        0.0,
-        0.0,
-        0.0,
-        0.0,
-        force,
-        band,
-        np.zeros_like(sim.work),
-        False,
-    )
+    inputs = sim.kernel_inputs(0.0, 0.0, 0.0, False, vel=vel)
+    drag.accumulate(*inputs)
+    force = inputs[3].force
     total = force[: 3 * (n - 1)].reshape(-1, 3).sum(axis=0)  # every filament node, tip included
     length = float(np.sum(np.linalg.norm(np.diff(sim.centerline(), axis=0), axis=1)))
     return total, sim.model.mu_s, length

@@ -1,7 +1,8 @@
 """Sum the forces (and the Newton Jacobian) of the effects a scene lists.
 
-Every effect is called through the same signature; an effect whose ``enabled`` flag is
-0 is never called (``calls`` counts the calls of each, which tests and benchmarks read).
+Every effect is called through the same signature, ``accumulate(model, rod, stage, out)``;
+an effect whose ``enabled`` flag is 0 is never called (``calls`` counts the calls of each,
+which tests and benchmarks read).
 """
 
 from __future__ import annotations
@@ -19,56 +20,38 @@ from bathprint.core.layout import (
     E_FLOOR,
     E_GRAVITY,
     E_INERTIA,
-    W_TAIL,
 )
 from bathprint.core.topology import free_nodes
 
 
 @njit(cache=True)
-def assemble(
-    pos: np.ndarray,
-    vel: np.ndarray,
-    acc: np.ndarray,
-    n_nodes: int,
-    seg_rest: np.ndarray,
-    seg_mat: np.ndarray,
-    params: np.ndarray,
-    t: float,
-    cx: float,
-    cv: float,
-    ca: float,
-    force: np.ndarray,
-    band: np.ndarray,
-    work: np.ndarray,
-    do_jac: bool,
-    enabled: np.ndarray,
-    calls: np.ndarray,
-    energies: np.ndarray,
-) -> None:
-    """Total force on every node into ``force``; ``-(cx dF/dx + cv dF/dv + ca dF/da)``
-    on the free nodes into ``band`` when ``do_jac``; each effect's energy into ``energies``."""
-    for k in range(3 * n_nodes):
+def assemble(model, rod, stage, out, calls: np.ndarray, energies: np.ndarray) -> None:
+    """Total force on every node into ``out.force``; ``-(cx dF/dx + cv dF/dv + ca dF/da)``
+    on the free nodes into ``out.band`` when ``stage.jac``; each effect's energy into
+    ``energies``."""
+    enabled = model.enabled
+    force = out.force
+    for k in range(3 * rod.n_nodes):
         force[k] = 0.0
-    if do_jac:
-        band_clear(band, 3 * free_nodes(n_nodes, params))
-    args = (pos, vel, acc, n_nodes, seg_rest, seg_mat, params, t, cx, cv, ca, force, band, work)
+    if stage.jac:
+        band_clear(out.band, 3 * free_nodes(rod.n_nodes, model.params[0]))
     if enabled[E_ELASTICITY]:
         calls[E_ELASTICITY] += 1
-        energies[E_ELASTICITY] = elasticity.accumulate(*args, do_jac)
+        energies[E_ELASTICITY] = elasticity.accumulate(model, rod, stage, out)
     if enabled[E_DRAG]:
         calls[E_DRAG] += 1
-        energies[E_DRAG] = drag.accumulate(*args, do_jac)
+        energies[E_DRAG] = drag.accumulate(model, rod, stage, out)
     if enabled[E_GRAVITY]:
         calls[E_GRAVITY] += 1
-        energies[E_GRAVITY] = gravity.accumulate(*args, do_jac)
+        energies[E_GRAVITY] = gravity.accumulate(model, rod, stage, out)
     if enabled[E_FLOOR]:
         calls[E_FLOOR] += 1
-        energies[E_FLOOR] = floor.accumulate(*args, do_jac)
+        energies[E_FLOOR] = floor.accumulate(model, rod, stage, out)
     if enabled[E_INERTIA]:
         calls[E_INERTIA] += 1
-        energies[E_INERTIA] = inertia.accumulate(*args, do_jac)
+        energies[E_INERTIA] = inertia.accumulate(model, rod, stage, out)
     if enabled[E_END_LOAD]:
         calls[E_END_LOAD] += 1
-        energies[E_END_LOAD] = end_load.accumulate(*args, do_jac)
-    if work[W_TAIL] > 0.0:  # a frozen tail (numerics.freeze_beyond_mm): part of the drag
-        energies[E_DRAG] += accumulate_tail(*args, do_jac)
+        energies[E_END_LOAD] = end_load.accumulate(model, rod, stage, out)
+    if out.tail[0].on:  # a frozen tail (numerics.freeze_beyond_mm): part of the drag
+        energies[E_DRAG] += accumulate_tail(model, rod, stage, out)

@@ -35,24 +35,6 @@ from bathprint.core.layout import (
     MAT_STRETCH_FACTOR,
     MAT_YOUNGS_MODULUS,
     N_MAT,
-    P_CLAMPED,
-    P_CURVATURE_COEFFICIENT,
-    P_EXIT_DENSITY,
-    P_EXIT_RADIUS,
-    P_EXIT_YOUNGS_MODULUS,
-    P_GEL_FINAL_MODULUS,
-    P_GEL_INITIAL_MODULUS,
-    P_GEL_RATE,
-    P_GELATION,
-    P_IMPERFECTION,
-    P_INCLUSION_OFFSET,
-    P_INCLUSIONS,
-    P_INNER_DENSITY,
-    P_NEEDLE_AREA,
-    P_NODE_SPACING,
-    P_OFFSET_ANGLE,
-    P_SEED,
-    P_SLUG_FRACTION,
 )
 
 
@@ -198,38 +180,28 @@ def needle_state(needle: np.ndarray, t: float, p: np.ndarray, d: np.ndarray, v: 
 
 
 @njit(cache=True)
-def set_boundary(
-    pos: np.ndarray,
-    vel: np.ndarray,
-    node_s: np.ndarray,
-    seg_rest: np.ndarray,
-    n_nodes: int,
-    t: float,
-    flow: np.ndarray,
-    flow_cum: np.ndarray,
-    needle: np.ndarray,
-    params: np.ndarray,
-    work: np.ndarray,
-) -> None:
+def set_boundary(model, rod, t: float, scratch) -> None:
     """Place the needle tip and the ghost node at time t and grow the inlet segment.
 
     Does nothing once the filament has been released from the needle.
     """
-    if params[P_CLAMPED] <= 0.0:
+    prm = model.params[0]
+    if not prm.clamped:
         return
-    p = work[0:3]
-    d = work[3:6]
-    v = work[6:9]
-    needle_state(needle, t, p, d, v)
-    tip = n_nodes - 2
-    ghost = n_nodes - 1
-    dl = params[P_NODE_SPACING]
+    pos, vel, node_s, seg_rest = rod.pos, rod.vel, rod.node_s, rod.seg_rest
+    p = scratch.needle[0]
+    d = scratch.needle[1]
+    v = scratch.needle[2]
+    needle_state(model.needle, t, p, d, v)
+    tip = rod.n_nodes - 2
+    ghost = rod.n_nodes - 1
+    dl = prm.node_spacing
     for a in range(3):
         pos[3 * tip + a] = p[a]
         pos[3 * ghost + a] = p[a] - dl * d[a]
         vel[3 * tip + a] = v[a]
         vel[3 * ghost + a] = v[a]
-    s_tip = extruded_length(flow, flow_cum, params[P_NEEDLE_AREA], t)
+    s_tip = extruded_length(model.flow, model.flow_cum, prm.needle_area, t)
     node_s[tip] = s_tip
     seg_rest[tip - 1] = s_tip - node_s[tip - 1]
     # The ghost segment only fixes the clamp direction. Its rest length enters nothing
@@ -241,41 +213,35 @@ def set_boundary(
 
 @njit(cache=True)
 def material_row(
-    phi: float,
-    birth: float,
-    t_now: float,
-    direction: np.ndarray,
-    params: np.ndarray,
-    row: np.ndarray,
+    phi: float, birth: float, t_now: float, direction: np.ndarray, p, row: np.ndarray
 ) -> None:
     """Material record of gel with inner fraction phi born at ``birth`` (s), seen at t_now.
 
     ``direction`` is the needle's unit direction at birth (for the offset's plane).
     Pure gel unless the inclusions effect is on; modulus from the gelation law if it is on.
+    ``p`` is the model's parameter record.
     """
     for c in range(N_MAT):
         row[c] = 0.0
     row[MAT_BIRTH_TIME] = birth
-    if params[P_GELATION] > 0.0:
-        e0 = params[P_GEL_INITIAL_MODULUS]
-        e1 = params[P_GEL_FINAL_MODULUS]
-        row[MAT_YOUNGS_MODULUS] = e1 - (e1 - e0) * math.exp(
-            -params[P_GEL_RATE] * max(t_now - birth, 0.0)
-        )
+    if p.gelation:
+        e0 = p.gel_initial_modulus
+        e1 = p.gel_final_modulus
+        row[MAT_YOUNGS_MODULUS] = e1 - (e1 - e0) * math.exp(-p.gel_rate * max(t_now - birth, 0.0))
     else:
-        row[MAT_YOUNGS_MODULUS] = params[P_EXIT_YOUNGS_MODULUS]
-    r = params[P_EXIT_RADIUS]
+        row[MAT_YOUNGS_MODULUS] = p.exit_youngs_modulus
+    r = p.exit_radius
     row[MAT_RADIUS] = r
-    if params[P_INCLUSIONS] <= 0.0:
+    if not p.inclusions:
         phi = 0.0
-    bend, stretch, n, m = stiffness_factors(phi, params[P_SLUG_FRACTION])
+    bend, stretch, n, m = stiffness_factors(phi, p.slug_fraction)
     row[MAT_INNER_FRACTION] = phi
-    row[MAT_DENSITY] = (1.0 - phi) * params[P_EXIT_DENSITY] + phi * params[P_INNER_DENSITY]
+    row[MAT_DENSITY] = (1.0 - phi) * p.exit_density + phi * p.inner_density
     row[MAT_BEND_FACTOR] = bend
     row[MAT_STRETCH_FACTOR] = stretch
     row[MAT_INCLUSION_SIZE] = n * r
     row[MAT_INCLUSION_SPACING] = m * r
-    mag = params[P_CURVATURE_COEFFICIENT] * params[P_INCLUSION_OFFSET] * phi / r
+    mag = p.curvature_coefficient * p.inclusion_offset * phi / r
     if mag != 0.0:
         d0, d1, d2 = direction[0], direction[1], direction[2]
         # e1 = d x (least-aligned axis), e2 = d x e1: the offset's frame around the needle
@@ -286,8 +252,8 @@ def material_row(
         ne = math.sqrt(e10 * e10 + e11 * e11 + e12 * e12)
         e10, e11, e12 = e10 / ne, e11 / ne, e12 / ne
         e20, e21, e22 = d1 * e12 - d2 * e11, d2 * e10 - d0 * e12, d0 * e11 - d1 * e10
-        ca = math.cos(params[P_OFFSET_ANGLE])
-        sa = math.sin(params[P_OFFSET_ANGLE])
+        ca = math.cos(p.offset_angle)
+        sa = math.sin(p.offset_angle)
         u0, u1, u2 = ca * e10 + sa * e20, ca * e11 + sa * e21, ca * e12 + sa * e22
         # binormal t_up x u with t_up = -d, the segment's edge direction at birth
         row[MAT_KAPPA_X] = mag * (-(d1 * u2 - d2 * u1))
@@ -296,35 +262,27 @@ def material_row(
 
 
 @njit(cache=True)
-def segment_material(
-    s_a: float,
-    s_b: float,
-    t_now: float,
-    flow: np.ndarray,
-    flow_cum: np.ndarray,
-    needle: np.ndarray,
-    params: np.ndarray,
-    row: np.ndarray,
-    work: np.ndarray,
-) -> None:
+def segment_material(s_a: float, s_b: float, t_now: float, model, row: np.ndarray, scratch) -> None:
     """Material record of the gel that left the needle between extruded lengths s_a < s_b.
 
     Its inner fraction is the inner volume extruded in that interval over the total, so
     the inner volume of all segments adds up to int Q_i dt exactly.
     """
-    area = params[P_NEEDLE_AREA]
+    p = model.params[0]
+    flow, flow_cum = model.flow, model.flow_cum
+    area = p.needle_area
     t_a = time_at_extruded_length(flow, flow_cum, area, s_a, t_now)
     t_b = time_at_extruded_length(flow, flow_cum, area, s_b, t_now)
     t_mid = time_at_extruded_length(flow, flow_cum, area, 0.5 * (s_a + s_b), t_now)
     phi = 0.0
-    if params[P_INCLUSIONS] > 0.0 and s_b > s_a:
+    if p.inclusions and s_b > s_a:
         dv_in = inner_volume(flow, flow_cum, t_b) - inner_volume(flow, flow_cum, t_a)
         phi = min(max(dv_in / (area * (s_b - s_a)), 0.0), 1.0)
-    d = work[30:33]
-    p = work[33:36]
-    v = work[36:39]
-    needle_state(needle, t_mid, p, d, v)
-    material_row(phi, t_mid, t_now, d, params, row)
+    d = scratch.birth[1]
+    pb = scratch.birth[0]
+    v = scratch.birth[2]
+    needle_state(model.needle, t_mid, pb, d, v)
+    material_row(phi, t_mid, t_now, d, p, row)
 
 
 @njit(cache=True)
@@ -339,26 +297,15 @@ def _hash_unit(seed: float, counter: int, salt: int) -> float:
 
 
 @njit(cache=True)
-def split_inlet(
-    pos: np.ndarray,
-    vel: np.ndarray,
-    node_s: np.ndarray,
-    seg_rest: np.ndarray,
-    seg_mat: np.ndarray,
-    n_nodes: int,
-    t: float,
-    flow: np.ndarray,
-    flow_cum: np.ndarray,
-    needle: np.ndarray,
-    params: np.ndarray,
-    split_count: int,
-    work: np.ndarray,
-) -> int:
-    """Split the inlet segment in two; returns the new node count.
+def split_inlet(model, rod, t: float, split_count: int, scratch) -> int:
+    """Split the inlet segment of the (whole) rod in two; returns the new node count.
 
     The caller guarantees room for one more node. The outer half keeps the inlet's
     material with the birth time of its centre; the new inlet gets the exit material.
     """
+    p = model.params[0]
+    pos, vel, node_s, seg_rest, seg_mat = rod.pos, rod.vel, rod.node_s, rod.seg_rest, rod.seg_mat
+    n_nodes = rod.n_nodes
     out = n_nodes - 3
     tip = n_nodes - 2
     # move tip and ghost one slot down the arrays
@@ -373,7 +320,7 @@ def split_inlet(
     new = tip
     s_out = node_s[out]
     s_tip = node_s[new + 1]
-    dl = params[P_NODE_SPACING]
+    dl = p.node_spacing
     # halves when the inlet is 2..3 node spacings long; after a long step, peel off
     # one spacing at a time so that no segment is left much longer than the others
     outer = 0.5 * (s_tip - s_out) if s_tip - s_out < 3.0 * dl else dl
@@ -384,7 +331,7 @@ def split_inlet(
         pos[3 * new + a] = pos[3 * out + a] + f * (pos[3 * (new + 1) + a] - pos[3 * out + a])
         vel[3 * new + a] = vel[3 * out + a] + f * (vel[3 * (new + 1) + a] - vel[3 * out + a])
     # imperfection: a tiny transverse offset, perpendicular to the local chord
-    amp = params[P_IMPERFECTION]
+    amp = p.imperfection
     if amp > 0.0:
         cx = pos[3 * (new + 1)] - pos[3 * out]
         cy = pos[3 * (new + 1) + 1] - pos[3 * out + 1]
@@ -399,18 +346,18 @@ def split_inlet(
         nu = math.sqrt(ux * ux + uy * uy + uz * uz)
         ux, uy, uz = ux / nu, uy / nu, uz / nu
         wx, wy, wz = cy * uz - cz * uy, cz * ux - cx * uz, cx * uy - cy * ux
-        r1 = amp * _hash_unit(params[P_SEED], split_count, 1)
-        r2 = amp * _hash_unit(params[P_SEED], split_count, 2)
+        r1 = amp * _hash_unit(p.seed, split_count, 1)
+        r2 = amp * _hash_unit(p.seed, split_count, 2)
         pos[3 * new] += r1 * ux + r2 * wx
         pos[3 * new + 1] += r1 * uy + r2 * wy
         pos[3 * new + 2] += r1 * uz + r2 * wz
     seg_rest[out] = s_new - s_out
     seg_rest[new] = s_tip - s_new
-    row = work[40 : 40 + N_MAT]
-    segment_material(s_out, s_new, t, flow, flow_cum, needle, params, row, work)
+    row = scratch.mat_row
+    segment_material(s_out, s_new, t, model, row, scratch)
     for c in range(N_MAT):
         seg_mat[out, c] = row[c]
-    segment_material(s_new, s_tip, t, flow, flow_cum, needle, params, row, work)
+    segment_material(s_new, s_tip, t, model, row, scratch)
     for c in range(N_MAT):
         seg_mat[new, c] = row[c]
         seg_mat[new + 1, c] = row[c]  # the ghost mirrors the inlet's material
@@ -418,25 +365,16 @@ def split_inlet(
 
 
 @njit(cache=True)
-def refresh_inlet_material(
-    node_s: np.ndarray,
-    seg_mat: np.ndarray,
-    n_nodes: int,
-    t: float,
-    flow: np.ndarray,
-    flow_cum: np.ndarray,
-    needle: np.ndarray,
-    params: np.ndarray,
-    work: np.ndarray,
-) -> None:
+def refresh_inlet_material(model, rod, t: float, scratch) -> None:
     """Re-derive the growing inlet segment's record from everything extruded into it."""
-    if params[P_CLAMPED] <= 0.0:
+    if not model.params[0].clamped:
         return
+    node_s, seg_mat, n_nodes = rod.node_s, rod.seg_mat, rod.n_nodes
     out = n_nodes - 3
     if node_s[n_nodes - 2] <= max(node_s[out], 0.0):
         return  # nothing extruded into it yet: it is still initial material
-    row = work[40 : 40 + N_MAT]
-    segment_material(node_s[out], node_s[n_nodes - 2], t, flow, flow_cum, needle, params, row, work)
+    row = scratch.mat_row
+    segment_material(node_s[out], node_s[n_nodes - 2], t, model, row, scratch)
     for c in range(N_MAT):
         seg_mat[out, c] = row[c]
         seg_mat[out + 1, c] = row[c]

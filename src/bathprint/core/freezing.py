@@ -38,46 +38,32 @@ from numba import njit
 from bathprint.core.effects._band import add_block
 from bathprint.core.effects.floor import friction_block
 from bathprint.core.effects.gravity import bath_density
-from bathprint.core.layout import (
-    MAT_DENSITY,
-    MAT_RADIUS,
-    P_FLOW_X,
-    P_FRICTION_COEFFICIENT,
-    P_FRICTION_VELOCITY,
-    P_GRAVITY,
-    P_MU_S,
-    W_NORM_EXTRA,
-    W_TAIL,
-    W_TAIL_NORMAL,
-    W_TAIL_ON_FLOOR,
-)
+from bathprint.core.layout import MAT_DENSITY, MAT_RADIUS
 from bathprint.core.topology import free_nodes
-
-# layout of the tail's slots in ``work`` (from W_TAIL): on flag, force (3), drag tensor (9)
-_ON = 0
-_FORCE = 1
-_DRAG = 4
 
 
 @njit(cache=True)
-def tail_load(
-    pos, seg_rest, seg_mat, n_frozen: int, params, gravity_on: bool, on_floor: bool, work
-) -> None:
-    """Lumped drag tensor and net weight of the frozen segments 0..n_frozen-1 into ``work``
-    (the flag is 0 when nothing is frozen). ``on_floor``: the tail rests on the floor, which
-    carries its weight (stored as the normal force for friction); drag acts on its
-    horizontal motion only."""
-    base = W_TAIL
-    for k in range(13):
-        work[base + k] = 0.0
-    work[W_NORM_EXTRA] = 3.0 * n_frozen
-    work[W_TAIL_NORMAL] = 0.0
-    work[W_TAIL_ON_FLOOR] = 1.0 if on_floor else 0.0
+def tail_load(model, rod, n_frozen: int, gravity_on: bool, on_floor: bool, ws) -> None:
+    """Lumped drag tensor and net weight of the frozen segments 0..n_frozen-1 of the whole
+    rod into ``ws.tail`` (``on`` is False when nothing is frozen). ``on_floor``: the tail
+    rests on the floor, which carries its weight (stored as the normal force for
+    friction); drag acts on its horizontal motion only."""
+    p = model.params[0]
+    tail = ws.tail[0]
+    pos, seg_rest, seg_mat = rod.pos, rod.seg_rest, rod.seg_mat
+    tail.on = False
+    for a in range(3):
+        tail.force[a] = 0.0
+        for b in range(3):
+            tail.drag[a, b] = 0.0
+    ws.solver[0].norm_extra = 3.0 * n_frozen
+    tail.normal = 0.0
+    tail.on_floor = on_floor
     if n_frozen <= 0:
         return
-    work[base + _ON] = 1.0
-    mu_s = params[P_MU_S]
-    g = params[P_GRAVITY]
+    tail.on = True
+    mu_s = p.mu_s
+    g = p.gravity
     weight = 0.0
     for j in range(n_frozen):
         ex = pos[3 * j + 3] - pos[3 * j]
@@ -87,67 +73,66 @@ def tail_load(
         tt = (ex / length, ey / length, ez / length)
         for a in range(3):
             for b in range(3):
-                work[base + _DRAG + 3 * a + b] += (
-                    mu_s * length * ((2.0 if a == b else 0.0) - tt[a] * tt[b])
-                )
+                tail.drag[a, b] += mu_s * length * ((2.0 if a == b else 0.0) - tt[a] * tt[b])
         if gravity_on:
             r = seg_mat[j, MAT_RADIUS]
             half_vol = 0.5 * math.pi * r * r * seg_rest[j]
             rho = seg_mat[j, MAT_DENSITY]
             for side in range(2):
-                rho_b, _ = bath_density(params, pos[3 * (j + side) + 2], r)
+                rho_b, _ = bath_density(p, pos[3 * (j + side) + 2], r)
                 weight += half_vol * g * (rho - rho_b)
     if on_floor:  # the tail moves horizontally only: D P_h; the floor carries the weight
         for a in range(3):
-            work[base + _DRAG + 3 * a + 2] = 0.0
-        work[W_TAIL_NORMAL] = max(weight, 0.0)
+            tail.drag[a, 2] = 0.0
+        tail.normal = max(weight, 0.0)
         weight = 0.0
     # drag of a tail at rest in the bath's flow: D u_bath
     for a in range(3):
         push = 0.0
         for b in range(3):
-            push += work[base + _DRAG + 3 * a + b] * params[P_FLOW_X + b]
-        work[base + _FORCE + a] = push
-    work[base + _FORCE + 2] -= weight
+            push += tail.drag[a, b] * p.bath_flow[b]
+        tail.force[a] = push
+    tail.force[2] -= weight
 
 
 @njit(cache=True)
-def accumulate_tail(
-    pos, vel, acc, n_nodes, seg_rest, seg_mat, params, t, cx, cv, ca, force, band, work, do_jac
-) -> float:
+def accumulate_tail(model, rod, stage, out) -> float:
     """Add the frozen tail's load to the active end (node 0 of the active views) and cv D
     to its Jacobian block; returns the tail drag's dissipation rate (v - u) D (v - u) (W),
     u the bath's flow."""
-    base = W_TAIL
-    if work[base + _ON] <= 0.0:
+    tail = out.tail[0]
+    if not tail.on:
         return 0.0
-    drag = work[base + _DRAG : base + _DRAG + 9].reshape((3, 3))
+    p = model.params[0]
+    vel, force = rod.vel, out.force
+    drag = tail.drag
+    flow = p.bath_flow
     power = 0.0
     for a in range(3):
-        f = work[base + _FORCE + a]
+        f = tail.force[a]
         for b in range(3):
             f -= drag[a, b] * vel[b]
-            power += (vel[a] - params[P_FLOW_X + a]) * drag[a, b] * (vel[b] - params[P_FLOW_X + b])
+            power += (vel[a] - flow[a]) * drag[a, b] * (vel[b] - flow[b])
         force[a] += f
-    n_free = free_nodes(n_nodes, params)
-    if do_jac:
-        add_block(band, n_free, 0, 0, drag, cv)
-    normal = work[W_TAIL_NORMAL]
-    mu_f = params[P_FRICTION_COEFFICIENT]
-    if work[W_TAIL_ON_FLOOR] > 0.0 and normal > 0.0 and mu_f > 0.0:
-        eps = params[P_FRICTION_VELOCITY]
+    n_free = free_nodes(rod.n_nodes, p)
+    if stage.jac:
+        add_block(out.band, n_free, 0, 0, drag, stage.cv)
+    normal = tail.normal
+    mu_f = p.friction_coefficient
+    if tail.on_floor and normal > 0.0 and mu_f > 0.0:
+        eps = p.friction_velocity
         ux, uy = vel[0], vel[1]
         s = math.sqrt(ux * ux + uy * uy + eps * eps)
         force[0] -= mu_f * normal * ux / s
         force[1] -= mu_f * normal * uy / s
         power += mu_f * normal * (ux * ux + uy * uy) / s
-        if do_jac:
-            blk = work[100:109].reshape((3, 3))  # the effects' scratch block
+        if stage.jac:
+            blk = out.scratch.blk_a
             friction_block(blk, mu_f * normal, ux, uy, s)
-            add_block(band, n_free, 0, 0, blk, cv)
+            add_block(out.band, n_free, 0, 0, blk, stage.cv)
     return power
 
 
-def tail_is_frozen(work: np.ndarray) -> bool:
-    """True when a tail load is set (for tests)."""
-    return bool(work[W_TAIL + _ON] > 0.0)
+def tail_is_frozen(tail: np.ndarray) -> bool:
+    """True when a tail load is set (``ws.tail``; for tests)."""
+    return bool(tail[0]["on"])

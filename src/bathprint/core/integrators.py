@@ -1,4 +1,5 @@
-"""Time integration: implicit SDIRK2 / backward Euler with Newton, and an explicit reference.
+"""Time integration: implicit SDIRK2 / SDIRK4 / backward Euler with Newton, and an explicit
+reference.
 
 The equations of motion of every scene have one form: the total force of the listed
 effects vanishes, F(x, v, a, t) = 0, where drag depends on v and inertia on a (an
@@ -17,8 +18,9 @@ gamma = 1 and the predictor-corrector estimate (X - x_n - h v_n)/2. ``explicit``
 forward Euler (overdamped: solve F(x_n, V) = 0 for V, a block-diagonal solve) or
 symplectic Euler (with inertia), at a fixed step: the reference for verification.
 
-Everything runs inside one numba call per output interval: no Python and no
-allocation per step. Failures return a status code and ``info`` = [time, node, value].
+Every kernel takes the records of :mod:`bathprint.core.records` (model, state, workspace).
+Everything runs inside one numba call per output interval: no Python and no allocation
+per step. Failures return a status code and ``state.info`` = [time, node, value].
 """
 
 from __future__ import annotations
@@ -28,8 +30,8 @@ import math
 import numpy as np
 from numba import njit
 
+from bathprint.core import solver
 from bathprint.core.assemble import assemble
-from bathprint.core.banded import band_lu, band_matvec, band_solve
 from bathprint.core.effects import gelation
 from bathprint.core.extrusion import (
     extruded_length,
@@ -55,34 +57,11 @@ from bathprint.core.layout import (
     INTEGRATOR_EXPLICIT,
     INTEGRATOR_IMPLICIT_EULER,
     INTEGRATOR_SDIRK4,
-    KL,
-    KU,
     MAT_BEND_FACTOR,
     MAT_DENSITY,
     MAT_RADIUS,
     MAT_STRETCH_FACTOR,
     MAT_YOUNGS_MODULUS,
-    P_ADDED_MASS_COEFFICIENT,
-    P_BATH_DENSITY_TOP,
-    P_BUCKLING_STEPS,
-    P_CLAMPED,
-    P_FIXED_STEP,
-    P_FLOOR_Z,
-    P_FREEZE_BEYOND,
-    P_INERTIA,
-    P_MAX_INLET_GROWTH,
-    P_MAX_NEWTON,
-    P_MAX_STEP,
-    P_MAX_STRAIN,
-    P_MAX_STRAIN_CHANGE,
-    P_MIN_STEP,
-    P_MU_S,
-    P_NEEDLE_AREA,
-    P_NEWTON_REUSE,
-    P_NEWTON_TOL,
-    P_NODE_SPACING,
-    P_STRETCH_LIMIT,
-    P_TOLERANCE,
     STATUS_CAPACITY,
     STATUS_ERROR,
     STATUS_NAN,
@@ -91,15 +70,8 @@ from bathprint.core.layout import (
     STATUS_STEP_LIMIT,
     STATUS_STRAIN,
     STATUS_STRETCH,
-    W_FULL_NEWTON_STEPS,
-    W_LU_HG,
-    W_LU_ND,
-    W_LU_VALID,
-    W_NEWTON_ETA,
-    W_NEWTON_SLOW,
-    W_NORM_EXTRA,
-    W_TAIL,
 )
+from bathprint.core.records import Out, Rod, Stage
 from bathprint.core.topology import filament_segments, free_nodes
 
 GAMMA = 1.0 - 1.0 / math.sqrt(2.0)
@@ -128,7 +100,7 @@ SDIRK4_BHAT = np.array([59.0 / 48.0, -17.0 / 96.0, 225.0 / 32.0, -85.0 / 12.0, 0
 MAX_STAGES = 5
 REUSE_THETA = 0.05  # Newton contraction below which a step's Jacobian serves the next
 
-# rows of the vector workspace ``vecs`` (each 3 * capacity long)
+# rows of the vector workspace ``ws.vecs`` (each 3 * capacity long)
 V_POS0 = 0
 V_VEL0 = 1
 V_SX = 2
@@ -140,6 +112,26 @@ V_ERR = 7
 V_KV = 8  # stage velocities, MAX_STAGES rows
 V_KA = V_KV + MAX_STAGES  # stage accelerations, MAX_STAGES rows
 N_VECS = V_KA + MAX_STAGES
+
+
+@njit(cache=True, inline="always")
+def active_rod(state, ws, frozen: int) -> Rod:
+    """The rod past the ``frozen`` tail nodes, as views (no copies); node 0 is its free end."""
+    f = frozen
+    return Rod(
+        state.pos[3 * f :],
+        state.vel[3 * f :],
+        ws.vecs[V_ACC],
+        state.ints[0] - f,
+        state.node_s[f:],
+        state.seg_rest[f:],
+        state.seg_mat[f:],
+    )
+
+
+@njit(cache=True, inline="always")
+def _out(ws, band) -> Out:
+    return Out(ws.vecs[V_FORCE], band, ws.tail, ws.scratch)
 
 
 @njit(cache=True, inline="always")
@@ -166,41 +158,32 @@ def _worst_node(vec: np.ndarray, nd: int) -> int:
 
 
 @njit(cache=True)
-def _stage_solve(
-    hg,
-    t_stage,
-    n_nodes,
-    pos,
-    vel,
-    node_s,
-    seg_rest,
-    seg_mat,
-    params,
-    enabled,
-    flow,
-    flow_cum,
-    needle,
-    vecs,
-    band,
-    piv,
-    work,
-    calls,
-    counters,
-    energies,
-    info,
-) -> bool:
-    """Newton solve of one implicit stage for the free node positions ``pos``."""
-    nd = 3 * free_nodes(n_nodes, params)
-    inertial = params[P_INERTIA] > 0.0
-    sx = vecs[V_SX]
-    sv = vecs[V_SV]
-    acc = vecs[V_ACC]
-    force = vecs[V_FORCE]
-    rhs = vecs[V_RHS]
-    scale = params[P_TOLERANCE] * params[P_NODE_SPACING]
-    ca = 1.0 / (hg * hg) if inertial else 0.0
+def _rms(vec: np.ndarray, nd: int, ws) -> float:
+    """RMS over the whole filament: the frozen tail counts with zero (``norm_extra``)."""
+    s = 0.0
+    for k in range(nd):
+        s += vec[k] * vec[k]
+    return math.sqrt(s / max(nd + ws.solver[0].norm_extra, 1.0))
+
+
+@njit(cache=True)
+def _stage_solve(model, rod, state, ws, hg: float, t_stage: float) -> bool:
+    """Newton solve of one implicit stage for the free node positions ``rod.pos``."""
+    p = model.params[0]
+    sol = ws.solver[0]
+    pos, vel, acc = rod.pos, rod.vel, rod.acc
+    nd = 3 * free_nodes(rod.n_nodes, p)
+    inertial = p.inertial
+    sx = ws.vecs[V_SX]
+    sv = ws.vecs[V_SV]
+    rhs = ws.vecs[V_RHS]
+    out = _out(ws, ws.band)
+    force = out.force
+    scale = p.tolerance * p.node_spacing
+    stage = Stage(t_stage, 1.0, 1.0 / hg, 1.0 / (hg * hg) if inertial else 0.0, False)
+    jac_stage = Stage(stage.t, stage.cx, stage.cv, stage.ca, True)
     # after a Newton failure (e.g. contacts switching) full Newton for a while
-    modified = params[P_NEWTON_REUSE] > 0.0 and work[W_FULL_NEWTON_STEPS] <= 0.0
+    modified = p.newton_reuse and sol.full_newton_steps <= 0.0
     refresh = False
     previous = np.inf
     relax = 1.0  # fraction of the Newton update applied
@@ -209,57 +192,35 @@ def _stage_solve(
     # contraction rate theta; before a rate is measured in this step, eta = 1 (the plain
     # test |dX| < newton_tol). With a fast contraction later stages stop after one
     # iteration.
-    eta = work[W_NEWTON_ETA] if work[W_NEWTON_ETA] > 0.0 else 1.0
-    for it in range(int(params[P_MAX_NEWTON])):
-        set_boundary(
-            pos, vel, node_s, seg_rest, n_nodes, t_stage, flow, flow_cum, needle, params, work
-        )
+    eta = sol.newton_eta if sol.newton_eta > 0.0 else 1.0
+    for it in range(p.max_newton):
+        set_boundary(model, rod, t_stage, ws.scratch)
         for k in range(nd):
             vel[k] = (pos[k] - sx[k]) / hg
             acc[k] = (vel[k] - sv[k]) / hg if inertial else 0.0
-        # full Newton, or modified Newton: factorise once per step (both stages share
+        # full Newton, or modified Newton: factorise once per step (all stages share
         # h gamma) and again only when the iteration stops contracting fast
-        need_jac = (not modified) or work[W_LU_VALID] == 0.0 or refresh
+        need_jac = (not modified) or (not sol.lu_valid) or refresh
         assemble(
-            pos,
-            vel,
-            acc,
-            n_nodes,
-            seg_rest,
-            seg_mat,
-            params,
-            t_stage,
-            1.0,
-            1.0 / hg,
-            ca,
-            force,
-            band,
-            work,
-            need_jac,
-            enabled,
-            calls,
-            energies,
+            model, rod, jac_stage if need_jac else stage, out, state.calls, state.energies
         )
         for k in range(nd):
             rhs[k] = force[k]
         if need_jac:
-            work[W_LU_VALID] = 0.0
-            if band_lu(band, nd, KL, KU, piv) != 0:
-                info[1] = _worst_node(force, nd)
+            sol.lu_valid = False
+            if not solver.factor(ws, nd):
+                state.info[1] = _worst_node(force, nd)
                 return False
-            work[W_LU_VALID] = 1.0
-            counters[C_FACTORIZATIONS] += 1
-            work[W_LU_HG] = hg
-            work[W_LU_ND] = nd
+            sol.lu_valid = True
+            state.counters[C_FACTORIZATIONS] += 1
+            sol.lu_hg = hg
+            sol.lu_nd = nd
             refresh = False
-        band_solve(band, nd, KL, KU, piv, rhs)
-        counters[C_NEWTON_ITERATIONS] += 1
-        norm = 0.0
-        for k in range(nd):
-            norm += rhs[k] * rhs[k]
-        norm = math.sqrt(norm / max(nd + work[W_NORM_EXTRA], 1.0)) / scale
+        solver.solve(ws, nd, rhs)
+        state.counters[C_NEWTON_ITERATIONS] += 1
+        norm = _rms(rhs, nd, ws) / scale
         if not np.isfinite(norm) or norm > 1e12:
-            info[1] = _worst_node(rhs, nd)
+            state.info[1] = _worst_node(rhs, nd)
             return False
         if it > 0 and norm >= 0.95 * previous and need_jac:
             # no contraction with a Jacobian of this very iterate: Newton itself stagnates
@@ -274,40 +235,23 @@ def _stage_solve(
         if it > 0:
             theta = norm / previous
             if theta > REUSE_THETA:
-                work[W_NEWTON_SLOW] = 1.0
+                sol.newton_slow = True
             # eta is capped at 1: a slow contraction (contacts switching) must not make the
             # test stricter than |dX| < newton_tol, or Newton runs out of iterations
             eta = min(theta / (1.0 - theta), 1.0) if theta < 1.0 else 1.0
-            work[W_NEWTON_ETA] = eta
+            sol.newton_eta = eta
         previous = norm
-        if eta * norm < params[P_NEWTON_TOL]:
+        if eta * norm < p.newton_tolerance:
             for k in range(nd):
                 vel[k] = (pos[k] - sx[k]) / hg
                 acc[k] = (vel[k] - sv[k]) / hg if inertial else 0.0
             return True
-    info[1] = _worst_node(rhs, nd)
+    state.info[1] = _worst_node(rhs, nd)
     return False
 
 
 @njit(cache=True)
-def _filtered_norm(
-    hg,
-    t,
-    n_nodes,
-    pos,
-    vel,
-    seg_rest,
-    seg_mat,
-    params,
-    enabled,
-    vecs,
-    band,
-    band2,
-    piv,
-    work,
-    calls,
-    energies,
-) -> float:
+def _filtered_norm(model, rod, state, ws, hg: float, t: float) -> float:
     """RMS of the error estimate filtered through the stage matrix (Shampine's filter).
 
     e_f = A^{-1} D e, with A = D + K the Newton matrix (its LU is still in ``band``) and
@@ -316,67 +260,20 @@ def _filtered_norm(
     which a split or an imperfection excites, are scaled by D/K << 1 instead of forcing
     the step down to their time scale.
     """
-    nd = 3 * free_nodes(n_nodes, params)
-    inertial = params[P_INERTIA] > 0.0
-    evec = vecs[V_ERR]
-    rhs = vecs[V_RHS]
-    acc = vecs[V_ACC]
-    force = vecs[V_FORCE]
-    ca = 1.0 / (hg * hg) if inertial else 0.0
-    assemble(
-        pos,
-        vel,
-        acc,
-        n_nodes,
-        seg_rest,
-        seg_mat,
-        params,
-        t,
-        0.0,
-        1.0 / hg,
-        ca,
-        force,
-        band2,
-        work,
-        True,
-        enabled,
-        calls,
-        energies,
-    )
-    band_matvec(band2, nd, KL, KU, evec, rhs)
-    band_solve(band, nd, KL, KU, piv, rhs)
-    err = 0.0
-    for k in range(nd):
-        err += rhs[k] * rhs[k]
-    return math.sqrt(err / max(nd + work[W_NORM_EXTRA], 1.0))
+    p = model.params[0]
+    nd = 3 * free_nodes(rod.n_nodes, p)
+    evec = ws.vecs[V_ERR]
+    rhs = ws.vecs[V_RHS]
+    ca = 1.0 / (hg * hg) if p.inertial else 0.0
+    stage = Stage(t, 0.0, 1.0 / hg, ca, True)
+    assemble(model, rod, stage, _out(ws, ws.band2), state.calls, state.energies)
+    solver.damping_times(ws, nd, evec, rhs)
+    solver.solve(ws, nd, rhs)
+    return _rms(rhs, nd, ws)
 
 
 @njit(cache=True)
-def _implicit_step(
-    h,
-    t,
-    n_nodes,
-    integrator,
-    pos,
-    vel,
-    node_s,
-    seg_rest,
-    seg_mat,
-    params,
-    enabled,
-    flow,
-    flow_cum,
-    needle,
-    vecs,
-    band,
-    band2,
-    piv,
-    work,
-    calls,
-    counters,
-    energies,
-    info,
-) -> float:
+def _implicit_step(model, rod, state, ws, h: float, t: float) -> float:
     """One SDIRK step (SDIRK2, SDIRK4, or backward Euler); returns the scaled error norm,
     or -1 on failure.
 
@@ -386,20 +283,24 @@ def _implicit_step(
     (overdamped) or A_i ~ A_{i-1} (inertia). The result is the last stage (stiffly accurate);
     the error estimate is X_s - x_n - h sum_i b_hat_i V_i, filtered (:func:`_filtered_norm`).
     """
-    nd = 3 * free_nodes(n_nodes, params)
+    p = model.params[0]
+    sol = ws.solver[0]
+    vecs = ws.vecs
+    pos, vel, acc = rod.pos, rod.vel, rod.acc
+    nd = 3 * free_nodes(rod.n_nodes, p)
     pos0 = vecs[V_POS0]
     vel0 = vecs[V_VEL0]
     sx = vecs[V_SX]
     sv = vecs[V_SV]
-    acc = vecs[V_ACC]
     evec = vecs[V_ERR]
-    scale = params[P_TOLERANCE] * params[P_NODE_SPACING]
+    scale = p.tolerance * p.node_spacing
+    integrator = p.integrator
     if integrator == INTEGRATOR_SDIRK4:
         a_mat, c_vec, b_hat = SDIRK4_A, SDIRK4_C, SDIRK4_BHAT
     else:
         a_mat, c_vec, b_hat = SDIRK2_A, SDIRK2_C, SDIRK2_BHAT
     euler = integrator == INTEGRATOR_IMPLICIT_EULER
-    inertial = params[P_INERTIA] > 0.0
+    inertial = p.inertial
     n_stages = 1 if euler else a_mat.shape[0]
     gamma = 1.0 if euler else a_mat[0, 0]
     hg = h * gamma
@@ -412,12 +313,10 @@ def _implicit_step(
     # draft runs moved the environments' metrics by ~0.08, and with inertia (velocities
     # (X - Sx)/(h gamma) amplify Newton's position error) SDIRK4's error on the inertial
     # cantilever grew to 5x its truncation error; measured per step, reuse changes it <10%.
-    if not (
-        abs(work[W_LU_HG] - hg) <= 1e-9 * hg and work[W_LU_ND] == nd and work[W_NEWTON_SLOW] == 0.0
-    ):
-        work[W_LU_VALID] = 0.0
-    work[W_NEWTON_SLOW] = 0.0
-    work[W_NEWTON_ETA] = 0.0
+    if not (abs(sol.lu_hg - hg) <= 1e-9 * hg and sol.lu_nd == nd and not sol.newton_slow):
+        sol.lu_valid = False
+    sol.newton_slow = False
+    sol.newton_eta = 0.0
     for i in range(n_stages):
         c_i = 1.0 if euler else c_vec[i]
         for k in range(nd):
@@ -441,37 +340,14 @@ def _implicit_step(
             v_prev = vecs[V_KV + i - 1]
             for k in range(nd):
                 pos[k] = sx[k] + hg * v_prev[k]
-        ok = _stage_solve(
-            hg,
-            t + c_i * h,
-            n_nodes,
-            pos,
-            vel,
-            node_s,
-            seg_rest,
-            seg_mat,
-            params,
-            enabled,
-            flow,
-            flow_cum,
-            needle,
-            vecs,
-            band,
-            piv,
-            work,
-            calls,
-            counters,
-            energies,
-            info,
-        )
-        if not ok:
+        if not _stage_solve(model, rod, state, ws, hg, t + c_i * h):
             return -1.0
         kv = vecs[V_KV + i]
         ka = vecs[V_KA + i]
         for k in range(nd):
             kv[k] = vel[k]
             ka[k] = acc[k]
-    if params[P_FIXED_STEP] > 0.0:  # a fixed step needs no error estimate
+    if p.fixed_step > 0.0:  # a fixed step needs no error estimate
         return 0.0
     if euler:  # predictor-corrector estimate
         for k in range(nd):
@@ -484,130 +360,55 @@ def _implicit_step(
             kv = vecs[V_KV + i]
             for k in range(nd):
                 evec[k] -= hb * kv[k]
-    return (
-        _filtered_norm(
-            hg,
-            t + h,
-            n_nodes,
-            pos,
-            vel,
-            seg_rest,
-            seg_mat,
-            params,
-            enabled,
-            vecs,
-            band,
-            band2,
-            piv,
-            work,
-            calls,
-            energies,
-        )
-        / scale
-    )
+    return _filtered_norm(model, rod, state, ws, hg, t + h) / scale
 
 
 @njit(cache=True)
-def _explicit_step(
-    h,
-    t,
-    n_nodes,
-    pos,
-    vel,
-    node_s,
-    seg_rest,
-    seg_mat,
-    params,
-    enabled,
-    flow,
-    flow_cum,
-    needle,
-    vecs,
-    band,
-    piv,
-    work,
-    calls,
-    counters,
-    energies,
-    info,
-) -> float:
-    """Forward Euler (overdamped) or symplectic Euler (inertial); returns 0, or -1."""
-    nd = 3 * free_nodes(n_nodes, params)
-    work[W_LU_VALID] = 0.0  # ``band`` is used below for another matrix
-    inertial = params[P_INERTIA] > 0.0
-    acc = vecs[V_ACC]
-    force = vecs[V_FORCE]
-    rhs = vecs[V_RHS]
-    pos0 = vecs[V_POS0]
-    vel0 = vecs[V_VEL0]
-    set_boundary(pos, vel, node_s, seg_rest, n_nodes, t, flow, flow_cum, needle, params, work)
-    if inertial:
+def explicit_step(model, rod, state, ws, h: float, t: float) -> float:
+    """Forward Euler (overdamped) or symplectic Euler (inertial); returns 0, or -1.
+
+    With h = 0 it gives an overdamped state its consistent velocity (D v = F)."""
+    p = model.params[0]
+    sol = ws.solver[0]
+    pos, vel, acc = rod.pos, rod.vel, rod.acc
+    nd = 3 * free_nodes(rod.n_nodes, p)
+    sol.lu_valid = False  # ``band`` is used below for another matrix
+    rhs = ws.vecs[V_RHS]
+    pos0 = ws.vecs[V_POS0]
+    vel0 = ws.vecs[V_VEL0]
+    out = _out(ws, ws.band)
+    force = out.force
+    set_boundary(model, rod, t, ws.scratch)
+    if p.inertial:
         for k in range(nd):
             acc[k] = 0.0
             vel[k] = vel0[k]
-        assemble(
-            pos,
-            vel,
-            acc,
-            n_nodes,
-            seg_rest,
-            seg_mat,
-            params,
-            t,
-            0.0,
-            0.0,
-            1.0,
-            force,
-            band,
-            work,
-            True,
-            enabled,
-            calls,
-            energies,
-        )
+        assemble(model, rod, Stage(t, 0.0, 0.0, 1.0, True), out, state.calls, state.energies)
         for k in range(nd):
             rhs[k] = force[k]
-        if band_lu(band, nd, KL, KU, piv) != 0:
-            info[1] = _worst_node(force, nd)
+        if not solver.factor(ws, nd):
+            state.info[1] = _worst_node(force, nd)
             return -1.0
-        band_solve(band, nd, KL, KU, piv, rhs)
+        solver.solve(ws, nd, rhs)
         for k in range(nd):
             vel[k] = vel0[k] + h * rhs[k]
             pos[k] = pos0[k] + h * vel[k]
         return 0.0
-    scale = params[P_TOLERANCE] * params[P_NODE_SPACING]
-    for _it in range(int(params[P_MAX_NEWTON])):
-        assemble(
-            pos,
-            vel,
-            acc,
-            n_nodes,
-            seg_rest,
-            seg_mat,
-            params,
-            t,
-            0.0,
-            1.0,
-            0.0,
-            force,
-            band,
-            work,
-            True,
-            enabled,
-            calls,
-            energies,
-        )
+    scale = p.tolerance * p.node_spacing
+    stage = Stage(t, 0.0, 1.0, 0.0, True)
+    for _it in range(p.max_newton):
+        assemble(model, rod, stage, out, state.calls, state.energies)
         for k in range(nd):
             rhs[k] = force[k]
-        if band_lu(band, nd, KL, KU, piv) != 0:
-            info[1] = _worst_node(force, nd)
+        if not solver.factor(ws, nd):
+            state.info[1] = _worst_node(force, nd)
             return -1.0
-        band_solve(band, nd, KL, KU, piv, rhs)
+        solver.solve(ws, nd, rhs)
         norm = 0.0
         for k in range(nd):
             vel[k] += rhs[k]
             norm += (h * rhs[k]) ** 2
-        if math.sqrt(norm / max(nd + work[W_NORM_EXTRA], 1.0)) / scale < params[P_NEWTON_TOL]:
+        if math.sqrt(norm / max(nd + sol.norm_extra, 1.0)) / scale < p.newton_tolerance:
             break
     for k in range(nd):
         pos[k] = pos0[k] + h * vel[k]
@@ -615,7 +416,7 @@ def _explicit_step(
 
 
 @njit(cache=True)
-def _max_strain_change(pos0, pos, seg_rest, n_nodes, params) -> float:
+def _max_strain_change(pos0, rod, p) -> float:
     """Largest change of a segment's length over the step, relative to its rest length;
     a strain beyond ``numerics.max_strain`` counts as a change beyond the bound.
 
@@ -625,8 +426,9 @@ def _max_strain_change(pos0, pos, seg_rest, n_nodes, params) -> float:
     more (very soft slugs, very fast jets) needs a larger ``numerics.max_strain``. The
     inlet segment is left out: its rest length grows during the step.
     """
+    pos, seg_rest = rod.pos, rod.seg_rest
     worst = 0.0
-    n_check = filament_segments(n_nodes, params) - (1 if params[P_CLAMPED] > 0.0 else 0)
+    n_check = filament_segments(rod.n_nodes, p) - (1 if p.clamped else 0)
     for j in range(n_check):
         a = 0.0
         b = 0.0
@@ -636,24 +438,25 @@ def _max_strain_change(pos0, pos, seg_rest, n_nodes, params) -> float:
         change = abs(math.sqrt(b) - math.sqrt(a)) / seg_rest[j]
         worst = max(worst, change)
         s_new = abs(math.sqrt(b) / seg_rest[j] - 1.0)
-        if s_new > params[P_MAX_STRAIN]:
+        if s_new > p.max_strain:
             # a strain beyond numerics.max_strain is reported as a change of the same
             # relative size, so the step is retried shorter
-            worst = max(worst, params[P_MAX_STRAIN_CHANGE] * s_new / params[P_MAX_STRAIN])
+            worst = max(worst, p.max_strain_change * s_new / p.max_strain)
     return worst
 
 
 @njit(cache=True)
-def _check_state(pos, vel, seg_rest, n_nodes, params, info) -> int:
+def _check_state(rod, p, info) -> int:
     """Non-finite values or stretch past the bound: a status code, with the node in info."""
-    nd = 3 * free_nodes(n_nodes, params)
+    pos, vel, seg_rest = rod.pos, rod.vel, rod.seg_rest
+    nd = 3 * free_nodes(rod.n_nodes, p)
     for k in range(nd):
         if not (np.isfinite(pos[k]) and np.isfinite(vel[k])):
             info[1] = k // 3
             info[2] = pos[k]
             return STATUS_NAN
-    limit = params[P_STRETCH_LIMIT]
-    for j in range(filament_segments(n_nodes, params)):
+    limit = p.stretch_limit
+    for j in range(filament_segments(rod.n_nodes, p)):
         ex = pos[3 * j + 3] - pos[3 * j]
         ey = pos[3 * j + 4] - pos[3 * j + 1]
         ez = pos[3 * j + 5] - pos[3 * j + 2]
@@ -666,7 +469,7 @@ def _check_state(pos, vel, seg_rest, n_nodes, params, info) -> int:
 
 
 @njit(cache=True)
-def _buckling_step(pos, seg_rest, seg_mat, n_nodes, params) -> float:
+def buckling_time(rod, p) -> float:
     """Time over which the fastest buckling mode of the most compressed segment grows by e:
     1 / sigma, where sigma is the largest root of m sigma^2 + 2 mu_s sigma = Delta with
     Delta = max_k (P k^2 - B k^4) = P^2 / (4 B) (P = E A |strain| the axial compression, B
@@ -674,10 +477,10 @@ def _buckling_step(pos, seg_rest, seg_mat, n_nodes, params) -> float:
     mass when inertia is on, else 0: sigma = P^2 / (8 B mu_s)). Implicit steps much longer
     than this damp a growing buckle (an L-stable stage maps h sigma >> 1 to decay) and hold a
     compressed rod straight; inf when nothing is compressed."""
-    mu_s = params[P_MU_S]
-    inertial = params[P_INERTIA] > 0.0
+    pos, seg_rest, seg_mat = rod.pos, rod.seg_rest, rod.seg_mat
+    mu_s = p.mu_s
     best = np.inf
-    for j in range(filament_segments(n_nodes, params)):
+    for j in range(filament_segments(rod.n_nodes, p)):
         ex = pos[3 * j + 3] - pos[3 * j]
         ey = pos[3 * j + 4] - pos[3 * j + 1]
         ez = pos[3 * j + 5] - pos[3 * j + 2]
@@ -689,12 +492,9 @@ def _buckling_step(pos, seg_rest, seg_mat, n_nodes, params) -> float:
         p_axial = e * seg_mat[j, MAT_STRETCH_FACTOR] * math.pi * r * r * (-strain)
         bend = e * seg_mat[j, MAT_BEND_FACTOR] * math.pi * r**4 / 4.0
         delta = p_axial * p_axial / (4.0 * bend)
-        if inertial:
+        if p.inertial:
             area = math.pi * r * r
-            m = area * (
-                seg_mat[j, MAT_DENSITY]
-                + params[P_ADDED_MASS_COEFFICIENT] * params[P_BATH_DENSITY_TOP]
-            )
+            m = area * (seg_mat[j, MAT_DENSITY] + p.added_mass_coefficient * p.bath_density_top)
             sigma = (math.sqrt(mu_s * mu_s + m * delta) - mu_s) / m
         else:
             sigma = delta / (2.0 * mu_s)
@@ -704,266 +504,210 @@ def _buckling_step(pos, seg_rest, seg_mat, n_nodes, params) -> float:
 
 
 @njit(cache=True)
-def _rests_on_floor(pos, seg_mat, node: int, params) -> bool:
+def _rests_on_floor(pos, seg_mat, node: int, p) -> bool:
     """Node within 5% of its radius of the floor contact height (z_floor + r)."""
     r = seg_mat[node, MAT_RADIUS]
-    return pos[3 * node + 2] <= params[P_FLOOR_Z] + 1.05 * r
+    return pos[3 * node + 2] <= p.floor_z + 1.05 * r
 
 
 @njit(cache=True)
-def advance(
-    t_end: float,
-    max_steps: int,
-    integrator: int,
-    pos: np.ndarray,
-    vel: np.ndarray,
-    node_s: np.ndarray,
-    seg_rest: np.ndarray,
-    seg_mat: np.ndarray,
-    istate: np.ndarray,
-    fstate: np.ndarray,
-    params: np.ndarray,
-    enabled: np.ndarray,
-    flow: np.ndarray,
-    flow_cum: np.ndarray,
-    needle: np.ndarray,
-    vecs: np.ndarray,
-    band: np.ndarray,
-    band2: np.ndarray,
-    piv: np.ndarray,
-    work: np.ndarray,
-    calls: np.ndarray,
-    counters: np.ndarray,
-    energies: np.ndarray,
-    info: np.ndarray,
-) -> int:
-    """Integrate from fstate[0] to t_end. istate = [n_nodes, n_splits, n_frozen];
-    fstate = [t, h_next].
+def _proposed_step(model, state) -> float:
+    """The next step: fixed, or the controller's, bounded by the largest step, the inlet's
+    growth (``numerics.max_inlet_growth`` node spacings) and the buckling rate."""
+    p = model.params[0]
+    if p.fixed_step > 0.0:
+        return p.fixed_step
+    t = state.clock[0]
+    h = min(state.clock[1], p.max_step)
+    qo, qi = flow_rate(model.flow, t)
+    v_exit = (qo + qi) / p.needle_area
+    if v_exit > 0.0 and p.clamped:
+        h = min(h, p.max_inlet_growth * p.node_spacing / v_exit)
+    if p.buckling_steps > 0.0:
+        f = state.ints[2]
+        n = state.ints[0]
+        rod = Rod(
+            state.pos[3 * f :],
+            state.vel[3 * f :],
+            state.vel[3 * f :],
+            n - f,
+            state.node_s[f:],
+            state.seg_rest[f:],
+            state.seg_mat[f:],
+        )
+        h = min(h, buckling_time(rod, p) / p.buckling_steps)
+    return h
 
-    The first n_frozen nodes (material more than params[P_FREEZE_BEYOND] behind the needle)
-    are out of the solve: each step works on array views that start at the first active
-    node, whose end is free, and the frozen nodes are translated with that node, so the
-    settled tail keeps its shape and stays attached at no cost per Newton iteration.
-    Returns a STATUS_* code; on failure ``info`` holds [time, node, value].
-    """
-    capacity = pos.shape[0] // 3
-    n_nodes = istate[0]
-    t = fstate[0]
-    fixed = params[P_FIXED_STEP]
-    h_min = params[P_MIN_STEP]
-    h_max = params[P_MAX_STEP]
-    dl = params[P_NODE_SPACING]
-    area = params[P_NEEDLE_AREA]
-    pos0 = vecs[V_POS0]
-    vel0 = vecs[V_VEL0]
-    freeze_beyond = params[P_FREEZE_BEYOND]
+
+@njit(cache=True)
+def _attempt(model, state, ws, h: float) -> tuple[float, bool]:
+    """Take one step of size h on the active rod; returns (scaled error, or -1 on failure;
+    whether a strain bound set the error)."""
+    p = model.params[0]
+    t = state.clock[0]
+    frozen = state.ints[2]
+    if frozen > 0 or ws.tail[0].on:
+        whole = active_rod(state, ws, 0)
+        gravity_on = model.enabled[E_GRAVITY] > 0
+        tail_load(model, whole, frozen, gravity_on, model.enabled[E_FLOOR] > 0, ws)
+    rod = active_rod(state, ws, frozen)
+    pos0 = ws.vecs[V_POS0]
+    vel0 = ws.vecs[V_VEL0]
+    for k in range(3 * rod.n_nodes):
+        pos0[k] = rod.pos[k]
+        vel0[k] = rod.vel[k]
+    state.info[0] = t
+    if p.integrator == INTEGRATOR_EXPLICIT:
+        err = explicit_step(model, rod, state, ws, h, t)
+    else:
+        err = _implicit_step(model, rod, state, ws, h, t)
+    strained = False
+    if err >= 0.0 and p.fixed_step <= 0.0:
+        # a jump in strain means Newton found a spurious (folded) branch: step back
+        jump = _max_strain_change(pos0, rod, p) / p.max_strain_change
+        if jump > 1.0:
+            strained = 16.0 * jump > err
+            err = max(err, 16.0 * jump)
+    if err < 0.0:
+        state.info[1] += frozen  # node numbers of the whole filament
+    return err, strained
+
+
+@njit(cache=True)
+def _reject(model, state, ws, h: float, err: float, strained: bool) -> int:
+    """Restore the state of the step's start and shrink the next step; a status code."""
+    p = model.params[0]
+    sol = ws.solver[0]
+    rod = active_rod(state, ws, state.ints[2])
+    pos0 = ws.vecs[V_POS0]
+    vel0 = ws.vecs[V_VEL0]
+    for k in range(3 * rod.n_nodes):
+        rod.pos[k] = pos0[k]
+        rod.vel[k] = vel0[k]
+    state.counters[C_REJECTED] += 1
+    if err < 0.0:
+        state.counters[C_NEWTON_FAILURES] += 1
+        sol.full_newton_steps = 20.0
+        sol.newton_eta = 0.0  # the contraction rate is no longer known
+        sol.newton_slow = True
+    t = state.clock[0]
+    if p.fixed_step > 0.0:
+        state.info[0] = t
+        state.counters[C_FAIL_NODE] = int(state.info[1])
+        return STATUS_NEWTON
+    if err < 0.0:
+        state.clock[1] = 0.25 * h
+    else:
+        state.clock[1] = h * max(0.2, 0.9 / _error_root(err, p.integrator))
+    if state.clock[1] < p.min_step:
+        state.info[0] = t
+        state.info[2] = state.clock[1]
+        if err < 0.0:
+            return STATUS_NEWTON
+        return STATUS_STRAIN if strained else STATUS_ERROR
+    return STATUS_OK
+
+
+@njit(cache=True)
+def _accept(model, state, ws, h: float, h_taken: float, err: float) -> int:
+    """After an accepted step: check the state, carry the curvature and the frozen tail
+    along, set the next step, give birth to nodes at the inlet, update the material, and
+    freeze settled material. A status code."""
+    p = model.params[0]
+    enabled = model.enabled
+    sol = ws.solver[0]
+    frozen = state.ints[2]
+    rod = active_rod(state, ws, frozen)
+    pos0 = ws.vecs[V_POS0]
+    t = state.clock[0] + h_taken
+    state.clock[0] = t
+    if sol.full_newton_steps > 0.0:
+        sol.full_newton_steps -= 1.0
+    state.counters[C_STEPS] += 1
+    state.info[0] = t
+    status = _check_state(rod, p, state.info)
+    if status != STATUS_OK:
+        state.info[1] += frozen
+        return status
+    transport_curvature(pos0, rod.pos, filament_segments(rod.n_nodes, p), rod.seg_mat)
     on_floor = enabled[E_FLOOR] > 0  # only material resting on the floor freezes
-    n_moving = 2 if on_floor else 3  # a frozen tail on the floor slides, at its height
-    steps = 0
+    if frozen > 0:  # the frozen tail moves with the active end, rigidly
+        n_moving = 2 if on_floor else 3  # a frozen tail on the floor slides, at its height
+        for c in range(n_moving):
+            d = rod.pos[c] - pos0[c]
+            for j in range(frozen):
+                state.pos[3 * j + c] += d
+                state.vel[3 * j + c] = rod.vel[c]
+    if p.fixed_step <= 0.0 and h_taken >= 0.999 * h:
+        state.clock[1] = h * min(5.0, 0.9 / _error_root(max(err, 1e-10), p.integrator))
+    s_tip = extruded_length(model.flow, model.flow_cum, p.needle_area, t)
+    capacity = state.pos.shape[0] // 3
+    whole = active_rod(state, ws, 0)
+    while (
+        p.clamped
+        and s_tip - state.node_s[state.ints[0] - 3] >= 2.0 * p.node_spacing
+        and state.ints[0] + 1 <= capacity
+    ):
+        set_boundary(model, whole, t, ws.scratch)
+        state.ints[0] = split_inlet(model, whole, t, state.ints[1], ws.scratch)
+        whole = active_rod(state, ws, 0)
+        state.ints[1] += 1
+        state.counters[C_SPLITS] += 1
+        sol.lu_valid = False  # the unknowns changed
+        if enabled[E_INCLUSIONS]:
+            state.calls[E_INCLUSIONS] += 1
+    set_boundary(model, whole, t, ws.scratch)
+    refresh_inlet_material(model, whole, t, ws.scratch)
+    if enabled[E_GELATION]:
+        state.calls[E_GELATION] += 1
+        gelation.update(model, whole, t, ws.scratch)
+    if p.freeze_beyond > 0.0 and p.clamped:
+        limit = s_tip - p.freeze_beyond
+        while (
+            state.ints[0] - frozen > MIN_ACTIVE_NODES
+            and state.node_s[frozen] < limit
+            and (not on_floor or _rests_on_floor(state.pos, state.seg_mat, frozen, p))
+        ):
+            if on_floor:
+                state.vel[3 * frozen + 2] = 0.0
+            frozen += 1
+            sol.lu_valid = False  # the unknowns changed
+        state.ints[2] = frozen
+    return STATUS_OK
+
+
+@njit(cache=True)
+def advance(model, state, ws, t_end: float, max_steps: int) -> int:
+    """Integrate from ``state.clock[0]`` to t_end; returns a STATUS_* code (on failure
+    ``state.info`` holds [time, node, value]).
+
+    The first ``state.ints[2]`` nodes (material further than ``numerics.freeze_beyond_mm``
+    behind the needle) are out of the solve: each step works on array views that start at
+    the first active node, whose end is free, and the frozen nodes are translated with it,
+    so the settled tail keeps its shape and stays attached at no cost per Newton iteration.
+    """
+    capacity = state.pos.shape[0] // 3
     eps = 1e-12 * max(1.0, abs(t_end))
-    while t < t_end - eps:
+    steps = 0
+    while state.clock[0] < t_end - eps:
         if steps >= max_steps:
-            fstate[0] = t
-            istate[0] = n_nodes
             return STATUS_STEP_LIMIT
-        if n_nodes + 2 > capacity:
-            fstate[0] = t
-            istate[0] = n_nodes
+        if state.ints[0] + 2 > capacity:
             return STATUS_CAPACITY
-        if fixed > 0.0:
-            h = fixed
-        else:
-            h = min(fstate[1], h_max)
-            qo, qi = flow_rate(flow, t)
-            v_exit = (qo + qi) / area
-            if v_exit > 0.0 and params[P_CLAMPED] > 0.0:
-                h = min(h, params[P_MAX_INLET_GROWTH] * dl / v_exit)
-            if params[P_BUCKLING_STEPS] > 0.0:
-                f = istate[2]
-                h = min(
-                    h,
-                    _buckling_step(pos[3 * f :], seg_rest[f:], seg_mat[f:], n_nodes - f, params)
-                    / params[P_BUCKLING_STEPS],
-                )
+        t = state.clock[0]
+        h = _proposed_step(model, state)
         h_taken = min(h, t_end - t)
         if t_end - t - h_taken < 1e-3 * h_taken:
             h_taken = t_end - t
-        # views of the active part (no copies): node `frozen` is its free end
-        frozen = istate[2]
-        if frozen > 0 or work[W_TAIL] > 0.0:
-            tail_load(
-                pos, seg_rest, seg_mat, frozen, params, enabled[E_GRAVITY] > 0, on_floor, work
-            )
-        n_act = n_nodes - frozen
-        a_pos = pos[3 * frozen :]
-        a_vel = vel[3 * frozen :]
-        a_node_s = node_s[frozen:]
-        a_seg_rest = seg_rest[frozen:]
-        a_seg_mat = seg_mat[frozen:]
-        nall = 3 * n_act
-        for k in range(nall):
-            pos0[k] = a_pos[k]
-            vel0[k] = a_vel[k]
-        info[0] = t
-        if integrator == INTEGRATOR_EXPLICIT:
-            err = _explicit_step(
-                h_taken,
-                t,
-                n_act,
-                a_pos,
-                a_vel,
-                a_node_s,
-                a_seg_rest,
-                a_seg_mat,
-                params,
-                enabled,
-                flow,
-                flow_cum,
-                needle,
-                vecs,
-                band,
-                piv,
-                work,
-                calls,
-                counters,
-                energies,
-                info,
-            )
-        else:
-            err = _implicit_step(
-                h_taken,
-                t,
-                n_act,
-                integrator,
-                a_pos,
-                a_vel,
-                a_node_s,
-                a_seg_rest,
-                a_seg_mat,
-                params,
-                enabled,
-                flow,
-                flow_cum,
-                needle,
-                vecs,
-                band,
-                band2,
-                piv,
-                work,
-                calls,
-                counters,
-                energies,
-                info,
-            )
-        strained = False
-        if err >= 0.0 and fixed <= 0.0:
-            # a jump in strain means Newton found a spurious (folded) branch: step back
-            jump = (
-                _max_strain_change(pos0, a_pos, a_seg_rest, n_act, params)
-                / params[P_MAX_STRAIN_CHANGE]
-            )
-            if jump > 1.0:
-                strained = 16.0 * jump > err
-                err = max(err, 16.0 * jump)
-        if err < 0.0:
-            info[1] += frozen  # node numbers of the whole filament
-        if err < 0.0 or (fixed <= 0.0 and err > 1.0):
-            for k in range(nall):
-                a_pos[k] = pos0[k]
-                a_vel[k] = vel0[k]
-            counters[C_REJECTED] += 1
-            if err < 0.0:
-                counters[C_NEWTON_FAILURES] += 1
-                work[W_FULL_NEWTON_STEPS] = 20.0
-                work[W_NEWTON_ETA] = 0.0  # the contraction rate is no longer known
-                work[W_NEWTON_SLOW] = 1.0
-            if fixed > 0.0:
-                info[0] = t
-                counters[C_FAIL_NODE] = int(info[1])
-                fstate[0] = t
-                istate[0] = n_nodes
-                return STATUS_NEWTON
-            if err < 0.0:
-                fstate[1] = 0.25 * h_taken
-            else:
-                fstate[1] = h_taken * max(0.2, 0.9 / _error_root(err, integrator))
-            if fstate[1] < h_min:
-                info[0] = t
-                info[2] = fstate[1]
-                fstate[0] = t
-                istate[0] = n_nodes
-                if err < 0.0:
-                    return STATUS_NEWTON
-                return STATUS_STRAIN if strained else STATUS_ERROR
+        err, strained = _attempt(model, state, ws, h_taken)
+        if err < 0.0 or (model.params[0].fixed_step <= 0.0 and err > 1.0):
+            status = _reject(model, state, ws, h_taken, err, strained)
+            if status != STATUS_OK:
+                return status
             continue
-        t += h_taken
         steps += 1
-        if work[W_FULL_NEWTON_STEPS] > 0.0:
-            work[W_FULL_NEWTON_STEPS] -= 1.0
-        counters[C_STEPS] += 1
-        info[0] = t
-        status = _check_state(a_pos, a_vel, a_seg_rest, n_act, params, info)
+        status = _accept(model, state, ws, h, h_taken, err)
         if status != STATUS_OK:
-            info[1] += frozen
-            fstate[0] = t
-            istate[0] = n_nodes
             return status
-        transport_curvature(pos0, a_pos, filament_segments(n_act, params), a_seg_mat)
-        if frozen > 0:  # the frozen tail moves with the active end, rigidly
-            for c in range(n_moving):
-                d = a_pos[c] - pos0[c]
-                for j in range(frozen):
-                    pos[3 * j + c] += d
-                    vel[3 * j + c] = a_vel[c]
-        if fixed <= 0.0 and h_taken >= 0.999 * h:
-            fstate[1] = h * min(5.0, 0.9 / _error_root(max(err, 1e-10), integrator))
-        s_tip = extruded_length(flow, flow_cum, area, t)
-        while (
-            params[P_CLAMPED] > 0.0
-            and s_tip - node_s[n_nodes - 3] >= 2.0 * dl
-            and n_nodes + 1 <= capacity
-        ):
-            set_boundary(
-                pos, vel, node_s, seg_rest, n_nodes, t, flow, flow_cum, needle, params, work
-            )
-            n_nodes = split_inlet(
-                pos,
-                vel,
-                node_s,
-                seg_rest,
-                seg_mat,
-                n_nodes,
-                t,
-                flow,
-                flow_cum,
-                needle,
-                params,
-                istate[1],
-                work,
-            )
-            istate[1] += 1
-            counters[C_SPLITS] += 1
-            work[W_LU_VALID] = 0.0  # the unknowns changed
-            if enabled[E_INCLUSIONS]:
-                calls[E_INCLUSIONS] += 1
-        set_boundary(pos, vel, node_s, seg_rest, n_nodes, t, flow, flow_cum, needle, params, work)
-        refresh_inlet_material(node_s, seg_mat, n_nodes, t, flow, flow_cum, needle, params, work)
-        if enabled[E_GELATION]:
-            calls[E_GELATION] += 1
-            gelation.update(t, n_nodes, pos, seg_rest, seg_mat, params, work)
-        if freeze_beyond > 0.0 and params[P_CLAMPED] > 0.0:
-            frozen = istate[2]
-            limit = s_tip - freeze_beyond
-            while (
-                n_nodes - frozen > MIN_ACTIVE_NODES
-                and node_s[frozen] < limit
-                and (not on_floor or _rests_on_floor(pos, seg_mat, frozen, params))
-            ):
-                if on_floor:
-                    vel[3 * frozen + 2] = 0.0
-                frozen += 1
-                work[W_LU_VALID] = 0.0  # the unknowns changed
-            istate[2] = frozen
-    fstate[0] = t_end
-    istate[0] = n_nodes
+    state.clock[0] = t_end
     return STATUS_OK

@@ -1,11 +1,13 @@
-"""Index layout of the flat arrays that the numba kernels share.
+"""Layout of the arrays and records the numba kernels share.
 
-The compiled model is a handful of flat float64 arrays (see :mod:`bathprint.core.model`).
-Kernels address them through the integer constants below, so that every effect
-has the same signature and nothing but arrays crosses into numba.
+The scalar parameters of a model and the stepper's memory are numpy structured records
+(fields by name, see :mod:`bathprint.core.records`); per-segment material records and the
+counters are plain arrays addressed by the integer constants below.
 """
 
 from __future__ import annotations
+
+import numpy as np
 
 # --- material record: one row per segment (``seg_mat[j, COL]``) -------------------
 MAT_BIRTH_TIME = 0  # s, time the segment's material centre left the needle
@@ -37,58 +39,60 @@ MATERIAL_COLUMNS = (
     "inclusion_spacing_m",
 )
 
-# --- scalar parameters (``params[P_*]``) -------------------------------------------
-P_GRAVITY = 0  # m/s^2, magnitude; gravity points along -z
-P_BATH_DENSITY_TOP = 1  # kg/m^3 at the free surface
-P_BATH_DENSITY_GRADIENT = 2  # kg/m^3 per m of depth (>= 0: denser below)
-P_BATH_SURFACE_Z = 3  # m
-P_MU_S = 4  # Pa s, slender-body drag coefficient (tangential; normal is 2 mu_s)
-P_FLOW_X = 5  # m/s, uniform bath flow velocity
-P_FLOW_Y = 6
-P_FLOW_Z = 7
-P_FLOOR_Z = 8  # m
-P_FLOOR_STIFFNESS = 9  # Pa (force per length per penetration depth)
-P_FRICTION_COEFFICIENT = 10  # -
-P_FRICTION_VELOCITY = 11  # m/s, regularisation of Coulomb friction
-P_ADDED_MASS_COEFFICIENT = 12  # -, transverse added mass C_a rho_bath A
-P_END_LOAD_X = 13  # N, dead load on the free end
-P_END_LOAD_Y = 14
-P_END_LOAD_Z = 15
-P_NODE_SPACING = 16  # m, target rest length of a segment
-P_NEEDLE_AREA = 17  # m^2, pi d^2 / 4
-P_EXIT_YOUNGS_MODULUS = 18  # Pa, modulus of material as it leaves the needle
-P_EXIT_RADIUS = 19  # m
-P_EXIT_DENSITY = 20  # kg/m^3
-P_TOLERANCE = 21  # -, local error per step relative to the node spacing
-P_FIXED_STEP = 22  # s, > 0 selects fixed steps
-P_MIN_STEP = 23  # s
-P_MAX_STEP = 24  # s
-P_STRETCH_LIMIT = 25  # -, |l/l0 - 1| above this is divergence
-P_NEWTON_TOL = 26  # -, Newton update norm (in units of the error tolerance)
-P_MAX_NEWTON = 27  # -, iterations per stage
-P_INERTIA = 28  # 1.0 when the state carries velocities
-P_IMPERFECTION = 29  # m, transverse offset amplitude given to each node born at the needle
-P_SEED = 30  # -, seed of the (counter-based, chunking-independent) imperfections
-P_INITIAL_AGE = 31  # s, age of the material of the initial filament at t = 0
-P_MAX_STRAIN_CHANGE = 32  # -, adaptive steps changing a segment's strain more are rejected
-P_MAX_INLET_GROWTH = 33  # -, node spacings the inlet may grow in one adaptive step
-P_CLAMPED = 34  # 1: the filament hangs from the needle (tip and ghost prescribed); 0: free
-P_GELATION = 35  # 1 when the gelation effect is listed
-P_GEL_INITIAL_MODULUS = 36  # Pa, E of gel at age 0
-P_GEL_FINAL_MODULUS = 37  # Pa, E of fully set gel
-P_GEL_RATE = 38  # 1/s, k
-P_CURVATURE_MEMORY = 39  # 1: natural curvature follows the current one as the gel sets
-P_INCLUSIONS = 40  # 1 when the inclusions effect is listed
-P_INNER_DENSITY = 41  # kg/m^3
-P_INCLUSION_OFFSET = 42  # -, Delta = (r1 - r2) / r
-P_OFFSET_ANGLE = 43  # rad, direction of the offset around the needle axis
-P_CURVATURE_COEFFICIENT = 44  # -, kappa0 = C Delta phi / r
-P_SLUG_FRACTION = 45  # -, droplets wider than this fraction of the filament diameter are slugs
-P_NEWTON_REUSE = 46  # 1: modified Newton (reuse the factorised Jacobian within a step)
-P_MAX_STRAIN = 47  # -, adaptive steps ending with a larger |l/l0 - 1| are retried shorter
-P_FREEZE_BEYOND = 48  # m, material further behind the needle is frozen (0: off)
-P_BUCKLING_STEPS = 49  # -, adaptive steps per e-folding of the fastest buckling mode (0: off)
-N_PARAMS = 50
+# --- scalar parameters: one record (``model.params[0]``, a numpy structured scalar) ------
+# Kernels read them by name (``p = model.params[0]; p.mu_s``); Python reads and writes the
+# same fields through ``Model.p`` (``sim.model.p.fixed_step = 1e-3``). SI units throughout.
+PARAMS_FIELDS: tuple[tuple[str, str, str], ...] = (
+    # (name, numpy type, meaning and unit)
+    ("gravity", "f8", "m/s^2, magnitude; gravity points along -z"),
+    ("bath_density_top", "f8", "kg/m^3 at the free surface"),
+    ("bath_density_gradient", "f8", "kg/m^3 per m of depth (>= 0: denser below)"),
+    ("bath_surface_z", "f8", "m"),
+    ("mu_s", "f8", "Pa s, slender-body drag coefficient (tangential; normal is 2 mu_s)"),
+    ("bath_flow", "3f8", "m/s, uniform bath flow velocity"),
+    ("floor_z", "f8", "m"),
+    ("floor_stiffness", "f8", "Pa, force per length per penetration depth"),
+    ("friction_coefficient", "f8", "-, Coulomb coefficient of the floor"),
+    ("friction_velocity", "f8", "m/s, regularisation of Coulomb friction"),
+    ("added_mass_coefficient", "f8", "-, transverse added mass C_a rho_bath A"),
+    ("end_load", "3f8", "N, dead load on the free end"),
+    ("node_spacing", "f8", "m, target rest length of a segment"),
+    ("needle_area", "f8", "m^2, pi d^2 / 4"),
+    ("exit_youngs_modulus", "f8", "Pa, modulus of material as it leaves the needle"),
+    ("exit_radius", "f8", "m"),
+    ("exit_density", "f8", "kg/m^3"),
+    ("tolerance", "f8", "-, local error per step relative to the node spacing"),
+    ("fixed_step", "f8", "s, > 0 selects fixed steps"),
+    ("min_step", "f8", "s"),
+    ("max_step", "f8", "s"),
+    ("stretch_limit", "f8", "-, |l/l0 - 1| above this is divergence"),
+    ("newton_tolerance", "f8", "-, Newton update norm in units of the error tolerance"),
+    ("max_newton", "i8", "-, Newton iterations per stage"),
+    ("inertial", "?", "the state carries velocities (the inertia effect is listed)"),
+    ("imperfection", "f8", "m, transverse offset given to each node born at the needle"),
+    ("seed", "i8", "-, seed of the (counter-based, chunking-independent) imperfections"),
+    ("initial_age", "f8", "s, age of the material of the initial filament at t = 0"),
+    ("max_strain_change", "f8", "-, adaptive steps changing a segment's strain more are retried"),
+    ("max_inlet_growth", "f8", "-, node spacings the inlet may grow in one adaptive step"),
+    ("clamped", "?", "the filament hangs from the needle (tip and ghost prescribed)"),
+    ("gelation", "?", "the gelation effect is listed"),
+    ("gel_initial_modulus", "f8", "Pa, E of gel at age 0"),
+    ("gel_final_modulus", "f8", "Pa, E of fully set gel"),
+    ("gel_rate", "f8", "1/s, crosslinking rate k"),
+    ("curvature_memory", "?", "natural curvature follows the current one as the gel sets"),
+    ("inclusions", "?", "the inclusions effect is listed"),
+    ("inner_density", "f8", "kg/m^3 of the co-extruded inner fluid"),
+    ("inclusion_offset", "f8", "-, Delta = (r1 - r2) / r"),
+    ("offset_angle", "f8", "rad, direction of the offset around the needle axis"),
+    ("curvature_coefficient", "f8", "-, kappa0 = C Delta phi / r"),
+    ("slug_fraction", "f8", "-, drops wider than this fraction of the diameter are slugs"),
+    ("newton_reuse", "?", "modified Newton (reuse the factorised Jacobian)"),
+    ("max_strain", "f8", "-, adaptive steps ending with a larger |l/l0 - 1| are retried"),
+    ("freeze_beyond", "f8", "m, material further behind the needle is frozen (0: off)"),
+    ("buckling_steps", "f8", "-, adaptive steps per e-folding of the fastest buckling mode"),
+    ("integrator", "i8", "-, one of INTEGRATOR_*"),
+)
+PARAMS_DTYPE = np.dtype([(name, kind) for name, kind, _ in PARAMS_FIELDS])
 
 # --- effects ------------------------------------------------------------------------
 E_ELASTICITY = 0
@@ -156,24 +160,24 @@ KL = 8
 KU = 8
 BAND_WIDTH = 2 * KL + KU + 1
 
-# slot of the scratch array ``work`` that says the LU in ``band`` matches the current h gamma
-W_LU_VALID = 390
-# slot counting accepted steps still to take with full Newton after a Newton failure
-W_FULL_NEWTON_STEPS = 391
-# slot with the Newton contraction estimate eta = theta / (1 - theta) measured in the current
-# step (0: not yet, taken as 1); it lets the step's later stages stop after one iteration
-W_NEWTON_ETA = 392
-# h gamma and the size of the factorised Jacobian in ``band`` (reused by the next step when
-# both match and Newton contracted fast: see integrators._implicit_step)
-W_LU_HG = 393
-W_LU_ND = 394
-# 1 if a stage of the current step measured a Newton contraction slower than REUSE_THETA
-W_NEWTON_SLOW = 395
-# 13 slots from here: the frozen tail's lumped load (bathprint.core.freezing)
-W_TAIL = 400
-# degrees of freedom of the frozen tail: error and Newton norms are RMS over the whole
-# filament (frozen nodes contribute zero), so freezing does not tighten the step control
-W_NORM_EXTRA = 413
-# the frozen tail on the floor: its supported weight (N) and the floor-mode flag
-W_TAIL_NORMAL = 414
-W_TAIL_ON_FLOOR = 415
+# --- what the stepper remembers between steps: one record (``ws.solver[0]``) -----------
+SOLVER_FIELDS: tuple[tuple[str, str, str], ...] = (
+    ("lu_valid", "?", "the LU in ``band`` matches the current h gamma and unknowns"),
+    ("full_newton_steps", "f8", "accepted steps still to take with full Newton after a failure"),
+    ("newton_eta", "f8", "Newton contraction eta = theta / (1 - theta) of this step (0: none)"),
+    ("lu_hg", "f8", "s, h gamma of the factorised Jacobian"),
+    ("lu_nd", "i8", "unknowns of the factorised Jacobian"),
+    ("newton_slow", "?", "a stage of this step contracted slower than REUSE_THETA"),
+    ("norm_extra", "f8", "degrees of freedom of the frozen tail, counted in the RMS norms"),
+)
+SOLVER_DTYPE = np.dtype([(name, kind) for name, kind, _ in SOLVER_FIELDS])
+
+# --- the frozen tail's lumped load (bathprint.core.freezing): one record (``ws.tail[0]``) ---
+TAIL_FIELDS: tuple[tuple[str, str, str], ...] = (
+    ("on", "?", "a tail is frozen"),
+    ("force", "3f8", "N, its net weight and the drag of the bath's flow on it"),
+    ("drag", "(3,3)f8", "N s/m, its drag tensor: force -drag (v - u_bath) at the active end"),
+    ("normal", "f8", "N, the weight the floor carries (floor mode)"),
+    ("on_floor", "?", "the tail rests on the floor and slides at its height"),
+)
+TAIL_DTYPE = np.dtype([(name, kind) for name, kind, _ in TAIL_FIELDS])

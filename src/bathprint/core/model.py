@@ -13,6 +13,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from bathprint.core import layout as L
+from bathprint.core import records
 from bathprint.core.composite import INNER_FLUIDS
 from bathprint.core.scene import ACCURACY_PRESETS, Scene, flow_rows
 from bathprint.errors import SceneError
@@ -23,36 +24,55 @@ MM = 1e-3  # m per mm
 
 @dataclass
 class Model:
-    """Static, compiled description of a scene (SI units throughout)."""
+    """Static, compiled description of a scene (SI units throughout).
+
+    ``params`` is the scalar-parameter record (``layout.PARAMS_DTYPE``); :attr:`p` reads and
+    writes its fields by name (``model.p.mu_s``), and :attr:`record` is the numba-side
+    :class:`bathprint.core.records.Model` the kernels take.
+    """
 
     scene: Scene
-    params: np.ndarray  # (N_PARAMS,) float64
+    params: np.ndarray  # (1,) PARAMS_DTYPE
     enabled: np.ndarray  # (N_EFFECTS,) int64, 1 for the effects the scene lists
     flow: np.ndarray  # (K, 3): t_s, q_outer_m3_s, q_inner_m3_s
     flow_cum: np.ndarray  # (K, 2): extruded length S (m) and inner volume (m^3) at each knot
     needle: np.ndarray  # (M, 7): t_s, position (m), direction
-    integrator: int
+
+    @property
+    def p(self) -> np.record:
+        """The parameters by name, as a writable view (``model.p.fixed_step = 1e-3``)."""
+        return self.params.view(np.recarray)[0]
+
+    @property
+    def record(self) -> records.Model:
+        """The arrays the kernels take."""
+        return records.Model(self.params, self.enabled, self.flow, self.flow_cum, self.needle)
+
+    @property
+    def integrator(self) -> int:
+        return int(self.params[0]["integrator"])
 
     @property
     def node_spacing(self) -> float:
-        return float(self.params[L.P_NODE_SPACING])
+        return float(self.params[0]["node_spacing"])
 
     @property
     def needle_area(self) -> float:
-        return float(self.params[L.P_NEEDLE_AREA])
+        return float(self.params[0]["needle_area"])
 
     @property
     def radius(self) -> float:
-        return float(self.params[L.P_EXIT_RADIUS])
+        return float(self.params[0]["exit_radius"])
 
     @property
     def mu_s(self) -> float:
-        return float(self.params[L.P_MU_S])
+        return float(self.params[0]["mu_s"])
 
     @property
     def bending_stiffness(self) -> float:
         """B = E pi r^4 / 4 of the exit material (N m^2)."""
-        return float(self.params[L.P_EXIT_YOUNGS_MODULUS] * math.pi * self.radius**4 / 4)
+        e = float(self.params[0]["exit_youngs_modulus"])
+        return float(e * math.pi * self.radius**4 / 4)
 
     def exit_speed(self, t: float = 0.0) -> float:
         """v = (Q_o + Q_i) / (pi d^2 / 4) at time t (m/s)."""
@@ -159,77 +179,78 @@ def _freeze_beyond(scene: Scene, node_spacing_mm: float) -> float:
 
 def compile_model(scene: Scene) -> Model:
     """Turn a validated scene into the arrays of a :class:`Model`."""
-    p = np.zeros(L.N_PARAMS)
+    params = records.new_params()
+    p = params.view(np.recarray)[0]
     d = scene.needle.inner_diameter_mm * MM
     area = math.pi * d * d / 4.0
     radius = (scene.material.radius_mm or scene.needle.inner_diameter_mm / 2.0) * MM
     depth = scene.bath.depth_mm * MM
-    p[L.P_GRAVITY] = scene.bath.gravity_m_s2
-    p[L.P_BATH_DENSITY_TOP] = scene.bath.density_kg_m3
+    p.gravity = scene.bath.gravity_m_s2
+    p.bath_density_top = scene.bath.density_kg_m3
     bottom = scene.bath.density_bottom_kg_m3
-    p[L.P_BATH_DENSITY_GRADIENT] = (bottom - scene.bath.density_kg_m3) / depth if bottom else 0.0
-    p[L.P_BATH_SURFACE_Z] = 0.0
-    p[L.P_MU_S] = slender_body_coefficient(scene, radius)
-    p[L.P_FLOW_X : L.P_FLOW_X + 3] = np.array(scene.bath.flow_velocity_mm_s) * MM
-    p[L.P_FLOOR_Z] = -depth
-    p[L.P_FLOOR_STIFFNESS] = scene.floor.stiffness_pa
-    p[L.P_FRICTION_COEFFICIENT] = scene.floor.friction_coefficient
-    p[L.P_FRICTION_VELOCITY] = scene.floor.friction_velocity_mm_s * MM
-    p[L.P_ADDED_MASS_COEFFICIENT] = scene.inertia.added_mass_coefficient
-    p[L.P_END_LOAD_X : L.P_END_LOAD_X + 3] = scene.end_load.force_n
+    p.bath_density_gradient = (bottom - scene.bath.density_kg_m3) / depth if bottom else 0.0
+    p.bath_surface_z = 0.0
+    p.mu_s = slender_body_coefficient(scene, radius)
+    p.bath_flow = np.array(scene.bath.flow_velocity_mm_s) * MM
+    p.floor_z = -depth
+    p.floor_stiffness = scene.floor.stiffness_pa
+    p.friction_coefficient = scene.floor.friction_coefficient
+    p.friction_velocity = scene.floor.friction_velocity_mm_s * MM
+    p.added_mass_coefficient = scene.inertia.added_mass_coefficient
+    p.end_load = scene.end_load.force_n
     num = effective_numerics(scene)
-    p[L.P_NODE_SPACING] = num["node_spacing_mm"] * MM
-    p[L.P_NEEDLE_AREA] = area
-    p[L.P_EXIT_YOUNGS_MODULUS] = scene.material.youngs_modulus_pa
-    p[L.P_EXIT_RADIUS] = radius
-    p[L.P_EXIT_DENSITY] = scene.material.density_kg_m3
-    p[L.P_TOLERANCE] = num["tolerance"]
-    p[L.P_FIXED_STEP] = scene.numerics.time_step_s
-    p[L.P_MIN_STEP] = scene.numerics.min_step_s
-    p[L.P_MAX_STEP] = scene.numerics.max_step_s
-    p[L.P_STRETCH_LIMIT] = scene.numerics.stretch_limit
-    p[L.P_MAX_STRAIN_CHANGE] = scene.numerics.max_strain_change
-    p[L.P_MAX_STRAIN] = scene.numerics.max_strain
-    p[L.P_MAX_INLET_GROWTH] = num["max_inlet_growth"]
-    p[L.P_CLAMPED] = 1.0
-    p[L.P_FREEZE_BEYOND] = _freeze_beyond(scene, num["node_spacing_mm"]) * MM
-    p[L.P_BUCKLING_STEPS] = scene.numerics.buckling_steps
+    p.node_spacing = num["node_spacing_mm"] * MM
+    p.needle_area = area
+    p.exit_youngs_modulus = scene.material.youngs_modulus_pa
+    p.exit_radius = radius
+    p.exit_density = scene.material.density_kg_m3
+    p.tolerance = num["tolerance"]
+    p.fixed_step = scene.numerics.time_step_s
+    p.min_step = scene.numerics.min_step_s
+    p.max_step = scene.numerics.max_step_s
+    p.stretch_limit = scene.numerics.stretch_limit
+    p.max_strain_change = scene.numerics.max_strain_change
+    p.max_strain = scene.numerics.max_strain
+    p.max_inlet_growth = num["max_inlet_growth"]
+    p.clamped = True
+    p.freeze_beyond = _freeze_beyond(scene, num["node_spacing_mm"]) * MM
+    p.buckling_steps = scene.numerics.buckling_steps
     gel = scene.gelation
     if "gelation" in scene.effects and gel.final_modulus_pa < gel.initial_modulus_pa:
         raise SceneError(
             f"gelation.final_modulus_pa = {gel.final_modulus_pa!r} is below "
             f"gelation.initial_modulus_pa = {gel.initial_modulus_pa!r}; gel only stiffens"
         )
-    p[L.P_GELATION] = 1.0 if "gelation" in scene.effects else 0.0
-    p[L.P_GEL_INITIAL_MODULUS] = gel.initial_modulus_pa
-    p[L.P_GEL_FINAL_MODULUS] = gel.final_modulus_pa
-    p[L.P_GEL_RATE] = gel.rate_1_s
-    p[L.P_CURVATURE_MEMORY] = 1.0 if gel.curvature_memory else 0.0
+    p.gelation = "gelation" in scene.effects
+    p.gel_initial_modulus = gel.initial_modulus_pa
+    p.gel_final_modulus = gel.final_modulus_pa
+    p.gel_rate = gel.rate_1_s
+    p.curvature_memory = bool(gel.curvature_memory)
     inc = scene.inclusions
-    p[L.P_INCLUSIONS] = 1.0 if "inclusions" in scene.effects else 0.0
+    p.inclusions = "inclusions" in scene.effects
     fluid = INNER_FLUIDS[inc.fluid]
-    p[L.P_INNER_DENSITY] = (
+    p.inner_density = (
         inc.ferrofluid_density_kg_m3 if inc.fluid == "ferrofluid" else fluid.density_kg_m3
     )
-    p[L.P_INCLUSION_OFFSET] = inc.offset
-    p[L.P_OFFSET_ANGLE] = math.radians(inc.offset_angle_deg)
-    p[L.P_CURVATURE_COEFFICIENT] = inc.curvature_coefficient
-    p[L.P_SLUG_FRACTION] = inc.slug_fraction
-    p[L.P_NEWTON_TOL] = scene.numerics.newton_tolerance
-    p[L.P_MAX_NEWTON] = scene.numerics.max_newton_iterations
-    p[L.P_NEWTON_REUSE] = 1.0 if scene.numerics.newton == "modified" else 0.0
-    p[L.P_INERTIA] = 1.0 if "inertia" in scene.effects else 0.0
-    p[L.P_IMPERFECTION] = scene.needle.imperfection_um * 1e-6
-    p[L.P_SEED] = scene.seed
-    p[L.P_INITIAL_AGE] = scene.initial.age_s
+    p.inclusion_offset = inc.offset
+    p.offset_angle = math.radians(inc.offset_angle_deg)
+    p.curvature_coefficient = inc.curvature_coefficient
+    p.slug_fraction = inc.slug_fraction
+    p.newton_tolerance = scene.numerics.newton_tolerance
+    p.max_newton = scene.numerics.max_newton_iterations
+    p.newton_reuse = scene.numerics.newton == "modified"
+    p.inertial = "inertia" in scene.effects
+    p.imperfection = scene.needle.imperfection_um * 1e-6
+    p.seed = scene.seed
+    p.initial_age = scene.initial.age_s
+    p.integrator = L.INTEGRATOR_NAMES.index(scene.numerics.integrator)
     enabled = np.array([1 if e in scene.effects else 0 for e in L.EFFECT_NAMES], dtype=np.int64)
     flow = _flow_table(scene)
     return Model(
         scene=scene,
-        params=p,
+        params=params,
         enabled=enabled,
         flow=flow,
         flow_cum=flow_cumulative(flow, area),
         needle=_needle_table(scene),
-        integrator=L.INTEGRATOR_NAMES.index(scene.numerics.integrator),
     )

@@ -161,7 +161,7 @@ def measure_run(sim: Simulation, frames: list[np.ndarray], times: np.ndarray) ->
     from bathprint.analysis.measure import measure_all
 
     needle = sim.model.needle
-    z_floor = float(sim.model.params[L.P_FLOOR_Z]) if "floor" in sim.scene.effects else None
+    z_floor = float(sim.model.p.floor_z) if "floor" in sim.scene.effects else None
     return measure_all(
         frames,
         times,

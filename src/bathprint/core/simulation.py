@@ -14,6 +14,7 @@ from typing import Any
 import numpy as np
 
 from bathprint.core import layout as L
+from bathprint.core import records
 from bathprint.core.assemble import assemble
 from bathprint.core.extrusion import (
     extruded_length,
@@ -23,12 +24,10 @@ from bathprint.core.extrusion import (
     needle_state,
     set_boundary,
 )
-from bathprint.core.integrators import N_VECS, V_POS0, V_VEL0, _explicit_step, advance
+from bathprint.core.integrators import N_VECS, V_ACC, V_POS0, V_VEL0, advance, explicit_step
 from bathprint.core.model import Model, compile_model
 from bathprint.core.scene import Scene, load_scene
 from bathprint.errors import SimulationError
-
-WORK_SIZE = 416
 
 
 def _perpendicular(d: np.ndarray) -> np.ndarray:
@@ -89,26 +88,14 @@ class Simulation:
         row = np.empty(L.N_MAT)
         qo, qi = flow_rate(m.flow, 0.0)
         phi0 = qi / (qo + qi) if qo + qi > 0 else 0.0
-        material_row(phi0, -sc.initial.age_s, 0.0, d, m.params, row)
+        material_row(phi0, -sc.initial.age_s, 0.0, d, m.p, row)
         self.seg_mat[: n_seg + 1] = row
         self.seg_rest[:n_seg] = seg_len
         self.istate[:] = (n_nodes, 0, 0)
         h0 = sc.numerics.time_step_s or min(sc.numerics.max_step_s, 1e-4)
         self.fstate[:] = (0.0, h0)
-        set_boundary(
-            self.pos,
-            self.vel,
-            self.node_s,
-            self.seg_rest,
-            n_nodes,
-            0.0,
-            m.flow,
-            m.flow_cum,
-            m.needle,
-            m.params,
-            self.work,
-        )
-        if m.params[L.P_INERTIA] == 0.0:
+        set_boundary(m.record, self._rod(), 0.0, self.ws.scratch)
+        if not m.p.inertial:
             self._consistent_velocity()
         self.initial_volume = float(np.sum(self.seg_rest[:n_seg]) * m.needle_area)
         self.initial_length = float(length0)
@@ -118,31 +105,9 @@ class Simulation:
         so that error estimates that use the previous velocity are right from step one."""
         m = self.model
         n3 = 3 * self.n_nodes
-        self.vecs[V_POS0, :n3] = self.pos[:n3]
-        self.vecs[V_VEL0, :n3] = self.vel[:n3]
-        _explicit_step(
-            0.0,
-            0.0,
-            self.n_nodes,
-            self.pos,
-            self.vel,
-            self.node_s,
-            self.seg_rest,
-            self.seg_mat,
-            m.params,
-            m.enabled,
-            m.flow,
-            m.flow_cum,
-            m.needle,
-            self.vecs,
-            self.band,
-            self.piv,
-            self.work,
-            self.calls,
-            self.counters,
-            self.energies,
-            self.info,
-        )
+        self.ws.vecs[V_POS0, :n3] = self.pos[:n3]
+        self.ws.vecs[V_VEL0, :n3] = self.vel[:n3]
+        explicit_step(m.record, self._rod(), self.state, self.ws, 0.0, 0.0)
         if not np.isfinite(self.vel[:n3]).all():
             self.vel[:n3] = 0.0
 
@@ -152,32 +117,58 @@ class Simulation:
         self.node_s = np.zeros(cap)
         self.seg_rest = np.zeros(cap)
         self.seg_mat = np.zeros((cap, L.N_MAT))
-        self.vecs = np.zeros((N_VECS, 3 * cap))
-        self.band = np.zeros((3 * cap, L.BAND_WIDTH))
-        self.band2 = np.zeros((3 * cap, L.BAND_WIDTH))
-        self.piv = np.zeros(3 * cap, dtype=np.int64)
+        old = getattr(self, "ws", None)
+        self.ws = records.new_workspace(cap, N_VECS)
+        if old is not None:  # what the stepper remembers survives a grow, but not the LU
+            self.ws.solver[:] = old.solver
+            self.ws.solver[0]["lu_valid"] = False
+            self.ws.tail[:] = old.tail
         if not hasattr(self, "istate"):
             self.istate = np.zeros(3, dtype=np.int64)  # n_nodes, n_splits, n_frozen
-            self.fstate = np.zeros(2)
-            self.work = np.zeros(WORK_SIZE)
+            self.fstate = np.zeros(2)  # t, next step
             self.calls = np.zeros(L.N_EFFECTS, dtype=np.int64)
             self.counters = np.zeros(L.N_COUNTERS, dtype=np.int64)
             self.energies = np.zeros(L.N_EFFECTS)
             self.info = np.zeros(3)
 
+    @property
+    def state(self) -> records.State:
+        """The state record the kernels take (views of this simulation's arrays)."""
+        return records.State(
+            self.pos,
+            self.vel,
+            self.node_s,
+            self.seg_rest,
+            self.seg_mat,
+            self.istate,
+            self.fstate,
+            self.counters,
+            self.calls,
+            self.energies,
+            self.info,
+        )
+
+    def _rod(self) -> records.Rod:
+        """The whole rod (frozen tail included) as the kernels see it."""
+        return records.Rod(
+            self.pos,
+            self.vel,
+            self.ws.vecs[V_ACC],
+            self.n_nodes,
+            self.node_s,
+            self.seg_rest,
+            self.seg_mat,
+        )
+
     def __setstate__(self, state: dict) -> None:
-        """Unpickle, padding the state arrays of older versions (fewer integer states or
-        work slots) so that the kernels never read past them."""
+        """Unpickle; a pickle of an older layout (flat parameter and work arrays) is refused
+        with the reason, instead of running kernels on misread arrays."""
+        if "ws" not in state:
+            raise ValueError(
+                "this Simulation was pickled by an older bathprint (flat parameter arrays); "
+                "build it again from its scene"
+            )
         self.__dict__.update(state)
-        if self.istate.shape[0] < 3:
-            self.istate = np.concatenate([self.istate, np.zeros(3 - len(self.istate), np.int64)])
-        if self.vecs.shape[0] < N_VECS:  # scratch rows (stage derivatives of SDIRK4)
-            self.vecs = np.zeros((N_VECS, self.vecs.shape[1]))
-        if self.counters.shape[0] < L.N_COUNTERS:
-            pad = np.zeros(L.N_COUNTERS - len(self.counters), np.int64)
-            self.counters = np.concatenate([self.counters, pad])
-        if self.work.shape[0] < WORK_SIZE:
-            self.work = np.concatenate([self.work, np.zeros(WORK_SIZE - len(self.work))])
 
     def _grow(self) -> None:
         n = self.n_nodes
@@ -213,7 +204,7 @@ class Simulation:
     @property
     def clamped(self) -> bool:
         """True while the filament hangs from the needle; False once released."""
-        return bool(self.model.params[L.P_CLAMPED] > 0.0)
+        return bool(self.model.p.clamped)
 
     @property
     def n_segments(self) -> int:
@@ -249,7 +240,7 @@ class Simulation:
         """Cut the filament from the needle: the ghost node goes, every node moves freely."""
         if not self.clamped:
             return
-        self.model.params[L.P_CLAMPED] = 0.0
+        self.model.p.clamped = False
         self.istate[2] = 0  # a released filament has no needle to measure from: all active
         ghost = self.n_nodes - 1
         self.pos[3 * ghost : 3 * ghost + 3] = 0.0
@@ -267,7 +258,7 @@ class Simulation:
         for name, q in (("q_outer_m3_s", q_outer_m3_s), ("q_inner_m3_s", q_inner_m3_s)):
             if not math.isfinite(q) or q < 0:
                 raise ValueError(f"{name} = {q!r}; allowed: a finite number >= 0")
-        if q_inner_m3_s > 0 and self.model.params[L.P_INCLUSIONS] <= 0:
+        if q_inner_m3_s > 0 and not self.model.p.inclusions:
             raise ValueError(f"q_inner_m3_s = {q_inner_m3_s!r} > 0 needs the 'inclusions' effect")
         phi_max = self.scene.inclusions.max_inner_fraction
         if q_inner_m3_s > phi_max / (1 - phi_max) * q_outer_m3_s + 1e-30:
@@ -284,7 +275,7 @@ class Simulation:
         """Set the inclusions' offset Delta = (r1 - r2) / r, in [-1, 1], from now on."""
         if not math.isfinite(offset) or abs(offset) > 1:
             raise ValueError(f"offset = {offset!r}; allowed: a number in [-1, 1]")
-        self.model.params[L.P_INCLUSION_OFFSET] = offset
+        self.model.p.inclusion_offset = offset
 
     def inner_volume(self) -> float:
         """Inner-fluid volume in the printed filament (m^3), from the segments' records."""
@@ -322,33 +313,62 @@ class Simulation:
     def energies_now(self) -> dict[str, float]:
         """Energy of each listed effect at the current state (J; drag: dissipation rate, W),
         over the whole filament (a frozen tail's lumped load is not added again)."""
-        work = self.work.copy()
-        work[L.W_TAIL] = 0.0
         zero = np.zeros_like(self.vel)
         force = np.zeros_like(self.pos)
         calls = np.zeros_like(self.calls)
         energies = np.zeros_like(self.energies)
-        assemble(
+        tail = self.ws.tail.copy()
+        tail[0]["on"] = False  # the tail's lumped load is not counted twice
+        rod = records.Rod(
+            self.pos, self.vel, zero, self.n_nodes, self.node_s, self.seg_rest, self.seg_mat
+        )
+        out = records.Out(force, self.ws.band2, tail, self.ws.scratch)
+        stage = records.Stage(self.t, 1.0, 0.0, 0.0, False)
+        assemble(self.model.record, rod, stage, out, calls, energies)
+        return {n: float(energies[k]) for k, n in enumerate(L.EFFECT_NAMES) if calls[k]}
+
+    def kernel_inputs(
+        self,
+        cx: float = 1.0,
+        cv: float = 0.0,
+        ca: float = 0.0,
+        jacobian: bool = True,
+        vel: np.ndarray | None = None,
+        acc: np.ndarray | None = None,
+    ) -> tuple[records.Model, records.Rod, records.Stage, records.Out]:
+        """The records one force evaluation takes, at the current state (the whole rod), with
+        fresh output arrays: for analyses, tests and benchmarks that call effect kernels
+        (``effect.accumulate(*sim.kernel_inputs())``). ``vel``, ``acc``: flat arrays (m/s,
+        m/s^2) in place of the state's velocities and zero accelerations."""
+        n3 = self.pos.shape[0]
+        rod = records.Rod(
             self.pos,
-            self.vel,
-            zero,
+            self.vel if vel is None else vel,
+            np.zeros(n3) if acc is None else acc,
             self.n_nodes,
+            self.node_s,
             self.seg_rest,
             self.seg_mat,
-            self.model.params,
-            self.t,
-            1.0,
-            0.0,
-            0.0,
-            force,
-            self.band,
-            work,
-            False,
-            self.model.enabled,
-            calls,
-            energies,
         )
-        return {n: float(energies[k]) for k, n in enumerate(L.EFFECT_NAMES) if calls[k]}
+        out = records.Out(
+            np.zeros(n3), np.zeros_like(self.ws.band), self.ws.tail.copy(), records.new_scratch()
+        )
+        return self.model.record, rod, records.Stage(self.t, cx, cv, ca, jacobian), out
+
+    def forces(
+        self,
+        cx: float = 1.0,
+        cv: float = 0.0,
+        ca: float = 0.0,
+        jacobian: bool = True,
+        vel: np.ndarray | None = None,
+        acc: np.ndarray | None = None,
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """Total force (N, flat) of the listed effects at the current state and, with
+        ``jacobian``, the band of -(cx dF/dx + cv dF/dv + ca dF/da) over the free nodes."""
+        model, rod, stage, out = self.kernel_inputs(cx, cv, ca, jacobian, vel, acc)
+        assemble(model, rod, stage, out, np.zeros_like(self.calls), np.zeros_like(self.energies))
+        return out.force, out.band
 
     # ------------------------------------------------------------------ stepping
     def advance(self, t_end: float, max_steps: int = 10**9) -> None:
@@ -366,32 +386,7 @@ class Simulation:
         budget = max_steps
         while True:
             before = int(self.counters[L.C_STEPS])
-            status = advance(
-                float(t_end),
-                int(budget),
-                m.integrator,
-                self.pos,
-                self.vel,
-                self.node_s,
-                self.seg_rest,
-                self.seg_mat,
-                self.istate,
-                self.fstate,
-                m.params,
-                m.enabled,
-                m.flow,
-                m.flow_cum,
-                m.needle,
-                self.vecs,
-                self.band,
-                self.band2,
-                self.piv,
-                self.work,
-                self.calls,
-                self.counters,
-                self.energies,
-                self.info,
-            )
+            status = advance(m.record, self.state, self.ws, float(t_end), int(budget))
             budget -= int(self.counters[L.C_STEPS]) - before
             if status == L.STATUS_OK:
                 return

@@ -167,14 +167,14 @@ class BathprintEnv(gym.Env[np.ndarray, np.ndarray]):
         self.scene_overrides = overrides
         m = probe.model
         self.needle_area = m.needle_area  # m^2
-        self.rho_gel = float(m.params[L.P_EXIT_DENSITY])
+        self.rho_gel = float(m.p.exit_density)
         self.phi_max = float(probe.scene.inclusions.max_inner_fraction)
-        self.has_inclusions = bool(m.params[L.P_INCLUSIONS] > 0)
+        self.has_inclusions = bool(m.p.inclusions)
         self.needle_start_mm = np.array(m.needle[0, 1:4] / MM)
         self.needle_direction = np.array(m.needle[0, 4:7])
-        grad = float(m.params[L.P_BATH_DENSITY_GRADIENT])  # kg/m^3 per m of depth
-        rho_top = float(m.params[L.P_BATH_DENSITY_TOP])
-        depth_m = -float(m.params[L.P_FLOOR_Z])
+        grad = float(m.p.bath_density_gradient)  # kg/m^3 per m of depth
+        rho_top = float(m.p.bath_density_top)
+        depth_m = -float(m.p.floor_z)
         self.depth_mm = depth_m / MM
         self.bath_range = (rho_top, rho_top + grad * depth_m) if grad > 0 else None
         self.rho_bath_needle = rho_top + grad * max(-self.needle_start_mm[2] * MM, 0.0)
@@ -344,7 +344,7 @@ class BathprintEnv(gym.Env[np.ndarray, np.ndarray]):
         self._controls = {
             "q_outer_ml_min": self.warmup_q_outer,
             "q_inner_ml_min": 0.0,
-            "inclusion_offset": float(self.sim.model.params[L.P_INCLUSION_OFFSET]),
+            "inclusion_offset": float(self.sim.model.p.inclusion_offset),
             "vel": np.zeros(3),
         }
         self._needle_mm = self.needle_start_mm.copy()

@@ -15,21 +15,22 @@ import math
 from numba import njit
 
 from bathprint.core.effects._band import add_block
-from bathprint.core.layout import P_FLOW_X, P_MU_S
 from bathprint.core.topology import filament_segments, free_nodes
 
 
 @njit(cache=True)
-def accumulate(
-    pos, vel, acc, n_nodes, seg_rest, seg_mat, params, t, cx, cv, ca, force, band, work, do_jac
-) -> float:
+def accumulate(model, rod, stage, out) -> float:
     """Add drag forces (and -cv dF/dv - cx dF/dx); return the dissipation rate (W)."""
-    n_free = free_nodes(n_nodes, params)
-    n_seg = filament_segments(n_nodes, params)
-    mu_s = params[P_MU_S]
-    fx, fy, fz = params[P_FLOW_X], params[P_FLOW_X + 1], params[P_FLOW_X + 2]
-    blk_v = work[100:109].reshape((3, 3))
-    blk_x = work[110:119].reshape((3, 3))
+    p = model.params[0]
+    pos, vel = rod.pos, rod.vel
+    force, band = out.force, out.band
+    cx, cv, do_jac = stage.cx, stage.cv, stage.jac
+    n_free = free_nodes(rod.n_nodes, p)
+    n_seg = filament_segments(rod.n_nodes, p)
+    mu_s = p.mu_s
+    fx, fy, fz = p.bath_flow[0], p.bath_flow[1], p.bath_flow[2]
+    blk_v = out.scratch.blk_a
+    blk_x = out.scratch.blk_b
     power = 0.0
     for j in range(n_seg):
         ex = pos[3 * j + 3] - pos[3 * j]

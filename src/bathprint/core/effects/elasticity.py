@@ -195,15 +195,18 @@ def _add_bend_hessian(band: np.ndarray, n_free: int, i: int, hess: np.ndarray, c
 
 
 @njit(cache=True)
-def accumulate(
-    pos, vel, acc, n_nodes, seg_rest, seg_mat, params, t, cx, cv, ca, force, band, work, do_jac
-) -> float:
+def accumulate(model, rod, stage, out) -> float:
     """Add stretching and bending forces (and cx * Hessian); return the elastic energy (J)."""
-    n_free = free_nodes(n_nodes, params)
-    n_seg = filament_segments(n_nodes, params)
-    do_jac = do_jac and cx != 0.0  # elasticity has no velocity or acceleration dependence
+    p = model.params[0]
+    pos, n_nodes, seg_rest, seg_mat = rod.pos, rod.n_nodes, rod.seg_rest, rod.seg_mat
+    force, band = out.force, out.band
+    cx = stage.cx
+    n_free = free_nodes(n_nodes, p)
+    n_seg = filament_segments(n_nodes, p)
+    do_jac = stage.jac and cx != 0.0  # elasticity has no velocity or acceleration dependence
     energy = 0.0
-    blk = work[100:109].reshape((3, 3))
+    sc = out.scratch
+    blk = sc.blk_a
     # --- stretching ---
     for j in range(n_seg):
         l0 = seg_rest[j]
@@ -234,12 +237,12 @@ def accumulate(
             add_block(band, n_free, j, j + 1, blk, -cx)
             add_block(band, n_free, j + 1, j, blk, -cx)
     # --- bending at nodes 1..n_nodes-2 (the last is the needle tip, clamped by the ghost) ---
-    e1 = work[110:113]
-    e2 = work[113:116]
-    kbar = work[116:119]
-    grad = work[120:126]
-    hess = work[130:166].reshape((6, 6))
-    scratch = work[200:300]
+    e1 = sc.edges[0]
+    e2 = sc.edges[1]
+    kbar = sc.edges[2]
+    grad = sc.bend_grad
+    hess = sc.bend_hess
+    scratch = sc.bend_work
     for i in range(1, n_nodes - 1):
         ja = i - 1
         jb = i if i < n_seg else i - 1  # the ghost segment carries the inlet's material

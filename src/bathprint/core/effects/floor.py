@@ -16,13 +16,7 @@ import math
 from numba import njit
 
 from bathprint.core.effects._band import add_block, add_diag
-from bathprint.core.layout import (
-    MAT_RADIUS,
-    P_FLOOR_STIFFNESS,
-    P_FLOOR_Z,
-    P_FRICTION_COEFFICIENT,
-    P_FRICTION_VELOCITY,
-)
+from bathprint.core.layout import MAT_RADIUS
 from bathprint.core.topology import filament_segments, free_nodes
 
 
@@ -41,38 +35,40 @@ def friction_block(blk, mu_n: float, ux: float, uy: float, s: float) -> None:
 
 
 @njit(cache=True)
-def accumulate(
-    pos, vel, acc, n_nodes, seg_rest, seg_mat, params, t, cx, cv, ca, force, band, work, do_jac
-) -> float:
+def accumulate(model, rod, stage, out) -> float:
     """Add contact and friction forces (with Jacobian); return the contact energy (J)."""
-    n_free = free_nodes(n_nodes, params)
-    n_seg = filament_segments(n_nodes, params)
-    zf = params[P_FLOOR_Z]
-    kf = params[P_FLOOR_STIFFNESS]
-    mu_f = params[P_FRICTION_COEFFICIENT]
-    eps = params[P_FRICTION_VELOCITY]
-    blk = work[100:109].reshape((3, 3))
+    p = model.params[0]
+    pos, vel, seg_rest, seg_mat = rod.pos, rod.vel, rod.seg_rest, rod.seg_mat
+    force, band = out.force, out.band
+    cx, cv, do_jac = stage.cx, stage.cv, stage.jac
+    n_free = free_nodes(rod.n_nodes, p)
+    n_seg = filament_segments(rod.n_nodes, p)
+    zf = p.floor_z
+    kf = p.floor_stiffness
+    mu_f = p.friction_coefficient
+    eps = p.friction_velocity
+    blk = out.scratch.blk_a
     energy = 0.0
     for i in range(n_free):
         ja = i - 1 if i > 0 else i  # the node's segments (one at either end)
         jb = i if i < n_seg else i - 1
         r = 0.5 * (seg_mat[ja, MAT_RADIUS] + seg_mat[jb, MAT_RADIUS])
         dl = (0.5 * seg_rest[i] if i < n_seg else 0.0) + (0.5 * seg_rest[i - 1] if i > 0 else 0.0)
-        p = zf + r - pos[3 * i + 2]
-        if p <= 0.0:
+        depth = zf + r - pos[3 * i + 2]
+        if depth <= 0.0:
             continue
         # C1 penalty: quadratic over the first `band_width` of penetration, linear beyond,
         # so the contact stiffness switches on continuously and Newton does not cycle
         width = 0.02 * r
         k_full = kf * dl
-        if p < width:
-            normal = 0.5 * k_full * p * p / width
-            kn = k_full * p / width
-            energy += k_full * p * p * p / (6.0 * width)
+        if depth < width:
+            normal = 0.5 * k_full * depth * depth / width
+            kn = k_full * depth / width
+            energy += k_full * depth * depth * depth / (6.0 * width)
         else:
-            normal = k_full * (p - 0.5 * width)
+            normal = k_full * (depth - 0.5 * width)
             kn = k_full
-            energy += k_full * (0.5 * p * p - 0.5 * width * p + width * width / 6.0)
+            energy += k_full * (0.5 * depth * depth - 0.5 * width * depth + width * width / 6.0)
         force[3 * i + 2] += normal
         if do_jac:
             add_diag(band, n_free, i, 2, cx * kn)

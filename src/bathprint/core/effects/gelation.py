@@ -22,24 +22,16 @@ import math
 import numpy as np
 from numba import njit
 
-from bathprint.core.layout import (
-    MAT_BIRTH_TIME,
-    MAT_KAPPA_X,
-    MAT_YOUNGS_MODULUS,
-    P_CURVATURE_MEMORY,
-    P_GEL_FINAL_MODULUS,
-    P_GEL_INITIAL_MODULUS,
-    P_GEL_RATE,
-)
+from bathprint.core.layout import MAT_BIRTH_TIME, MAT_KAPPA_X, MAT_YOUNGS_MODULUS
 from bathprint.core.topology import filament_segments
 
 
 @njit(cache=True)
-def modulus(age: float, params: np.ndarray) -> float:
-    """E (Pa) of gel of the given age (s)."""
-    e0 = params[P_GEL_INITIAL_MODULUS]
-    e1 = params[P_GEL_FINAL_MODULUS]
-    return e1 - (e1 - e0) * math.exp(-params[P_GEL_RATE] * max(age, 0.0))
+def modulus(age: float, p) -> float:
+    """E (Pa) of gel of the given age (s); ``p`` is the model's parameter record."""
+    e0 = p.gel_initial_modulus
+    e1 = p.gel_final_modulus
+    return e1 - (e1 - e0) * math.exp(-p.gel_rate * max(age, 0.0))
 
 
 @njit(cache=True)
@@ -62,22 +54,17 @@ def node_curvature(pos: np.ndarray, seg_rest: np.ndarray, i: int, out: np.ndarra
 
 
 @njit(cache=True)
-def update(
-    t: float,
-    n_nodes: int,
-    pos: np.ndarray,
-    seg_rest: np.ndarray,
-    seg_mat: np.ndarray,
-    params: np.ndarray,
-    work: np.ndarray,
-) -> None:
-    """Set each segment's modulus from its age; with memory, relax kappa0 toward kappa."""
-    n_seg = filament_segments(n_nodes, params)
-    memory = params[P_CURVATURE_MEMORY] > 0.0
-    ka = work[300:303]
-    kb = work[303:306]
+def update(model, rod, t: float, scratch) -> None:
+    """Set each segment's modulus from its age; with memory, relax kappa0 toward kappa.
+    A material effect: called once per accepted step on the whole rod (frozen tail too)."""
+    p = model.params[0]
+    pos, n_nodes, seg_rest, seg_mat = rod.pos, rod.n_nodes, rod.seg_rest, rod.seg_mat
+    n_seg = filament_segments(n_nodes, p)
+    memory = p.curvature_memory
+    ka = scratch.curvature[0]
+    kb = scratch.curvature[1]
     for j in range(n_seg):
-        e_new = modulus(t - seg_mat[j, MAT_BIRTH_TIME], params)
+        e_new = modulus(t - seg_mat[j, MAT_BIRTH_TIME], p)
         e_old = seg_mat[j, MAT_YOUNGS_MODULUS]
         if memory and e_new > e_old:
             # the segment's curvature: mean over its interior end nodes (1 .. n_nodes-2)

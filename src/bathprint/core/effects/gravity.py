@@ -15,29 +15,23 @@ import math
 from numba import njit
 
 from bathprint.core.effects._band import add_diag
-from bathprint.core.layout import (
-    MAT_DENSITY,
-    MAT_RADIUS,
-    P_BATH_DENSITY_GRADIENT,
-    P_BATH_DENSITY_TOP,
-    P_BATH_SURFACE_Z,
-    P_GRAVITY,
-)
+from bathprint.core.layout import MAT_DENSITY, MAT_RADIUS
 from bathprint.core.topology import filament_segments, free_nodes
 
 AIR_DENSITY = 1.2  # kg/m^3
 
 
 @njit(cache=True, inline="always")
-def bath_density(params, z: float, ramp: float = 0.0) -> tuple[float, float]:
+def bath_density(p, z: float, ramp: float = 0.0) -> tuple[float, float]:
     """Bath density (kg/m^3) at height z (m) and its z-derivative; ``ramp`` (m) is the
-    width of the transition to air above the surface (0: no air, the bath goes on)."""
-    zs = params[P_BATH_SURFACE_Z]
-    grad = params[P_BATH_DENSITY_GRADIENT]
-    rho = params[P_BATH_DENSITY_TOP] + grad * (zs - z)
+    width of the transition to air above the surface (0: no air, the bath goes on).
+    ``p`` is the model's parameter record."""
+    zs = p.bath_surface_z
+    grad = p.bath_density_gradient
+    rho = p.bath_density_top + grad * (zs - z)
     if ramp <= 0.0 or z <= zs:
         return rho, -grad
-    top = params[P_BATH_DENSITY_TOP]
+    top = p.bath_density_top
     if z >= zs + ramp:
         return AIR_DENSITY, 0.0
     f = (z - zs) / ramp
@@ -45,16 +39,18 @@ def bath_density(params, z: float, ramp: float = 0.0) -> tuple[float, float]:
 
 
 @njit(cache=True)
-def accumulate(
-    pos, vel, acc, n_nodes, seg_rest, seg_mat, params, t, cx, cv, ca, force, band, work, do_jac
-) -> float:
+def accumulate(model, rod, stage, out) -> float:
     """Add net weight (and its z-Jacobian); return the gravitational potential energy (J)."""
-    n_free = free_nodes(n_nodes, params)
-    n_seg = filament_segments(n_nodes, params)
-    g = params[P_GRAVITY]
-    grad = params[P_BATH_DENSITY_GRADIENT]
-    rho_top = params[P_BATH_DENSITY_TOP]
-    zs = params[P_BATH_SURFACE_Z]
+    p = model.params[0]
+    pos, seg_rest, seg_mat = rod.pos, rod.seg_rest, rod.seg_mat
+    force, band = out.force, out.band
+    cx, do_jac = stage.cx, stage.jac
+    n_free = free_nodes(rod.n_nodes, p)
+    n_seg = filament_segments(rod.n_nodes, p)
+    g = p.gravity
+    grad = p.bath_density_gradient
+    rho_top = p.bath_density_top
+    zs = p.bath_surface_z
     energy = 0.0
     for j in range(n_seg):
         r = seg_mat[j, MAT_RADIUS]
@@ -63,7 +59,7 @@ def accumulate(
         for side in range(2):
             i = j + side
             z = pos[3 * i + 2]
-            rho_b, drho_dz = bath_density(params, z, r)
+            rho_b, drho_dz = bath_density(p, z, r)
             force[3 * i + 2] -= half_vol * g * (rho - rho_b)
             # potential g V [rho z - int rho_b dz], exact below the surface (reference z = 0)
             energy += half_vol * g * (rho * z - (rho_top * z + grad * (zs * z - 0.5 * z * z)))

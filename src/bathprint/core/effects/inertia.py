@@ -14,19 +14,21 @@ from numba import njit
 
 from bathprint.core.effects._band import add_block
 from bathprint.core.effects.gravity import bath_density
-from bathprint.core.layout import MAT_DENSITY, MAT_RADIUS, P_ADDED_MASS_COEFFICIENT
+from bathprint.core.layout import MAT_DENSITY, MAT_RADIUS
 from bathprint.core.topology import filament_segments, free_nodes
 
 
 @njit(cache=True)
-def accumulate(
-    pos, vel, acc, n_nodes, seg_rest, seg_mat, params, t, cx, cv, ca, force, band, work, do_jac
-) -> float:
+def accumulate(model, rod, stage, out) -> float:
     """Add -M a (and ca * M); return the kinetic energy 1/2 v.M v (J)."""
-    n_free = free_nodes(n_nodes, params)
-    n_seg = filament_segments(n_nodes, params)
-    c_a = params[P_ADDED_MASS_COEFFICIENT]
-    blk = work[100:109].reshape((3, 3))
+    p = model.params[0]
+    pos, vel, acc, seg_rest, seg_mat = rod.pos, rod.vel, rod.acc, rod.seg_rest, rod.seg_mat
+    force, band = out.force, out.band
+    ca, do_jac = stage.ca, stage.jac
+    n_free = free_nodes(rod.n_nodes, p)
+    n_seg = filament_segments(rod.n_nodes, p)
+    c_a = p.added_mass_coefficient
+    blk = out.scratch.blk_a
     kinetic = 0.0
     for j in range(n_seg):
         ex = pos[3 * j + 3] - pos[3 * j]
@@ -37,7 +39,7 @@ def accumulate(
         r = seg_mat[j, MAT_RADIUS]
         half_vol = 0.5 * math.pi * r * r * seg_rest[j]
         rho = seg_mat[j, MAT_DENSITY]
-        rho_b, _ = bath_density(params, 0.5 * (pos[3 * j + 2] + pos[3 * j + 5]), r)
+        rho_b, _ = bath_density(p, 0.5 * (pos[3 * j + 2] + pos[3 * j + 5]), r)
         if not do_jac:  # force only, in scalars: M u = half_vol (rho u + c_a rho_b P u)
             m_full = half_vol * (rho + c_a * rho_b)
             m_axis = half_vol * c_a * rho_b  # removed along the tangent: no axial added mass

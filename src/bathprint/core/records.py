@@ -1,0 +1,148 @@
+"""The records every kernel takes, in the manner of MuJoCo's ``MjModel`` / ``MjData``.
+
+- :class:`Model`: what the scene compiled into (static while a simulation runs, except
+  the flow table that :meth:`~bathprint.Simulation.set_flow` replaces);
+- :class:`State`: the rod (node positions and velocities, material records, the inlet's
+  bookkeeping) and the counters;
+- :class:`Workspace`: preallocated scratch: the stepper's vectors, the Jacobian and its
+  factors, the solver's memory between steps, and small named scratch arrays;
+- :class:`Rod`, :class:`Stage`, :class:`Out`: what one force evaluation sees: the active rod
+  (array views past the frozen tail), the stage's time and Jacobian coefficients, and where
+  the forces, the Jacobian and any couplings off the band go.
+
+All are NamedTuples of numpy arrays and scalars, which numba takes as arguments and builds
+inside kernels at no cost; the scalar parameters are one numpy structured record
+(``model.params[0]``), read by name (``p.mu_s``). Every effect has the same signature,
+``accumulate(model, rod, stage, out) -> energy``.
+"""
+
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import numpy as np
+
+
+class Model(NamedTuple):
+    """The compiled scene (SI)."""
+
+    params: np.ndarray  # (1,) PARAMS_DTYPE: the scalar parameters, by name
+    enabled: np.ndarray  # (N_EFFECTS,) int64: 1 for the effects the scene lists
+    flow: np.ndarray  # (K, 3): t_s, q_outer_m3_s, q_inner_m3_s (linear between knots)
+    flow_cum: np.ndarray  # (K, 2): extruded length S (m) and inner volume (m^3) at each knot
+    needle: np.ndarray  # (M, 7): t_s, tip position (m), direction
+
+
+class State(NamedTuple):
+    """The filament: nodes from the free end (0, oldest material) to the needle tip and the
+    ghost node inside the needle; arrays have spare capacity beyond ``ints[0]`` nodes."""
+
+    pos: np.ndarray  # (3 cap,) m
+    vel: np.ndarray  # (3 cap,) m/s
+    node_s: np.ndarray  # (cap,) m, extruded length S at which each node left the needle
+    seg_rest: np.ndarray  # (cap,) m, rest length of each segment
+    seg_mat: np.ndarray  # (cap, N_MAT) material record of each segment (layout.MAT_*)
+    ints: np.ndarray  # (3,) int64: n_nodes, n_splits (node births), n_frozen
+    clock: np.ndarray  # (2,): t (s), next step size (s)
+    counters: np.ndarray  # (N_COUNTERS,) int64 (layout.C_*)
+    calls: np.ndarray  # (N_EFFECTS,) int64: kernel calls of each effect
+    energies: np.ndarray  # (N_EFFECTS,) J (drag: W) of the last force evaluation
+    info: np.ndarray  # (3,): time, node, value of the last failure
+
+
+class Scratch(NamedTuple):
+    """Small named scratch arrays of the kernels (no allocation in a step)."""
+
+    blk_a: np.ndarray  # (3, 3) a Jacobian block
+    blk_b: np.ndarray  # (3, 3) a second one
+    needle: np.ndarray  # (3, 3) rows: needle tip position, direction, velocity now
+    birth: np.ndarray  # (3, 3) the same at a segment's birth
+    mat_row: np.ndarray  # (N_MAT,) a material record being built
+    curvature: np.ndarray  # (2, 3) curvature vectors (gelation's curvature memory)
+    edges: np.ndarray  # (3, 3) rows: e1, e2 and the natural curvature of a bending stencil
+    bend_grad: np.ndarray  # (6,) gradient of a bending stencil in (e1, e2)
+    bend_hess: np.ndarray  # (6, 6) its Hessian
+    bend_work: np.ndarray  # (64,) scratch of elasticity.bend_energy_grad_hess
+
+
+class Workspace(NamedTuple):
+    """Preallocated scratch of the stepper (sized to the state's capacity)."""
+
+    vecs: np.ndarray  # (N_VECS, 3 cap): stage vectors (integrators.V_*)
+    band: np.ndarray  # (3 cap, BAND_WIDTH): the Newton matrix, then its LU factors
+    band2: np.ndarray  # (3 cap, BAND_WIDTH): the damping / mass matrix of the error filter
+    piv: np.ndarray  # (3 cap,) int64: LU pivots
+    solver: np.ndarray  # (1,) SOLVER_DTYPE: what Newton remembers between steps
+    tail: np.ndarray  # (1,) TAIL_DTYPE: the frozen tail's lumped load
+    scratch: Scratch
+
+
+class Rod(NamedTuple):
+    """The active rod one force evaluation sees: views starting at the first active node."""
+
+    pos: np.ndarray  # (3 n,) m
+    vel: np.ndarray  # (3 n,) m/s
+    acc: np.ndarray  # (3 n,) m/s^2 (zero in overdamped scenes)
+    n_nodes: int  # active nodes, needle tip and ghost included while clamped
+    node_s: np.ndarray
+    seg_rest: np.ndarray
+    seg_mat: np.ndarray
+
+
+class Stage(NamedTuple):
+    """Time and Jacobian coefficients of one force evaluation: effects add
+    -(cx dF/dx + cv dF/dv + ca dF/da) to the Jacobian when ``jac``."""
+
+    t: float
+    cx: float
+    cv: float
+    ca: float
+    jac: bool
+
+
+class Out(NamedTuple):
+    """Where a force evaluation writes."""
+
+    force: np.ndarray  # (3 cap,) N, on each node
+    band: np.ndarray  # (3 cap, BAND_WIDTH) the Jacobian's band
+    tail: np.ndarray  # (1,) TAIL_DTYPE (read by the frozen tail's load)
+    scratch: Scratch
+
+
+def new_params() -> np.ndarray:
+    """A zeroed parameter record, ``(1,) PARAMS_DTYPE``."""
+    from bathprint.core.layout import PARAMS_DTYPE
+
+    return np.zeros(1, dtype=PARAMS_DTYPE)
+
+
+def new_scratch() -> Scratch:
+    from bathprint.core.layout import N_MAT
+
+    return Scratch(
+        blk_a=np.zeros((3, 3)),
+        blk_b=np.zeros((3, 3)),
+        needle=np.zeros((3, 3)),
+        birth=np.zeros((3, 3)),
+        mat_row=np.zeros(N_MAT),
+        curvature=np.zeros((2, 3)),
+        edges=np.zeros((3, 3)),
+        bend_grad=np.zeros(6),
+        bend_hess=np.zeros((6, 6)),
+        bend_work=np.zeros(64),
+    )
+
+
+def new_workspace(capacity: int, n_vecs: int) -> Workspace:
+    """Scratch for a state of ``capacity`` nodes."""
+    from bathprint.core.layout import BAND_WIDTH, SOLVER_DTYPE, TAIL_DTYPE
+
+    return Workspace(
+        vecs=np.zeros((n_vecs, 3 * capacity)),
+        band=np.zeros((3 * capacity, BAND_WIDTH)),
+        band2=np.zeros((3 * capacity, BAND_WIDTH)),
+        piv=np.zeros(3 * capacity, dtype=np.int64),
+        solver=np.zeros(1, dtype=SOLVER_DTYPE),
+        tail=np.zeros(1, dtype=TAIL_DTYPE),
+        scratch=new_scratch(),
+    )
