@@ -136,9 +136,10 @@ def test_sigterm_saves_at_the_step_marks_interrupted_and_resume_finishes(tmp_pat
     proc, err = _start([*args, "--resume", "--timesteps", str(total)], tmp_path, "b")
     assert proc.wait(timeout=60) == 0, err.read_text()
     assert "Traceback" not in err.read_text()
-    assert f"from model_{stopped}_steps.zip ({stopped} of {total} steps)" in (
-        tmp_path / "b.out"
-    ).read_text()
+    assert (
+        f"from model_{stopped}_steps.zip ({stopped} of {total} steps)"
+        in (tmp_path / "b.out").read_text()
+    )
     info = json.loads((run / "run.json").read_text())
     assert info["status"] == "done" and "interrupted_by" not in info
     # PPO collects whole rollouts of n_steps x n_envs from where it stopped
@@ -154,8 +155,18 @@ def test_ctrl_c_to_the_whole_process_group_stops_cleanly(tmp_path):
     """A terminal's Ctrl-C reaches every process of the group, the workers too."""
     run = tmp_path / "run"
     proc, err = _start(
-        ["train", "--algo", "ppo", "--env", "CoilRadius", "--out", str(run), "--quiet",
-         "--hyperparams", str(_hyperparams_file(tmp_path))],
+        [
+            "train",
+            "--algo",
+            "ppo",
+            "--env",
+            "CoilRadius",
+            "--out",
+            str(run),
+            "--quiet",
+            "--hyperparams",
+            str(_hyperparams_file(tmp_path)),
+        ],
         tmp_path,
         "a",
         start_new_session=True,
@@ -173,8 +184,19 @@ def test_ctrl_c_to_the_whole_process_group_stops_cleanly(tmp_path):
 @pytest.mark.timeout(60)
 def test_sigterm_ends_evaluate_with_143_and_a_message(tmp_path):
     proc, err = _start(
-        ["evaluate", "random", "--env", "CoilRadius", "--episodes", "16", "--images", "0",
-         "--no-animation", "--out", str(tmp_path / "eval")],
+        [
+            "evaluate",
+            "random",
+            "--env",
+            "CoilRadius",
+            "--episodes",
+            "16",
+            "--images",
+            "0",
+            "--no-animation",
+            "--out",
+            str(tmp_path / "eval"),
+        ],
         tmp_path,
         "e",
     )

@@ -126,8 +126,10 @@ def evaluate_main(argv: Sequence[str] | None = None) -> int:
                 progress=not args.quiet,
             )
     except KeyboardInterrupt as exc:
-        print(_interrupted("evaluate", exc, "the policy being evaluated wrote nothing"),
-              file=sys.stderr)
+        print(
+            _interrupted("evaluate", exc, "the policy being evaluated wrote nothing"),
+            file=sys.stderr,
+        )
         return exit_code(exc)
     except (ValueError, FileNotFoundError, RuntimeError) as exc:
         print(f"bathprint evaluate: {exc}", file=sys.stderr)

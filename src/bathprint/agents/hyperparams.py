@@ -58,16 +58,21 @@ RUN_KEYS = (
     "wrapper",
 )
 #: the algorithm's arguments bathprint sets itself (not allowed in a file)
-RESERVED_KEYS = ("policy", "env", "seed", "device", "tensorboard_log", "verbose",
-                 "_init_setup_model")
+RESERVED_KEYS = ("env", "seed", "device", "tensorboard_log", "verbose", "_init_setup_model")
 #: environment arguments bathprint sets itself: training uses the training targets, the
 #: held-out evaluation the evaluation set
 RESERVED_ENV_KWARGS = ("render_mode", "target_set", "target_index")
 #: gymnasium.make's own keyword arguments that may appear in ``env_kwargs``
 GYM_MAKE_KWARGS = ("max_episode_steps", "disable_env_checker")
 
-_POSITIVE_INT = ("n_timesteps", "n_envs", "eval_freq", "eval_episodes", "checkpoint_freq",
-                 "torch_threads")
+_POSITIVE_INT = (
+    "n_timesteps",
+    "n_envs",
+    "eval_freq",
+    "eval_episodes",
+    "checkpoint_freq",
+    "torch_threads",
+)
 # (low, low inclusive, high, high inclusive) of numbers the algorithms take
 _RANGES: dict[str, tuple[float | None, bool, float | None, bool]] = {
     "learning_rate": (0.0, False, None, False),
@@ -185,7 +190,9 @@ def _describe(ann: Any) -> str:
     if ann is dict or origin is dict:
         return "a mapping"
     if ann is list or origin is list:
-        return "a list"
+        (item,) = typing.get_args(ann) or (Any,)
+        plural = {int: "integers", float: "numbers", str: "strings"}
+        return "a list" if item is Any else f"a list of {plural.get(item, _describe(item))}"
     if origin is tuple:
         return "a list [" + ", ".join(_describe(a) for a in typing.get_args(ann)) + "]"
     if origin is collections.abc.Callable:
@@ -211,16 +218,15 @@ def _matches(value: Any, ann: Any) -> bool:
         return isinstance(value, int) and not isinstance(value, bool)
     if ann is float:
         return (
-            isinstance(value, int | float)
-            and not isinstance(value, bool)
-            and math.isfinite(value)
+            isinstance(value, int | float) and not isinstance(value, bool) and math.isfinite(value)
         )
     if ann is str:
         return isinstance(value, str)
     if ann is dict or origin is dict:
         return isinstance(value, dict)
     if ann is list or origin is list:
-        return isinstance(value, list)
+        (item,) = typing.get_args(ann) or (Any,)
+        return isinstance(value, list) and all(_matches(v, item) for v in value)
     if origin is tuple:
         args = typing.get_args(ann)
         return (
@@ -245,13 +251,14 @@ def _check_value(key: str, value: Any, ann: Any, where: str) -> None:
         if isinstance(value, str) and _matches(1.0, ann):
             try:
                 float(value)
-                hint = " (YAML reads a number without a decimal point, like 3e-4, as a " \
+                hint = (
+                    " (YAML reads a number without a decimal point, like 3e-4, as a "
                     "string: write 3.0e-4)"
+                )
             except ValueError:
                 pass
         raise ConfigError(
-            f"{where}: {key} = {value!r} ({type(value).__name__}); expected {_describe(ann)}"
-            + hint
+            f"{where}: {key} = {value!r} ({type(value).__name__}); expected {_describe(ann)}" + hint
         )
     if key in _RANGES and isinstance(value, int | float) and not isinstance(value, bool):
         lo, lo_in, hi, hi_in = _RANGES[key]
@@ -306,9 +313,7 @@ def env_parameters(env_id: str) -> dict[str, Any]:
     return params
 
 
-def validate_hyperparams(
-    algo: str, hp: Any, where: str, env_id: str | None = None
-) -> None:
+def validate_hyperparams(algo: str, hp: Any, where: str, env_id: str | None = None) -> None:
     """Refuse an entry that would fail (or be misread) later: unknown keys, wrong types,
     numbers out of range. ``where`` starts each message (the file or run.json). With
     ``env_id``, the keys of ``env_kwargs`` are checked against the environment's arguments
@@ -320,14 +325,14 @@ def validate_hyperparams(
     cls = algo_class(algo)
     if not isinstance(hp, dict):
         raise ConfigError(f"{where}: {hp!r}; expected a mapping of settings")
-    algo_params = _parameters(cls.__init__, RESERVED_KEYS)
+    algo_params = _parameters(cls.__init__, ("policy", *RESERVED_KEYS))  # policy: a run key
     for key in hp:
         if not isinstance(key, str):
             raise ConfigError(f"{where}: key {key!r} is not a string")
-        if key in RESERVED_KEYS and key != "policy":
+        if key in RESERVED_KEYS:
+            hint = " (use --seed)" if key == "seed" else ""
             raise ConfigError(
-                f"{where}: {key} = {hp[key]!r}; bathprint sets {key} itself "
-                "(--seed on the command line for the seed): remove it"
+                f"{where}: {key} = {hp[key]!r}; bathprint sets {key} itself{hint}: remove it"
             )
         if key not in RUN_KEYS and key not in algo_params:
             raise _unknown(key, [*RUN_KEYS, *algo_params], where, f"{algo} key")
@@ -337,7 +342,7 @@ def validate_hyperparams(
             if not (isinstance(value, int) and not isinstance(value, bool) and value >= 1):
                 raise ConfigError(f"{where}: {key} = {value!r}; allowed: an integer >= 1")
     policy = hp.get("policy", "MlpPolicy")
-    if policy not in cls.policy_aliases:
+    if not isinstance(policy, str) or policy not in cls.policy_aliases:
         raise ConfigError(
             f"{where}: policy = {policy!r}; allowed: " + ", ".join(cls.policy_aliases)
         )
@@ -408,9 +413,11 @@ def algo_kwargs_for(algo: str, kwargs: dict[str, Any]) -> dict[str, Any]:
     out = dict(kwargs)
     for key, value in kwargs.items():
         ann = params.get(key)
-        alternatives = typing.get_args(ann) if typing.get_origin(ann) in (
-            typing.Union, types.UnionType
-        ) else (ann,)
+        alternatives = (
+            typing.get_args(ann)
+            if typing.get_origin(ann) in (typing.Union, types.UnionType)
+            else (ann,)
+        )
         if isinstance(value, list) and any(typing.get_origin(a) is tuple for a in alternatives):
             out[key] = tuple(value)
     return out

@@ -57,8 +57,13 @@ from bathprint.errors import ConfigError
 _CKPT = re.compile(r"model_(\d+)_steps\.zip$")
 STATUSES = ("running", "done", "interrupted", "failed")
 #: what a run folder holds (removed when a failed start is started over)
-_RUN_FILES = ("run.json", "episodes.csv", "final_model.zip", "vecnormalize.pkl",
-              "training_curve.png")
+_RUN_FILES = (
+    "run.json",
+    "episodes.csv",
+    "final_model.zip",
+    "vecnormalize.pkl",
+    "training_curve.png",
+)
 _RUN_DIRS = ("checkpoints", "monitor", "eval", "tb")
 
 
@@ -193,7 +198,7 @@ def read_run_info(run_dir: str | Path) -> dict[str, Any]:
     path = Path(run_dir) / "run.json"
     if not path.is_file():
         raise FileNotFoundError(f"{path} does not exist")
-    fix = "repair it or start the run again with another --out"
+    fix = "repair or restore it (or start a new run with another --out)"
     try:
         info = json.loads(path.read_text())
     except json.JSONDecodeError as exc:
@@ -275,12 +280,16 @@ def _preflight(
 
     run, algo_kwargs = split_hyperparams(hp)
     env_kwargs = dict(run.get("env_kwargs", {}))
+    failures = (ValueError, TypeError, LookupError, OSError)
     try:
         env = make(env_id, **env_kwargs)
-        if run.get("wrapper"):
-            env = wrapper_factory(run["wrapper"])(env)
-    except (ValueError, TypeError, LookupError, OSError) as exc:
+    except failures as exc:
         raise ConfigError(f"{where}: env_kwargs = {env_kwargs!r}: {exc}") from None
+    if run.get("wrapper"):
+        try:
+            env = wrapper_factory(run["wrapper"])(env)
+        except failures as exc:
+            raise ConfigError(f"{where}: wrapper = {run['wrapper']!r}: {exc}") from None
     n_eval = env.unwrapped.sampler.eval_size
     obs_space, act_space = env.observation_space, env.action_space
     env.close()
@@ -300,8 +309,7 @@ def _preflight(
             venv = _SpacesEnv.vec(obs_space, act_space, n_envs)
             if run.get("normalize"):
                 venv = VecNormalize(venv, **run["normalize"])
-            cls(run.get("policy", "MlpPolicy"), venv, seed=seed, device="cpu", verbose=0,
-                **kwargs)
+            cls(run.get("policy", "MlpPolicy"), venv, seed=seed, device="cpu", verbose=0, **kwargs)
         except Exception as exc:  # the constructor's own checks: asserts, TypeErrors, ...
             raise ConfigError(
                 f"{where}: {cls.__name__} refuses these settings with {n_envs} environment(s): "
@@ -345,10 +353,10 @@ def _plan(
         try:
             validate_hyperparams(algo, info["hyperparams"], where, env_id)
         except ConfigError as exc:
-            if info.get("status") == "failed" and not checkpoints(run_dir):
+            if not checkpoints(run_dir):
+                how = "" if info.get("status") == "failed" else f" after deleting {run_dir}"
                 raise ConfigError(
-                    f"{exc} (this run failed before its first checkpoint: start it again "
-                    "without --resume)"
+                    f"{exc} (the run has no checkpoint yet: start it again without --resume{how})"
                 ) from None
             raise
         if timesteps is not None:

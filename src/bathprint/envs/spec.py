@@ -184,15 +184,16 @@ def _check_numbers(data: dict[str, Any], where: str) -> None:
             continue
         value = data[table][key]
         kind = "an integer" if integer else "a number"
-        ok = (isinstance(value, int) and not isinstance(value, bool)) if integer else (
-            _is_number(value)
+        ok = (
+            (isinstance(value, int) and not isinstance(value, bool))
+            if integer
+            else (_is_number(value))
         )
         if ok:
             ok = value >= lo if inclusive else value > lo
         if not ok:
             raise SpecError(
-                f"{where}: {name} = {value!r}; allowed: {kind} {'>=' if inclusive else '>'} "
-                f"{lo:g}"
+                f"{where}: {name} = {value!r}; allowed: {kind} {'>=' if inclusive else '>'} {lo:g}"
             )
     reflect = data["metric"].get("allow_reflection", True)
     if not isinstance(reflect, bool):
