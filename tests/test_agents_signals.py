@@ -229,3 +229,64 @@ def test_signal_stop_defers_the_first_signal_and_raises_on_the_second():
         os.kill(os.getpid(), signal.SIGTERM)
         time.sleep(0.01)
     assert exc.value.exit_code == 143
+
+
+@pytest.mark.timeout(120)
+def test_sac_stopped_by_sigterm_keeps_every_transition_but_the_one_in_flight(tmp_path, monkeypatch):
+    """In-process, with a real SIGTERM sent at step 150: training stops at that step, the
+    checkpoint's replay buffer holds the 149 transitions stored before it."""
+    from stable_baselines3 import SAC
+    from stable_baselines3.common.callbacks import BaseCallback
+
+    from bathprint.agents import train as train_mod
+
+    class SendSigterm(BaseCallback):
+        def _on_step(self) -> bool:
+            if self.num_timesteps == 150:
+                os.kill(os.getpid(), signal.SIGTERM)
+            return True
+
+    make_callbacks = train_mod._make_callbacks
+    monkeypatch.setattr(
+        train_mod, "_make_callbacks", lambda *a, **k: [*make_callbacks(*a, **k), SendSigterm()]
+    )
+    hp = load_hyperparams("sac", ENV)
+    hp.update(eval_freq=10_000, eval_episodes=1, checkpoint_freq=10_000, n_envs=1)
+    hp.update(learning_starts=80, buffer_size=2000, batch_size=32, gradient_steps=1)
+    out = tmp_path / "sac"
+    with pytest.raises(Interrupted) as exc:
+        train_mod.train("sac", ENV, timesteps=400, out=out, hyperparams=hp, progress=False)
+    assert exc.value.exit_code == 143
+    info = json.loads((out / "run.json").read_text())
+    assert info["status"] == "interrupted" and info["timesteps_done"] == 150
+    assert [n for n, _ in checkpoints(out)] == [150]
+    model = SAC.load(out / "checkpoints" / "model_150_steps.zip", device="cpu")
+    model.load_replay_buffer(out / "checkpoints" / "model_replay_buffer_150_steps.pkl")
+    assert model.replay_buffer.size() == 149
+    assert signal.getsignal(signal.SIGTERM) == signal.SIG_DFL  # train restored the handlers
+
+    monkeypatch.setattr(train_mod, "_make_callbacks", make_callbacks)
+    train_mod.train("sac", ENV, out=out, resume=True, progress=False)
+    info = json.loads((out / "run.json").read_text())
+    # SAC collects train_freq steps at a time from where it stopped
+    assert info["status"] == "done" and 400 <= info["timesteps_done"] < 400 + hp["train_freq"]
+
+
+@pytest.mark.timeout(120)
+def test_closing_workers_never_hangs_on_a_step_in_flight_or_a_dead_worker():
+    import functools
+
+    from bathprint.agents.vecenv import QuietSubprocVecEnv
+    from bathprint.envs import make
+
+    venv = QuietSubprocVecEnv(
+        [functools.partial(make, ENV, accuracy="draft")] * 2, start_method="forkserver"
+    )
+    venv.reset()
+    venv.step_async(venv.action_space.sample()[None].repeat(2, axis=0))
+    venv.processes[1].kill()  # one worker gone (as after an out-of-memory kill)
+    venv.processes[1].join(10)
+    t0 = time.monotonic()
+    venv.close()  # collects worker 0's step, skips the dead one, closes both
+    assert time.monotonic() - t0 < 15
+    assert not any(p.is_alive() for p in venv.processes)

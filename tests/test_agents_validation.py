@@ -114,6 +114,7 @@ def test_merge_keys_may_be_overridden():
         ("device", "cuda", ["device = 'cuda'", "bathprint sets device itself"]),
         ("normalize", True, ["normalize = True", "expected false or a mapping"]),
         ("normalize", {"norm_rewards": True}, ["'norm_rewards'", "did you mean 'norm_reward'"]),
+        ("normalize", {"gamma": 2.0}, ["normalize.gamma = 2.0", "a number in (0, 1]"]),
         ("policy_kwargs", {"net_arhc": [64]}, ["'net_arhc'", "did you mean 'net_arch'"]),
         ("policy_kwargs", {"log_std_init": "low"}, ["log_std_init = 'low'", "a number"]),
         ("env_kwargs", "draft", ["env_kwargs = 'draft'", "expected a mapping"]),
@@ -484,3 +485,14 @@ def test_a_bare_model_without_statistics_is_evaluated_with_a_warning(
     assert "warning" in err and "no VecNormalize statistics" in err
     (summary_path,) = (tmp_path / "eval").glob("*/summary.json")
     assert "raw observations" in json.loads(summary_path.read_text())["obs_normalization"]
+
+
+def test_evaluate_refuses_a_run_on_another_environment(obs_normalised_run, tmp_path, capsys):
+    out = tmp_path / "eval"
+    _refused(
+        capsys,
+        ["evaluate", str(obs_normalised_run), "--env", "WriteShape", "--out", str(out)],
+        f"trained on {ENV}, not on bathprint/WriteShape-v0",
+        f"--env {ENV}",
+    )
+    assert not out.exists()

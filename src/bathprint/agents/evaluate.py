@@ -36,9 +36,12 @@ from bathprint.agents.train import read_run_info, trained_files
 from bathprint.errors import ConfigError
 
 
-def _run_settings(spec: str, accuracy: str | None) -> tuple[dict[str, Any], Any]:
+def _run_settings(
+    spec: str, accuracy: str | None, env_id: str | None = None
+) -> tuple[dict[str, Any], Any]:
     """(environment kwargs, wrapper entry) a policy was trained with (run directories and
-    their models), else the preset and no wrapper."""
+    their models), else the preset and no wrapper. With ``env_id``, a run trained on another
+    environment is refused."""
     path = Path(spec)
     kwargs: dict[str, Any] = {}
     wrapper = None
@@ -46,7 +49,13 @@ def _run_settings(spec: str, accuracy: str | None) -> tuple[dict[str, Any], Any]
     if run_json is None and path.suffix == ".zip":
         run_json = next((p / "run.json" for p in path.parents if (p / "run.json").is_file()), None)
     if run_json is not None and run_json.is_file():
-        hp = read_run_info(run_json.parent)["hyperparams"]
+        info = read_run_info(run_json.parent)
+        if env_id is not None and info["env_id"] != env_id:
+            raise ConfigError(
+                f"{spec}: trained on {info['env_id']}, not on {env_id}; evaluate it with "
+                f"--env {info['env_id']}"
+            )
+        hp = info["hyperparams"]
         env_kwargs = hp.get("env_kwargs", {})
         if not isinstance(env_kwargs, dict):
             raise ConfigError(f"{run_json}: env_kwargs = {env_kwargs!r}; expected a mapping")
@@ -100,7 +109,7 @@ def evaluate_policy_spec(
 
     _check_episodes(episodes)
     env_id = resolve_id(env_id)
-    kwargs, wrapper = _run_settings(spec, accuracy)
+    kwargs, wrapper = _run_settings(spec, accuracy, env_id)
     env = make(env_id, render_mode="rgb_array", target_set="eval", **kwargs)
     if wrapper:
         env = wrapper_factory(wrapper)(env)
@@ -207,6 +216,7 @@ def evaluate_many(
     are rebuilt from every policy evaluated into ``OUT`` so far with the same environment,
     episodes and seed, so evaluations made one at a time add up to one table."""
     from bathprint.agents.policies import BASELINES
+    from bathprint.envs import resolve_id
 
     out = Path(out)
     _check_episodes(episodes)
@@ -219,7 +229,7 @@ def evaluate_many(
                 "run directory or model .zip"
             )
         trained_files(spec)
-        _run_settings(spec, accuracy)
+        _run_settings(spec, accuracy, resolve_id(env_id))
     summaries = []
     for spec in specs:
         _, summary, _ = evaluate_policy_spec(

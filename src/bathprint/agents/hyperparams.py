@@ -260,8 +260,9 @@ def _check_value(key: str, value: Any, ann: Any, where: str) -> None:
         raise ConfigError(
             f"{where}: {key} = {value!r} ({type(value).__name__}); expected {_describe(ann)}" + hint
         )
-    if key in _RANGES and isinstance(value, int | float) and not isinstance(value, bool):
-        lo, lo_in, hi, hi_in = _RANGES[key]
+    name = key.rsplit(".", 1)[-1]  # normalize.gamma has gamma's range
+    if name in _RANGES and isinstance(value, int | float) and not isinstance(value, bool):
+        lo, lo_in, hi, hi_in = _RANGES[name]
         ok = (lo is None or (value >= lo if lo_in else value > lo)) and (
             hi is None or (value <= hi if hi_in else value < hi)
         )
