@@ -496,3 +496,19 @@ def test_evaluate_refuses_a_run_on_another_environment(obs_normalised_run, tmp_p
         f"--env {ENV}",
     )
     assert not out.exists()
+
+
+def test_a_damaged_checkpoint_is_named_on_resume(tmp_path, capsys):
+    out = tmp_path / "run"
+    train("ppo", ENV, timesteps=160, out=out, hyperparams=_tiny(), progress=False)
+    (out / "checkpoints" / "model_160_steps.zip").write_bytes(b"not a zip")
+    argv = ["train", "--algo", "ppo", "--env", "CoilRadius", "--out", str(out), "--resume"]
+    _refused(
+        capsys,
+        [*argv, "--timesteps", "240", "--quiet"],
+        "checkpoint model_160_steps.zip",
+        "cannot be loaded",
+        "_160_steps.*",
+    )
+    info = json.loads((out / "run.json").read_text())
+    assert info["status"] == "failed" and "cannot be loaded" in info["error"]

@@ -481,13 +481,23 @@ def train(
                 env_id, n_envs, seed, env_kwargs, run_dir / "monitor", run.get("wrapper")
             )
             if ckpt is not None:
-                if normalize:
-                    stats = run_dir / "checkpoints" / f"model_vecnormalize_{resumed_at}_steps.pkl"
-                    venv = VecNormalize.load(str(stats), venv)
-                model = cls.load(ckpt, env=venv, device="cpu", tensorboard_log=str(run_dir / "tb"))
-                buffer = run_dir / "checkpoints" / f"model_replay_buffer_{resumed_at}_steps.pkl"
-                if algo == "sac" and buffer.is_file():
-                    model.load_replay_buffer(buffer)
+                d = run_dir / "checkpoints"
+                try:
+                    if normalize:
+                        stats = d / f"model_vecnormalize_{resumed_at}_steps.pkl"
+                        venv = VecNormalize.load(str(stats), venv)
+                    model = cls.load(
+                        ckpt, env=venv, device="cpu", tensorboard_log=str(run_dir / "tb")
+                    )
+                    buffer = d / f"model_replay_buffer_{resumed_at}_steps.pkl"
+                    if algo == "sac" and buffer.is_file():
+                        model.load_replay_buffer(buffer)
+                except Exception as exc:  # a damaged file: say which, and what to do
+                    raise ConfigError(
+                        f"--resume: checkpoint {ckpt.name} (or its statistics or replay "
+                        f"buffer) cannot be loaded: {type(exc).__name__}: {exc}; delete "
+                        f"{d}/*_{resumed_at}_steps.* to resume from the checkpoint before it"
+                    ) from None
                 print(f"resuming {run_dir} from {ckpt.name} ({resumed_at} of {total} steps)")
             else:
                 if normalize:
@@ -512,6 +522,9 @@ def train(
                     info["error"] = f"{type(exc).__name__}: {exc}"
                 _write_run(run_dir, info)
                 _close(venv, callbacks)
+                if interrupted:
+                    name = signal_name(getattr(exc, "signum", signal.SIGINT))
+                    print(f"interrupted by {name} while starting: {run_dir} holds no new steps")
             raise
         callbacks.append(RunInfoCallback(functools.partial(_write_run, run_dir), info))
         callbacks.append(StopOnRequest(stop))
@@ -538,7 +551,7 @@ def train(
         with stop.shield():
             info["wall_time_s"] = base_wall + time.perf_counter() - t0
             info["timesteps_done"] = int(model.num_timesteps)
-            path = None
+            message = ""
             if error is not None:
                 info["status"] = "failed"
                 info["error"] = f"{type(error).__name__}: {error}"
@@ -546,6 +559,10 @@ def train(
                 path = save_checkpoint(model, run_dir, algo)
                 info["status"] = "interrupted"
                 info["interrupted_by"] = signal_name(signum)
+                message = (
+                    f"\ninterrupted by {signal_name(signum)}: saved {path} "
+                    f"({model.num_timesteps} steps); continue with --resume"
+                )
             else:
                 info["status"] = "done"
                 model.save(run_dir / "final_model.zip")
@@ -553,11 +570,8 @@ def train(
                     model.get_vec_normalize_env().save(str(run_dir / "vecnormalize.pkl"))
             _write_run(run_dir, info)
             _close(venv, callbacks)
-            if path is not None:
-                print(
-                    f"\ninterrupted by {signal_name(signum)}: saved {path} "  # type: ignore[arg-type]
-                    f"({model.num_timesteps} steps); continue with --resume"
-                )
+            if message:
+                print(message)
         if error is not None:
             raise error
         from bathprint.agents.curves import plot_training_curve
