@@ -1,4 +1,4 @@
-"""Errors bathprint raises: bad scenes and diverging simulations."""
+"""Errors bathprint raises: bad scenes, bad run settings and diverging simulations."""
 
 from __future__ import annotations
 
@@ -7,6 +7,16 @@ class SceneError(ValueError):
     """A scene key, value or effect is unknown, missing or non-physical.
 
     The message names the key, the value given and what is allowed.
+    """
+
+
+class ConfigError(ValueError):
+    """A run setting is unknown, of the wrong type or out of range: a hyperparameter file, an
+    environment's keyword arguments, a run folder or a command-line value (the agents, the
+    environments' player).
+
+    The message names the parameter, the value given and what is allowed; commands print it
+    as one line and exit with code 2, before any work starts.
     """
 
 

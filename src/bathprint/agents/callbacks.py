@@ -1,5 +1,6 @@
 """Training callbacks that survive a resume: the held-out evaluation log and the per-episode
-training log keep what was recorded up to the checkpoint a run resumes from."""
+training log keep what was recorded up to the checkpoint a run resumes from; and the one
+that ends training at the next step once SIGINT or SIGTERM has arrived."""
 
 from __future__ import annotations
 
@@ -102,3 +103,16 @@ class RunInfoCallback(BaseCallback):
         if time.perf_counter() - self._last >= self.every_s:
             self.update()
         return True
+
+
+class StopOnRequest(BaseCallback):
+    """Ends training at the next environment step once ``stop.requested`` (a
+    :class:`~bathprint.agents.signals.SignalStop`): SB3 stops when a callback returns False,
+    with ``num_timesteps`` counting that step, so a checkpoint saved then loses nothing."""
+
+    def __init__(self, stop: Any) -> None:
+        super().__init__()
+        self.stop = stop
+
+    def _on_step(self) -> bool:
+        return not self.stop.requested

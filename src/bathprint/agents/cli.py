@@ -4,6 +4,10 @@ bathprint train --algo ppo --env bathprint/WriteShape-v0 [--timesteps N] [--n-en
                 [--seed S] [--out DIR] [--resume]
 bathprint evaluate RUN_DIR_OR_POLICY [...] --env ENV [--episodes N] [--seed S] [--out DIR]
 bathprint baselines fit --env ENV [--targets N] [--write]
+
+Refusals (bad settings, files or values) are one line on stderr and exit code 2, before
+any work starts. SIGINT (Ctrl-C) and SIGTERM end a command with 130 and 143; ``train``
+saves a checkpoint first (see :mod:`bathprint.agents.train`).
 """
 
 from __future__ import annotations
@@ -14,6 +18,7 @@ import sys
 from collections.abc import Sequence
 
 from bathprint.agents.hyperparams import ALGOS
+from bathprint.agents.signals import SignalStop, exit_code, signal_name
 
 
 def _train_parser() -> argparse.ArgumentParser:
@@ -24,7 +29,7 @@ def _train_parser() -> argparse.ArgumentParser:
     ap.add_argument("--env", required=True, help="environment id or short name")
     ap.add_argument("--timesteps", type=int, default=None, help="total environment steps")
     ap.add_argument("--n-envs", type=int, default=None, help="parallel environments")
-    ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--seed", type=int, default=None, help="seed (default 0; a resume: the run's)")
     ap.add_argument("--out", default=None, help="run directory (default runs/ALGO_ENV_seedS)")
     ap.add_argument("--resume", action="store_true", help="continue the run in --out")
     ap.add_argument(
@@ -60,8 +65,8 @@ def train_main(argv: Sequence[str] | None = None) -> int:
             progress=not args.quiet,
             hyperparams_file=args.hyperparams,
         )
-    except KeyboardInterrupt:
-        return 130
+    except KeyboardInterrupt as exc:  # train saved a checkpoint and said so
+        return exit_code(exc)
     except (ValueError, FileNotFoundError, FileExistsError) as exc:
         print(f"bathprint train: {exc}", file=sys.stderr)
         return 2
@@ -104,24 +109,39 @@ def evaluate_main(argv: Sequence[str] | None = None) -> int:
     args = _evaluate_parser().parse_args(argv)
     from bathprint.agents.evaluate import evaluate_many, format_table
 
+    if args.images < 0:
+        print(f"bathprint evaluate: --images = {args.images}; must be >= 0", file=sys.stderr)
+        return 2
     try:
-        summaries = evaluate_many(
-            args.policies,
-            args.env,
-            episodes=args.episodes,
-            seed=args.seed,
-            out=args.out,
-            accuracy=args.accuracy,
-            images=args.images,
-            animate=not args.no_animation,
-            progress=not args.quiet,
+        with SignalStop(deferred=False):
+            summaries = evaluate_many(
+                args.policies,
+                args.env,
+                episodes=args.episodes,
+                seed=args.seed,
+                out=args.out,
+                accuracy=args.accuracy,
+                images=args.images,
+                animate=not args.no_animation,
+                progress=not args.quiet,
+            )
+    except KeyboardInterrupt as exc:
+        print(
+            _interrupted("evaluate", exc, "the policy being evaluated wrote nothing"),
+            file=sys.stderr,
         )
+        return exit_code(exc)
     except (ValueError, FileNotFoundError, RuntimeError) as exc:
         print(f"bathprint evaluate: {exc}", file=sys.stderr)
         return 2
     print(format_table(summaries), end="")
     print(f"wrote {args.out}/table.md and one directory per policy")
     return 0
+
+
+def _interrupted(command: str, exc: BaseException, what: str) -> str:
+    name = signal_name(getattr(exc, "signum", 2))
+    return f"bathprint {command}: interrupted by {name}; {what}"
 
 
 def _baselines_parser() -> argparse.ArgumentParser:
@@ -164,16 +184,20 @@ def baselines_main(argv: Sequence[str] | None = None) -> int:
                 raise ValueError(
                     f"--{name.replace('_', '-')} = {getattr(args, name)}; must be >= 1"
                 )
-        entry = fit_baselines(
-            env_id,
-            accuracy=args.accuracy,
-            n_targets=args.targets,
-            grid_q_outer=args.grid_q_outer,
-            grid_q_inner=args.grid_q_inner,
-            grid_offset=args.grid_offset,
-            seed=args.seed,
-            progress=not args.quiet,
-        )
+        with SignalStop(deferred=False):
+            entry = fit_baselines(
+                env_id,
+                accuracy=args.accuracy,
+                n_targets=args.targets,
+                grid_q_outer=args.grid_q_outer,
+                grid_q_inner=args.grid_q_inner,
+                grid_offset=args.grid_offset,
+                seed=args.seed,
+                progress=not args.quiet,
+            )
+    except KeyboardInterrupt as exc:
+        print(_interrupted("baselines", exc, "nothing written"), file=sys.stderr)
+        return exit_code(exc)
     except (ValueError, FileNotFoundError, RuntimeError) as exc:
         print(f"bathprint baselines: {exc}", file=sys.stderr)
         return 2

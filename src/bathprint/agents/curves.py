@@ -63,7 +63,8 @@ def plot_training_curve(run_dir: str | Path, window: int = 50) -> Path:
     wall = float(info.get("wall_time_s", 0.0))
     ax.set_title(f"{info['algo'].upper()} on {info['env_id']} (seed {info['seed']}, {wall:.0f} s)")
     ax.grid(alpha=0.3)
-    ax.legend(loc="upper right", fontsize=8)
+    if ax.get_legend_handles_labels()[0]:
+        ax.legend(loc="upper right", fontsize=8)
     fig.tight_layout()
     path = run_dir / "training_curve.png"
     fig.savefig(path, dpi=110)

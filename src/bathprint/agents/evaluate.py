@@ -1,7 +1,8 @@
 """``bathprint evaluate``: deterministic rollouts of policies on the held-out target set.
 
-Episode k uses evaluation target k (mod the set's size) and seed ``seed + k`` (which picks
-the warm-up start state), so the same policy and seeds give the same numbers. For each
+Episode k uses evaluation target k and seed ``seed + k`` (which picks the warm-up start
+state), so the same policy and seeds give the same numbers; more episodes than the set has
+targets are refused (they would repeat targets). For each
 policy (a baseline name, a run directory or a model ``.zip``) it writes into
 ``OUT/<label>/``::
 
@@ -9,7 +10,9 @@ policy (a baseline name, a run directory or a model ``.zip``) it writes into
                                   bathprint.envs.metric), shape_rms_mm, curvature_rms_1_mm,
                                   density_rms_kg_m3 (intrinsic errors), reward, episode
                                   length, wall time, mean flows, divergence message
-    summary.json                  means and standard deviations
+    summary.json                  means and standard deviations; for a trained policy,
+                                  where its observation statistics came from
+                                  (``obs_normalization``)
     episode_K.png                 the printed filament over its target (first --images)
     episode_0.gif                 one episode being written (--animate)
 
@@ -20,6 +23,7 @@ from __future__ import annotations
 
 import csv
 import json
+import sys
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
@@ -28,11 +32,16 @@ import numpy as np
 from tqdm import tqdm
 
 from bathprint.agents.rollout import METRIC_KEYS, Episode, run_episode
+from bathprint.agents.train import read_run_info, trained_files
+from bathprint.errors import ConfigError
 
 
-def _run_settings(spec: str, accuracy: str | None) -> tuple[dict[str, Any], Any]:
+def _run_settings(
+    spec: str, accuracy: str | None, env_id: str | None = None
+) -> tuple[dict[str, Any], Any]:
     """(environment kwargs, wrapper entry) a policy was trained with (run directories and
-    their models), else the preset and no wrapper."""
+    their models), else the preset and no wrapper. With ``env_id``, a run trained on another
+    environment is refused."""
     path = Path(spec)
     kwargs: dict[str, Any] = {}
     wrapper = None
@@ -40,13 +49,27 @@ def _run_settings(spec: str, accuracy: str | None) -> tuple[dict[str, Any], Any]
     if run_json is None and path.suffix == ".zip":
         run_json = next((p / "run.json" for p in path.parents if (p / "run.json").is_file()), None)
     if run_json is not None and run_json.is_file():
-        hp = json.loads(run_json.read_text())["hyperparams"]
-        kwargs.update(hp.get("env_kwargs", {}))
+        info = read_run_info(run_json.parent)
+        if env_id is not None and info["env_id"] != env_id:
+            raise ConfigError(
+                f"{spec}: trained on {info['env_id']}, not on {env_id}; evaluate it with "
+                f"--env {info['env_id']}"
+            )
+        hp = info["hyperparams"]
+        env_kwargs = hp.get("env_kwargs", {})
+        if not isinstance(env_kwargs, dict):
+            raise ConfigError(f"{run_json}: env_kwargs = {env_kwargs!r}; expected a mapping")
+        kwargs.update(env_kwargs)
         wrapper = hp.get("wrapper")
     if accuracy is not None:
         kwargs["accuracy"] = accuracy
     kwargs.setdefault("accuracy", "draft")
     return kwargs, wrapper
+
+
+def _check_episodes(episodes: Any) -> None:
+    if not (isinstance(episodes, int) and not isinstance(episodes, bool) and episodes >= 1):
+        raise ConfigError(f"episodes = {episodes!r}; allowed: an integer >= 1")
 
 
 def _safe_label(label: str) -> str:
@@ -81,19 +104,26 @@ def evaluate_policy_spec(
     """Evaluate one policy; returns (label, summary, episodes) and writes the files if
     ``out`` is given."""
     from bathprint.agents.policies import load_policy
+    from bathprint.agents.wrappers import wrapper_factory
     from bathprint.envs import make, resolve_id
 
-    if episodes < 1:
-        raise ValueError(f"episodes = {episodes!r}; must be >= 1")
+    _check_episodes(episodes)
     env_id = resolve_id(env_id)
-    from bathprint.agents.wrappers import wrapper_factory
-
-    kwargs, wrapper = _run_settings(spec, accuracy)
+    kwargs, wrapper = _run_settings(spec, accuracy, env_id)
     env = make(env_id, render_mode="rgb_array", target_set="eval", **kwargs)
     if wrapper:
         env = wrapper_factory(wrapper)(env)
-    policy, label = load_policy(spec, env, env_id, seed=seed)
     n_eval = env.unwrapped.sampler.eval_size
+    if episodes > n_eval:
+        env.close()
+        raise ConfigError(
+            f"episodes = {episodes}; the held-out set of {env_id} has {n_eval} targets and "
+            f"episode k plays target k: allowed 1..{n_eval}"
+        )
+    policy, label = load_policy(spec, env, env_id, seed=seed)
+    note = getattr(policy, "normalization", None)
+    if note and note.startswith("no VecNormalize statistics"):
+        print(f"bathprint evaluate: warning: {label}: {note}", file=sys.stderr)
     eps: list[Episode] = []
     for k in tqdm(range(episodes), desc=f"evaluate {label}", disable=not progress):
         frame_every = 2 if (animate and k == 0 and out is not None) else 0
@@ -101,7 +131,7 @@ def evaluate_policy_spec(
             env,
             policy,
             seed + k,
-            target_index=k % n_eval,
+            target_index=k,
             frame_every=frame_every,
             final_frame=out is not None and k < images,
         )
@@ -117,6 +147,8 @@ def evaluate_policy_spec(
             "spec": spec,
         }
     )
+    if note is not None:
+        summary["obs_normalization"] = note
     if out is not None:
         _write(Path(out) / _safe_label(label), env, eps, summary, images)
     env.close()
@@ -183,7 +215,21 @@ def evaluate_many(
     """Evaluate each policy; returns their summaries. ``OUT/table.md`` and ``table.json``
     are rebuilt from every policy evaluated into ``OUT`` so far with the same environment,
     episodes and seed, so evaluations made one at a time add up to one table."""
+    from bathprint.agents.policies import BASELINES
+    from bathprint.envs import resolve_id
+
     out = Path(out)
+    _check_episodes(episodes)
+    for spec in specs:  # every policy checked before the first is evaluated
+        if spec in BASELINES:
+            continue
+        if not Path(spec).exists():
+            raise FileNotFoundError(
+                f"policy {spec!r}: neither a baseline ({', '.join(BASELINES)}) nor an existing "
+                "run directory or model .zip"
+            )
+        trained_files(spec)
+        _run_settings(spec, accuracy, resolve_id(env_id))
     summaries = []
     for spec in specs:
         _, summary, _ = evaluate_policy_spec(

@@ -19,19 +19,29 @@
 best constant action and the calibrated prefactor of the scaling law.
 
 Files are read from ``$BATHPRINT_AGENTS_DIR`` if set, else from ``agents/`` at the root of
-the source checkout.
+the source checkout. :func:`validate_hyperparams` checks an entry before any work starts:
+YAML syntax, unknown keys (against bathprint's keys and the algorithm's constructor), the
+types the constructor declares and the ranges of the common numbers; errors are
+:class:`bathprint.errors.ConfigError` naming the key, the value and what is allowed.
 """
 
 from __future__ import annotations
 
+import collections.abc
 import copy
+import difflib
+import inspect
 import json
+import math
+import types
+import typing
 from pathlib import Path
 from typing import Any
 
 import yaml
 
 from bathprint._resources import shared_dir
+from bathprint.errors import ConfigError
 
 ALGOS = ("ppo", "sac")
 #: keys read by bathprint itself; everything else is passed to the SB3 algorithm
@@ -47,6 +57,47 @@ RUN_KEYS = (
     "torch_threads",
     "wrapper",
 )
+#: the algorithm's arguments bathprint sets itself (not allowed in a file)
+RESERVED_KEYS = ("env", "seed", "device", "tensorboard_log", "verbose", "_init_setup_model")
+#: environment arguments bathprint sets itself: training uses the training targets, the
+#: held-out evaluation the evaluation set
+RESERVED_ENV_KWARGS = ("render_mode", "target_set", "target_index")
+#: gymnasium.make's own keyword arguments that may appear in ``env_kwargs``
+GYM_MAKE_KWARGS = ("max_episode_steps", "disable_env_checker")
+
+_POSITIVE_INT = (
+    "n_timesteps",
+    "n_envs",
+    "eval_freq",
+    "eval_episodes",
+    "checkpoint_freq",
+    "torch_threads",
+)
+# (low, low inclusive, high, high inclusive) of numbers the algorithms take
+_RANGES: dict[str, tuple[float | None, bool, float | None, bool]] = {
+    "learning_rate": (0.0, False, None, False),
+    "n_steps": (1, True, None, False),
+    "batch_size": (1, True, None, False),
+    "n_epochs": (1, True, None, False),
+    "gamma": (0.0, False, 1.0, True),
+    "gae_lambda": (0.0, True, 1.0, True),
+    "clip_range": (0.0, False, None, False),
+    "clip_range_vf": (0.0, False, None, False),
+    "ent_coef": (0.0, True, None, False),
+    "vf_coef": (0.0, True, None, False),
+    "max_grad_norm": (0.0, False, None, False),
+    "target_kl": (0.0, False, None, False),
+    "buffer_size": (1, True, None, False),
+    "learning_starts": (0, True, None, False),
+    "tau": (0.0, False, 1.0, True),
+    "train_freq": (1, True, None, False),
+    "gradient_steps": (-1, True, None, False),
+    "target_update_interval": (1, True, None, False),
+    "stats_window_size": (1, True, None, False),
+    "clip_obs": (0.0, False, None, False),
+    "clip_reward": (0.0, False, None, False),
+    "epsilon": (0.0, False, None, False),
+}
 
 
 def agents_dir() -> Path:
@@ -55,15 +106,47 @@ def agents_dir() -> Path:
     return shared_dir("agents", "BATHPRINT_AGENTS_DIR")
 
 
+class _StrictLoader(yaml.SafeLoader):
+    """SafeLoader that refuses a key written twice in one mapping (the second would
+    silently win); keys brought in by a merge (``<<: *anchor``) may be overridden."""
+
+    def construct_mapping(self, node: Any, deep: bool = False) -> Any:
+        if isinstance(node, yaml.MappingNode):
+            seen: set[Any] = set()
+            for key_node, _ in node.value:
+                if key_node.tag == "tag:yaml.org,2002:merge":
+                    continue
+                key = self.construct_object(key_node, deep=True)
+                if isinstance(key, collections.abc.Hashable) and key in seen:
+                    mark = key_node.start_mark
+                    raise ConfigError(
+                        f"{mark.name}: key {key!r} appears twice in one mapping (line "
+                        f"{mark.line + 1}); write it once"
+                    )
+                seen.add(key)
+        return super().construct_mapping(node, deep=deep)
+
+
 def _read_yaml(path: Path) -> dict[str, Any]:
     if not path.is_file():
         raise FileNotFoundError(
             f"{str(path)!r} does not exist; set BATHPRINT_AGENTS_DIR to a directory holding "
             "the agents' YAML files (the repository's agents/)"
         )
-    data = yaml.safe_load(path.read_text()) or {}
+    try:
+        data = yaml.load(path.read_text(), Loader=_StrictLoader) or {}
+    except yaml.MarkedYAMLError as exc:
+        mark = exc.problem_mark or exc.context_mark
+        where = f" at line {mark.line + 1}, column {mark.column + 1}" if mark else ""
+        what = ": ".join(x for x in (exc.context, exc.problem) if x)
+        raise ConfigError(f"{path}: not valid YAML{where}: {what}") from None
+    except yaml.YAMLError as exc:
+        raise ConfigError(f"{path}: not valid YAML: {exc}") from None
     if not isinstance(data, dict):
-        raise ValueError(f"{path}: expected a mapping of environment id to settings")
+        raise ConfigError(
+            f"{path}: a {type(data).__name__} at the top; expected a mapping of environment "
+            "id to settings"
+        )
     return data
 
 
@@ -75,10 +158,16 @@ def load_hyperparams(algo: str, env_id: str, path: str | Path | None = None) -> 
     path = Path(path) if path is not None else agents_dir() / f"{algo}.yml"
     data = _read_yaml(path)
     if env_id not in data:
-        raise ValueError(
-            f"{path.name} has no entry for {env_id!r}; entries: {', '.join(sorted(data))}"
+        raise ConfigError(
+            f"{path.name} has no entry for {env_id!r}; entries: "
+            + ", ".join(sorted(map(str, data)))
         )
-    return copy.deepcopy(data[env_id])
+    entry = data[env_id]
+    if not isinstance(entry, dict):
+        raise ConfigError(
+            f"{path}: the entry of {env_id} is {entry!r}; expected a mapping of settings"
+        )
+    return copy.deepcopy(entry)
 
 
 def split_hyperparams(hp: dict[str, Any]) -> tuple[dict[str, Any], dict[str, Any]]:
@@ -86,6 +175,253 @@ def split_hyperparams(hp: dict[str, Any]) -> tuple[dict[str, Any], dict[str, Any
     run = {k: hp[k] for k in RUN_KEYS if k in hp}
     algo = {k: v for k, v in hp.items() if k not in RUN_KEYS}
     return run, algo
+
+
+def _describe(ann: Any) -> str:
+    """What an annotation allows, in words."""
+    origin = typing.get_origin(ann)
+    if origin in (typing.Union, types.UnionType):
+        return " or ".join(dict.fromkeys(_describe(a) for a in typing.get_args(ann)))
+    if ann is type(None) or ann is None:
+        return "null"
+    names = {bool: "true or false", int: "an integer", float: "a number", str: "a string"}
+    if ann in names:
+        return names[ann]
+    if ann is dict or origin is dict:
+        return "a mapping"
+    if ann is list or origin is list:
+        (item,) = typing.get_args(ann) or (Any,)
+        plural = {int: "integers", float: "numbers", str: "strings"}
+        return "a list" if item is Any else f"a list of {plural.get(item, _describe(item))}"
+    if origin is tuple:
+        return "a list [" + ", ".join(_describe(a) for a in typing.get_args(ann)) + "]"
+    if origin is collections.abc.Callable:
+        return "a schedule (a Python callable)"
+    if origin is type:
+        (cls,) = typing.get_args(ann)
+        return f"a {getattr(cls, '__name__', cls)} class"
+    return f"a {getattr(ann, '__name__', ann)}"
+
+
+def _matches(value: Any, ann: Any) -> bool:
+    """Whether a value read from YAML/JSON fits an annotation (unknown forms fit)."""
+    origin = typing.get_origin(ann)
+    if ann is inspect.Parameter.empty or ann is Any:
+        return True
+    if origin in (typing.Union, types.UnionType):
+        return any(_matches(value, a) for a in typing.get_args(ann))
+    if ann is type(None) or ann is None:
+        return value is None
+    if ann is bool:
+        return isinstance(value, bool)
+    if ann is int:
+        return isinstance(value, int) and not isinstance(value, bool)
+    if ann is float:
+        return (
+            isinstance(value, int | float) and not isinstance(value, bool) and math.isfinite(value)
+        )
+    if ann is str:
+        return isinstance(value, str)
+    if ann is dict or origin is dict:
+        return isinstance(value, dict)
+    if ann is list or origin is list:
+        (item,) = typing.get_args(ann) or (Any,)
+        return isinstance(value, list) and all(_matches(v, item) for v in value)
+    if origin is tuple:
+        args = typing.get_args(ann)
+        return (
+            isinstance(value, list | tuple)
+            and len(value) == len(args)
+            and all(_matches(v, a) for v, a in zip(value, args, strict=True))
+        )
+    if origin is collections.abc.Callable:
+        return callable(value)
+    if origin is type:
+        (cls,) = typing.get_args(ann)
+        return isinstance(value, type) and (not isinstance(cls, type) or issubclass(value, cls))
+    if isinstance(ann, type):
+        return isinstance(value, ann)
+    return True
+
+
+def _check_value(key: str, value: Any, ann: Any, where: str) -> None:
+    """Type (from the annotation) and range (from :data:`_RANGES`) of one setting."""
+    if not _matches(value, ann):
+        hint = ""
+        if isinstance(value, str) and _matches(1.0, ann):
+            try:
+                float(value)
+                hint = (
+                    " (YAML reads a number without a decimal point, like 3e-4, as a "
+                    "string: write 3.0e-4)"
+                )
+            except ValueError:
+                pass
+        raise ConfigError(
+            f"{where}: {key} = {value!r} ({type(value).__name__}); expected {_describe(ann)}" + hint
+        )
+    name = key.rsplit(".", 1)[-1]  # normalize.gamma has gamma's range
+    if name in _RANGES and isinstance(value, int | float) and not isinstance(value, bool):
+        lo, lo_in, hi, hi_in = _RANGES[name]
+        ok = (lo is None or (value >= lo if lo_in else value > lo)) and (
+            hi is None or (value <= hi if hi_in else value < hi)
+        )
+        if not ok:
+            if hi is None:
+                allowed = f"{'>=' if lo_in else '>'} {lo:g}"
+            else:
+                allowed = f"in {'[' if lo_in else '('}{lo:g}, {hi:g}{']' if hi_in else ')'}"
+            raise ConfigError(f"{where}: {key} = {value!r}; allowed: a number {allowed}")
+
+
+def _unknown(key: Any, allowed: Any, where: str, what: str) -> ConfigError:
+    close = difflib.get_close_matches(str(key), list(allowed), n=1)
+    hint = f" (did you mean {close[0]!r}?)" if close else ""
+    return ConfigError(
+        f"{where}: unknown {what} {key!r}{hint}; allowed: " + ", ".join(sorted(allowed))
+    )
+
+
+def _parameters(func: Any, drop: tuple[str, ...] = ()) -> dict[str, Any]:
+    """Name -> annotation of a callable's keyword parameters (without ``self``, ``drop``)."""
+    return {
+        name: p.annotation
+        for name, p in inspect.signature(func).parameters.items()
+        if name not in ("self", *drop) and p.kind not in (p.VAR_POSITIONAL, p.VAR_KEYWORD)
+    }
+
+
+def algo_class(algo: str) -> Any:
+    """The Stable-Baselines3 class of ``algo`` (``ppo``, ``sac``)."""
+    from stable_baselines3 import PPO, SAC
+
+    classes = {"ppo": PPO, "sac": SAC}
+    if algo not in classes:
+        raise ConfigError(f"algo = {algo!r}; allowed: {', '.join(classes)}")
+    return classes[algo]
+
+
+def env_parameters(env_id: str) -> dict[str, Any]:
+    """Keyword arguments an environment accepts: its class's, and gymnasium.make's."""
+    import importlib
+
+    from bathprint.envs import ENV_ENTRY_POINTS
+
+    module, name = ENV_ENTRY_POINTS[env_id].split(":")
+    cls = getattr(importlib.import_module(module), name)
+    params = _parameters(cls.__init__)
+    params.update({"max_episode_steps": int | None, "disable_env_checker": bool | None})
+    return params
+
+
+def validate_hyperparams(algo: str, hp: Any, where: str, env_id: str | None = None) -> None:
+    """Refuse an entry that would fail (or be misread) later: unknown keys, wrong types,
+    numbers out of range. ``where`` starts each message (the file or run.json). With
+    ``env_id``, the keys of ``env_kwargs`` are checked against the environment's arguments
+    (their values are checked by the environment itself)."""
+    from stable_baselines3.common.vec_env import VecNormalize
+
+    from bathprint.agents.wrappers import WRAPPERS, FeedforwardResidual
+
+    cls = algo_class(algo)
+    if not isinstance(hp, dict):
+        raise ConfigError(f"{where}: {hp!r}; expected a mapping of settings")
+    algo_params = _parameters(cls.__init__, ("policy", *RESERVED_KEYS))  # policy: a run key
+    for key in hp:
+        if not isinstance(key, str):
+            raise ConfigError(f"{where}: key {key!r} is not a string")
+        if key in RESERVED_KEYS:
+            hint = " (use --seed)" if key == "seed" else ""
+            raise ConfigError(
+                f"{where}: {key} = {hp[key]!r}; bathprint sets {key} itself{hint}: remove it"
+            )
+        if key not in RUN_KEYS and key not in algo_params:
+            raise _unknown(key, [*RUN_KEYS, *algo_params], where, f"{algo} key")
+    for key in _POSITIVE_INT:
+        if key in hp:
+            value = hp[key]
+            if not (isinstance(value, int) and not isinstance(value, bool) and value >= 1):
+                raise ConfigError(f"{where}: {key} = {value!r}; allowed: an integer >= 1")
+    policy = hp.get("policy", "MlpPolicy")
+    if not isinstance(policy, str) or policy not in cls.policy_aliases:
+        raise ConfigError(
+            f"{where}: policy = {policy!r}; allowed: " + ", ".join(cls.policy_aliases)
+        )
+    for key, value in hp.items():
+        if key in algo_params:
+            _check_value(key, value, algo_params[key], where)
+    policy_kwargs = hp.get("policy_kwargs") or {}
+    allowed_pk = _parameters(
+        cls.policy_aliases[policy].__init__, ("observation_space", "action_space", "lr_schedule")
+    )
+    for key, value in policy_kwargs.items():
+        if key not in allowed_pk:
+            raise _unknown(key, allowed_pk, where, "policy_kwargs key")
+        _check_value(f"policy_kwargs.{key}", value, allowed_pk[key], where)
+
+    env_kwargs = hp.get("env_kwargs", {})
+    if not isinstance(env_kwargs, dict):
+        raise ConfigError(
+            f"{where}: env_kwargs = {env_kwargs!r}; expected a mapping of environment arguments"
+        )
+    for key in env_kwargs:
+        if key in RESERVED_ENV_KWARGS:
+            raise ConfigError(
+                f"{where}: env_kwargs.{key} = {env_kwargs[key]!r}; bathprint sets it itself "
+                "(training on the training targets, evaluation on the held-out set): remove it"
+            )
+    if env_id is not None:
+        allowed_env = {
+            k: v for k, v in env_parameters(env_id).items() if k not in RESERVED_ENV_KWARGS
+        }
+        for key in env_kwargs:
+            if key not in allowed_env:
+                raise _unknown(key, allowed_env, where, "env_kwargs key")
+
+    normalize = hp.get("normalize", False)
+    if normalize not in (False, None):
+        if not isinstance(normalize, dict):
+            raise ConfigError(
+                f"{where}: normalize = {normalize!r}; expected false or a mapping of "
+                "VecNormalize arguments, e.g. {norm_obs: false, norm_reward: true}"
+            )
+        allowed_norm = _parameters(VecNormalize.__init__, ("venv", "training"))
+        for key, value in normalize.items():
+            if key not in allowed_norm:
+                raise _unknown(key, allowed_norm, where, "normalize key")
+            _check_value(f"normalize.{key}", value, allowed_norm[key], where)
+
+    wrapper = hp.get("wrapper")
+    if wrapper is not None:
+        if not isinstance(wrapper, dict) or wrapper.get("name") not in WRAPPERS:
+            raise ConfigError(
+                f"{where}: wrapper = {wrapper!r}; expected null or a mapping with name: one "
+                f"of {', '.join(WRAPPERS)} (and its arguments)"
+            )
+        allowed_w = _parameters(FeedforwardResidual.__init__, ("env",))
+        for key, value in wrapper.items():
+            if key == "name":
+                continue
+            if key not in allowed_w:
+                raise _unknown(key, ["name", *allowed_w], where, "wrapper key")
+            _check_value(f"wrapper.{key}", value, allowed_w[key], where)
+
+
+def algo_kwargs_for(algo: str, kwargs: dict[str, Any]) -> dict[str, Any]:
+    """The algorithm's keyword arguments as its constructor takes them: lists (all YAML and
+    JSON have) become tuples where it declares a tuple (``train_freq: [1, episode]``)."""
+    params = _parameters(algo_class(algo).__init__)
+    out = dict(kwargs)
+    for key, value in kwargs.items():
+        ann = params.get(key)
+        alternatives = (
+            typing.get_args(ann)
+            if typing.get_origin(ann) in (typing.Union, types.UnionType)
+            else (ann,)
+        )
+        if isinstance(value, list) and any(typing.get_origin(a) is tuple for a in alternatives):
+            out[key] = tuple(value)
+    return out
 
 
 def baselines_path() -> Path:

@@ -236,9 +236,10 @@ class FeedforwardPolicy(BatchPolicy):
 class SB3Policy:
     """A trained Stable-Baselines3 model (and its VecNormalize statistics, if any)."""
 
-    def __init__(self, model: Any, obs_normalizer: Any = None) -> None:
+    def __init__(self, model: Any, obs_normalizer: Any = None, normalization: str = "") -> None:
         self.model = model
         self.obs_normalizer = obs_normalizer
+        self.normalization = normalization  # where the observation statistics came from
 
     def predict(
         self,
@@ -276,5 +277,5 @@ def load_policy(spec: str, env: Any, env_id: str, seed: int = 0) -> tuple[Policy
             f"policy {spec!r}: neither a baseline ({', '.join(BASELINES)}) nor an existing "
             "run directory or model .zip"
         )
-    model, normalizer, label = load_trained(path)
-    return SB3Policy(model, normalizer), label
+    model, normalizer, label, note = load_trained(path)
+    return SB3Policy(model, normalizer, note), label

@@ -21,7 +21,7 @@ from gymnasium import spaces
 from bathprint.core import layout as L
 from bathprint.core.simulation import Simulation
 from bathprint.envs._kernels import interp_rows, observe, printed_at, read_state
-from bathprint.envs.accuracy import accuracy_overrides
+from bathprint.envs.accuracy import ACCURACY_PRESETS, accuracy_overrides
 from bathprint.envs.metric import (
     MetricParams,
     MetricValue,
@@ -110,6 +110,11 @@ def obs_slices() -> dict[str, slice]:
     return out
 
 
+def _check_index_type(index: Any, name: str = "target_index") -> None:
+    if isinstance(index, bool) or not isinstance(index, int | np.integer):
+        raise ValueError(f"{name} = {index!r}; allowed: an integer (an evaluation target)")
+
+
 # Warm-up states are the same for every instance with the same scene: computed once per
 # process and kept pickled (a Simulation pickles; loading one takes ~0.2 ms).
 _START_STATES: dict[str, bytes] = {}
@@ -141,6 +146,29 @@ class BathprintEnv(gym.Env[np.ndarray, np.ndarray]):
             )
         if target_set not in ("train", "eval"):
             raise ValueError(f"target_set = {target_set!r}; allowed: 'train', 'eval'")
+        if not isinstance(accuracy, str) or accuracy not in ACCURACY_PRESETS:
+            raise ValueError(
+                f"accuracy = {accuracy!r}; allowed: " + ", ".join(map(repr, ACCURACY_PRESETS))
+            )
+        if scene_overrides is not None and not (
+            isinstance(scene_overrides, dict) and all(isinstance(k, str) for k in scene_overrides)
+        ):
+            raise ValueError(
+                f"scene_overrides = {scene_overrides!r}; allowed: None or a mapping of dotted "
+                "scene keys to values, e.g. {'bath.viscosity_pa_s': 1.0}"
+            )
+        if target_index is not None:
+            _check_index_type(target_index)
+            if target_set != "eval":
+                raise ValueError(
+                    f"target_index = {target_index!r} selects an evaluation target: use "
+                    "target_set='eval'"
+                )
+            if target_file is not None:
+                raise ValueError(
+                    f"target_index = {target_index!r} and target_file = {target_file!r}: a "
+                    "target file is the only target; give one of them"
+                )
         self.render_mode = render_mode
         self.accuracy = accuracy
         self.target_set = target_set
@@ -216,6 +244,8 @@ class BathprintEnv(gym.Env[np.ndarray, np.ndarray]):
         self.fixed_target: Target | None = None
         if target_file is not None:
             self.fixed_target = load_target_file(target_file, self.target_spacing_mm)
+        if target_index is not None:
+            self._check_index(target_index, "target_index")
         self.target_index = target_index
         self._eval_cursor = 0
 
@@ -226,6 +256,16 @@ class BathprintEnv(gym.Env[np.ndarray, np.ndarray]):
         self._diverged = False
 
     # ------------------------------------------------------------------ construction
+    def _check_index(self, index: Any, name: str) -> None:
+        """An evaluation target index: an integer in 0..eval_size-1 (never wrapped)."""
+        _check_index_type(index, name)
+        n = self.sampler.eval_size
+        if not 0 <= index < n:
+            raise ValueError(
+                f"{name} = {index!r}; the evaluation set of {self.env_id} has {n} targets: "
+                f"allowed 0..{n - 1}"
+            )
+
     def _make_family(self, tg: dict[str, Any]) -> Any:
         family = tg.get("family")
         params = tg.get("params", {})
@@ -321,6 +361,8 @@ class BathprintEnv(gym.Env[np.ndarray, np.ndarray]):
             return self.fixed_target, -1
         if self.target_set == "eval":
             index = options.get("target_index", self.target_index)
+            if index is not None:
+                self._check_index(index, "options['target_index']")
             if index is None:
                 index = self._eval_cursor % self.sampler.eval_size
                 self._eval_cursor += 1

@@ -9,18 +9,25 @@ the return, the steps and the target.
 
 Policies: ``random`` (uniform actions, seeded), ``zero`` (action 0: mid-range flows),
 ``constant`` (the flows of the warm-up, held: Q_o = warm-up value, Q_i = 0, offset 0).
+
+On the evaluation set, episode K plays target K unless ``--target-index`` fixes one; an
+index outside the set, or more episodes than it has targets, is refused (exit code 2), as
+is any other bad value. SIGINT and SIGTERM end it with exit code 130 / 143 and a message.
 """
 
 from __future__ import annotations
 
 import argparse
 import json
+import math
 import sys
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
 import numpy as np
+
+from bathprint.errors import ConfigError
 
 POLICIES = ("random", "constant", "zero")
 
@@ -78,9 +85,44 @@ def write_animation(frames: list[np.ndarray], path: Path, fps: float) -> Path:
     return path
 
 
+def check_args(args: argparse.Namespace, eval_size: int | None = None) -> None:
+    """Refuse values that would be changed or ignored silently (ConfigError). With
+    ``eval_size`` (the environment's evaluation set), also the target index and episodes."""
+    if args.episodes < 1:
+        raise ConfigError(f"--episodes = {args.episodes}; allowed: an integer >= 1")
+    if args.frame_every < 1:
+        raise ConfigError(f"--frame-every = {args.frame_every}; allowed: an integer >= 1")
+    if args.fps is not None and not (math.isfinite(args.fps) and args.fps > 0):
+        raise ConfigError(f"--fps = {args.fps}; allowed: a number > 0")
+    if args.target_index is not None:
+        if args.target_file:
+            raise ConfigError(
+                f"--target-index = {args.target_index} with --target-file: the file is the "
+                "target; give one of them"
+            )
+        if args.target_set != "eval":
+            raise ConfigError(
+                f"--target-index = {args.target_index} selects an evaluation target; it "
+                "needs --target-set eval"
+            )
+    if eval_size is None or args.target_set != "eval" or args.target_file:
+        return
+    if args.target_index is not None and not 0 <= args.target_index < eval_size:
+        raise ConfigError(
+            f"--target-index = {args.target_index}; the evaluation set has {eval_size} "
+            f"targets: allowed 0..{eval_size - 1}"
+        )
+    if args.target_index is None and args.episodes > eval_size:
+        raise ConfigError(
+            f"--episodes = {args.episodes}; the evaluation set has {eval_size} targets and "
+            f"episode K plays target K: allowed 1..{eval_size} (or fix one with --target-index)"
+        )
+
+
 def run(args: argparse.Namespace) -> dict[str, Any]:
     from bathprint.envs import make
 
+    check_args(args)
     kwargs: dict[str, Any] = {
         "render_mode": "rgb_array",
         "accuracy": args.accuracy,
@@ -91,6 +133,11 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
     if args.target_file:
         kwargs["target_file"] = args.target_file
     env = make(args.env, **kwargs)
+    try:
+        check_args(args, env.unwrapped.sampler.eval_size)
+    except ConfigError:
+        env.close()
+        raise
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     fps = args.fps or env.metadata["render_fps"]
@@ -98,9 +145,8 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
     episodes = []
     for ep in range(args.episodes):
         options = {}
-        if args.target_set == "eval":
-            index = args.target_index if args.target_index is not None else ep
-            options["target_index"] = index % env.unwrapped.sampler.eval_size
+        if args.target_set == "eval" and not args.target_file:
+            options["target_index"] = args.target_index if args.target_index is not None else ep
         obs, info = env.reset(seed=args.seed + ep, options=options)
         frames = [env.render()]
         ret, steps, done = 0.0, 0, False
@@ -111,7 +157,7 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
             ret += reward
             steps += 1
             done = terminated or truncated
-            if steps % max(1, args.frame_every) == 0 or done:
+            if steps % args.frame_every == 0 or done:
                 frames.append(env.render())
         path = write_animation(frames, out / f"episode_{ep}.{args.format}", fps)
         record = {
@@ -147,12 +193,16 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of ``bathprint play``; returns the exit code."""
+    from bathprint.agents.signals import SignalStop, exit_code, signal_name
+
     args = _parser().parse_args(argv)
-    if args.episodes < 1:
-        print("bathprint play: --episodes must be >= 1", file=sys.stderr)
-        return 2
     try:
-        run(args)
+        with SignalStop(deferred=False):
+            run(args)
+    except KeyboardInterrupt as exc:
+        name = signal_name(getattr(exc, "signum", 2))
+        print(f"bathprint play: interrupted by {name}", file=sys.stderr)
+        return exit_code(exc)
     except (ValueError, RuntimeError, FileNotFoundError) as exc:
         print(f"bathprint play: {exc}", file=sys.stderr)
         return 2

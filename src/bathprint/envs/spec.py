@@ -9,6 +9,8 @@ in ``$BATHPRINT_ENVS_DIR`` if set, else in ``envs/`` at the root of the source c
 from __future__ import annotations
 
 import copy
+import dataclasses
+import math
 import tomllib
 from dataclasses import dataclass
 from pathlib import Path
@@ -58,6 +60,29 @@ _SCHEMA: dict[str, set[str]] = {
 }
 
 ACTION_NAMES = ("q_outer", "q_inner", "inclusion_offset")
+
+#: numbers of the spec: "table.key" -> (integer?, lower bound, bound inclusive?)
+_NUMBERS: dict[str, tuple[bool, float, bool]] = {
+    "control.length_mm": (False, 0.0, False),
+    "control.needle_speed_mm_s": (False, 0.0, True),
+    "episode.warmup_length_mm": (False, 0.0, True),
+    "episode.warmup_q_outer_ml_min": (False, 0.0, False),
+    "episode.settle_length_mm": (False, 0.0, True),
+    "episode.start_states": (True, 1, True),
+    "episode.max_substeps": (True, 1, True),
+    "target.length_mm": (False, 0.0, False),
+    "target.spacing_mm": (False, 0.0, False),
+    "target.eval_size": (True, 1, True),
+    "target.eval_seed": (True, 0, True),
+    "metric.window_mm": (False, 0.0, False),
+    "metric.length_scale_mm": (False, 0.0, False),
+    "metric.curvature_span_mm": (False, 0.0, False),
+    "metric.density_scale_kg_m3": (False, 0.0, False),
+    "metric.w_shape": (False, 0.0, True),
+    "metric.w_curvature": (False, 0.0, True),
+    "metric.w_density": (False, 0.0, True),
+    "metric.missing_error": (False, 0.0, True),
+}
 
 
 class SpecError(ValueError):
@@ -139,12 +164,62 @@ def _check_keys(data: dict[str, Any], where: str) -> None:
                 )
 
 
+def _is_number(x: Any) -> bool:
+    return isinstance(x, int | float) and not isinstance(x, bool) and math.isfinite(x)
+
+
 def _range(control: dict[str, Any], key: str, where: str) -> tuple[float, float]:
     value = control.get(key, [0.0, 0.0])
     ok = isinstance(value, list | tuple) and len(value) == 2
-    if not ok or not all(isinstance(x, int | float) for x in value) or value[0] > value[1]:
+    if not ok or not all(_is_number(x) for x in value) or value[0] > value[1]:
         raise SpecError(f"{where}: control.{key} = {value!r} must be [low, high] with low <= high")
     return float(value[0]), float(value[1])
+
+
+def _check_numbers(data: dict[str, Any], where: str) -> None:
+    """Every number of :data:`_NUMBERS` that is present: its type and lower bound."""
+    for name, (integer, lo, inclusive) in _NUMBERS.items():
+        table, key = name.split(".")
+        if key not in data[table]:
+            continue
+        value = data[table][key]
+        kind = "an integer" if integer else "a number"
+        ok = (
+            (isinstance(value, int) and not isinstance(value, bool))
+            if integer
+            else (_is_number(value))
+        )
+        if ok:
+            ok = value >= lo if inclusive else value > lo
+        if not ok:
+            raise SpecError(
+                f"{where}: {name} = {value!r}; allowed: {kind} {'>=' if inclusive else '>'} {lo:g}"
+            )
+    reflect = data["metric"].get("allow_reflection", True)
+    if not isinstance(reflect, bool):
+        raise SpecError(f"{where}: metric.allow_reflection = {reflect!r}; allowed: true, false")
+    box = data["control"].get("needle_box_mm")
+    if box is not None:
+        rows = box if isinstance(box, list | tuple) else []
+        if len(rows) != 3 or not all(
+            isinstance(r, list | tuple) and len(r) == 2 and all(map(_is_number, r)) and r[0] <= r[1]
+            for r in rows
+        ):
+            raise SpecError(
+                f"{where}: control.needle_box_mm = {box!r}; allowed: three [low, high] pairs "
+                "(x, y, z in mm) with low <= high"
+            )
+    scene = data["scene"]
+    if "base" in scene and not isinstance(scene["base"], str):
+        raise SpecError(f"{where}: scene.base = {scene['base']!r}; allowed: a scene name")
+    if not isinstance(scene.get("overrides", {}), dict):
+        raise SpecError(
+            f"{where}: scene.overrides = {scene['overrides']!r}; allowed: a table of dotted "
+            "scene keys"
+        )
+    params = data["target"].get("params", {})
+    if not isinstance(params, dict):
+        raise SpecError(f"{where}: target.params = {params!r}; allowed: a table")
 
 
 def validate(data: dict[str, Any], where: str) -> EnvSpecData:
@@ -162,16 +237,26 @@ def validate(data: dict[str, Any], where: str) -> EnvSpecData:
         )
     q_lo, _ = _range(control, "q_outer_ml_min", where)
     if q_lo <= 0:
-        raise SpecError(f"{where}: control.q_outer_ml_min must have a positive lower bound")
-    _range(control, "q_inner_ml_min", where)
+        raise SpecError(
+            f"{where}: control.q_outer_ml_min = {control.get('q_outer_ml_min')!r} must have a "
+            "positive lower bound"
+        )
+    qi = _range(control, "q_inner_ml_min", where)
+    if qi[0] < 0:
+        raise SpecError(
+            f"{where}: control.q_inner_ml_min = {control['q_inner_ml_min']!r}; flows are >= 0"
+        )
     off = _range(control, "inclusion_offset", where)
     if off[0] < -1 or off[1] > 1:
-        raise SpecError(f"{where}: control.inclusion_offset must lie in [-1, 1]")
-    for key in ("length_mm",):
-        if not float(control.get(key, 0)) > 0:
-            raise SpecError(f"{where}: control.{key} must be > 0")
-    if not float(data["target"].get("spacing_mm", 0)) > 0:
-        raise SpecError(f"{where}: target.spacing_mm must be > 0")
+        raise SpecError(
+            f"{where}: control.inclusion_offset = {control.get('inclusion_offset')!r} must "
+            "lie in [-1, 1]"
+        )
+    for name in ("control.length_mm", "target.spacing_mm"):
+        table, key = name.split(".")
+        if key not in data[table]:
+            raise SpecError(f"{where}: {name} is missing (a number > 0)")
+    _check_numbers(data, where)
     return EnvSpecData(
         id=str(data.get("id", "")),
         entry_point=str(data.get("entry_point", "")),
@@ -203,5 +288,13 @@ def load_spec(
 ) -> EnvSpecData:
     """The validated spec of ``env_id`` (or the file ``path``), updated by ``overrides``."""
     where = str(path) if path is not None else str(spec_path(str(env_id)))
+    if overrides is not None:
+        if not isinstance(overrides, dict):
+            raise SpecError(
+                f"spec_overrides = {overrides!r}; allowed: a nested mapping of spec tables, "
+                "e.g. {'target': {'length_mm': 40}}"
+            )
     data = deep_merge(read_spec_dict(env_id, path), overrides)
-    return validate(data, where)
+    if overrides is None:
+        return validate(data, where)
+    return dataclasses.replace(validate(data, f"{where} with spec_overrides"), path=where)
