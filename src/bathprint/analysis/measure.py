@@ -79,6 +79,7 @@ PD_ALTERNATION = 0.75  # fraction of successive pitch differences that change si
 PD_AMPLITUDE = 0.1  # |mean(even turns) - mean(odd turns)| / mean pitch
 N_VOTE = 5  # classify_regime: majority over the last N_VOTE frames
 GROWTH_RTOL = 1e-9  # relative arclength growth over the frame window below which nothing grows
+ROUNDOFF_RTOL = 1e-9  # per-turn lengths below this fraction of R are round-off (~1e-16 R)
 
 _DOWN = np.array([0.0, 0.0, -1.0])
 _T = TypeVar("_T")
@@ -171,13 +172,18 @@ def _perp_basis(axis: np.ndarray) -> np.ndarray:
     return np.column_stack([e1, e2])
 
 
-def _robust_cv(x: Sequence[float]) -> float:
-    """1.4826 * MAD / |median| (inf when the median is 0)."""
+def _robust_cv(x: Sequence[float], atol: float = 0.0) -> float:
+    """1.4826 * MAD / |median|: 0 when the scaled MAD is <= ``atol`` (no scatter), inf when
+    only the median is (scatter about nothing). ``atol`` (same units as x) is the size
+    below which a value is round-off: a flat coil's per-turn pitches are ~1e-16 R of either
+    sign, so with exact comparisons its CV would be 0, O(1) or inf by chance."""
     a = np.asarray(x, dtype=float)
     med = float(np.median(a))
     mad = 1.4826 * float(np.median(np.abs(a - med)))
-    if med == 0.0:
-        return 0.0 if mad == 0.0 else math.inf
+    if mad <= atol:
+        return 0.0
+    if abs(med) <= atol:
+        return math.inf
     return mad / abs(med)
 
 
@@ -753,11 +759,15 @@ def _is_straight(p: np.ndarray) -> bool:
     return sagitta <= STRAIGHT_SAGITTA * cl and tortuosity <= STRAIGHT_TORTUOSITY
 
 
-def _alternates(pitches: Sequence[float]) -> bool:
+def _alternates(pitches: Sequence[float], atol: float = 0.0) -> bool:
+    """Period doubling of the per-turn pitches (m): see :func:`classify_regime`, step 5.
+    Differences of at most ``atol`` (m) count as no change (they are round-off for a flat
+    coil), and a mean |pitch| of at most ``atol`` has no alternation to measure."""
     p = np.asarray(pitches, dtype=float)
     if len(p) < 4:
         return False
-    sg = np.sign(np.diff(p))
+    dp = np.diff(p)
+    sg = np.sign(np.where(np.abs(dp) > atol, dp, 0.0))
     if np.mean(sg[1:] * sg[:-1] < 0) < PD_ALTERNATION:
         return False
     even, odd = p[0::2], p[1::2]
@@ -767,7 +777,7 @@ def _alternates(pitches: Sequence[float]) -> bool:
         float(np.median(np.abs(even - np.median(even)))),
         float(np.median(np.abs(odd - np.median(odd)))),
     )
-    return mean > 0 and amp >= PD_AMPLITUDE * mean and scatter <= 0.5 * amp
+    return mean > atol and amp >= PD_AMPLITUDE * mean and scatter <= 0.5 * amp
 
 
 def _label_coils(g: CoilGeometry | None, q: np.ndarray) -> str:
@@ -784,11 +794,12 @@ def _label_coils(g: CoilGeometry | None, q: np.ndarray) -> str:
     k = _curvatures(q, 0.25 * r)
     if k.size >= 3 and float(np.var(k)) * r * r > ROUGHNESS_MAX:
         return "chaotic_crumpling"
-    if _robust_cv(g.core_radii) > CV_MAX:
+    atol = ROUNDOFF_RTOL * r
+    if _robust_cv(g.core_radii, atol) > CV_MAX:
         return "chaotic_crumpling"
-    if _alternates(g.core_pitches):
+    if _alternates(g.core_pitches, atol):
         return "period_doubling"
-    if _robust_cv(g.core_pitches) <= CV_MAX:
+    if _robust_cv(g.core_pitches, atol) <= CV_MAX:
         return "drag_coiling"
     return "chaotic_crumpling"
 
@@ -863,6 +874,11 @@ def classify_regime(
        scatter (1.4826 MAD) within each parity <= half that difference.
     6. ``drag_coiling`` if the robust CV of the core pitches <= 0.3, else
        ``chaotic_crumpling``.
+
+    In 4-6 lengths up to 1e-9 R are round-off (a flat coil's per-turn pitches are ~1e-16 R
+    of a sign set by the CPU's BLAS): pitch differences that small are no change, a scatter
+    that small is none (CV 0) and a median that small under a larger scatter gives CV inf.
+    A flat regular coil is therefore ``drag_coiling`` with zero pitch.
     """
     fr, _ = _valid_frames(frames, times)
     if not fr:
