@@ -61,6 +61,24 @@ def helix_frame(
     return pts[::-1].copy()
 
 
+def coil_on_edge(n_turn=6, drift=0.3e-3, yaw=0.4):
+    """Needle at the origin pointing -z: a straight stem of length ELL, then flat coils of
+    radius R in a VERTICAL plane (horizontal coil axis, no advance along it) that drift by
+    ``drift`` per turn within that plane, all turned by ``yaw`` about the needle axis (so
+    the zero advance along the axis comes out as round-off). Returned free end first."""
+    n_stem = round(ELL / H)
+    stem = np.column_stack(
+        [np.zeros(n_stem + 1), np.zeros(n_stem + 1), -np.linspace(0.0, ELL, n_stem + 1)]
+    )
+    n = int(np.ceil(2 * np.pi * n_turn * R / H))
+    phi = np.linspace(0.0, 2 * np.pi * n_turn, n + 1)[1:]
+    x = R - R * np.cos(phi) + drift * phi / (2 * np.pi)
+    coil = np.column_stack([x, np.zeros_like(phi), -ELL - R * np.sin(phi)])
+    c, s = math.cos(yaw), math.sin(yaw)
+    pts = np.vstack([stem, coil]) @ np.array([[c, s, 0.0], [-s, c, 0.0], [0.0, 0.0, 1.0]])
+    return pts[::-1].copy()
+
+
 def rotating(pitches, n=40, t_end=3.0, **kw):
     times = np.linspace(0.0, t_end, n)
     return [helix_frame(pitches, phase=OMEGA * t, **kw) for t in times], times
@@ -356,3 +374,24 @@ def test_flat_coil_has_one_label_whatever_the_roundoff():
     assert m["coil_radius_m"] == pytest.approx(R, rel=0.05)
     assert m["coil_pitch_m"] == pytest.approx(0.0, abs=1e-12)
     assert m["coil_frequency_rad_s"] == pytest.approx(OMEGA, rel=0.05)
+
+
+def test_coil_on_edge_axis_and_radius_do_not_depend_on_roundoff():
+    """A horizontal coil axis with no advance along it: the axis's sign was read from the
+    round-off of the end-to-end advance and flipped under 1-ulp perturbations, and a turn
+    ending exactly on a node took one more node into its circle fit by chance (R moved by
+    4e-5 of itself). Both are now the same for every perturbation."""
+    from bathprint.analysis.measure import coil_geometry
+
+    frame = coil_on_edge()
+    rng = np.random.default_rng(3)
+    variants = [frame] + [ulp_perturbed(frame, rng) for _ in range(8)]
+    geos = [coil_geometry(g, NEEDLE, DOWN) for g in variants]
+    axis = np.array(geos[0].axis)
+    assert abs(axis @ DOWN) < 1e-9 and geos[0].full_turns >= 4  # horizontal, several turns
+    np.testing.assert_allclose([g.axis for g in geos], [axis] * len(geos), rtol=0, atol=1e-12)
+    radii = [g.radius for g in geos]
+    assert radii == pytest.approx([R] * len(geos), rel=0.01)
+    assert np.ptp(radii) <= 1e-9 * R
+    assert [g.pitch for g in geos] == pytest.approx([0.0] * len(geos), abs=1e-12)
+    assert classify_regime([frame], None, NEEDLE, DOWN) == "drag_coiling"

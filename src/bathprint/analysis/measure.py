@@ -270,7 +270,8 @@ def _curvatures(p: np.ndarray, step: float | None = None) -> np.ndarray:
 class CoilGeometry:
     """Turn-by-turn description of the coiled part of one frame.
 
-    ``axis``: unit coil axis (oriented with the needle direction when not horizontal);
+    ``axis``: unit coil axis (oriented with the needle direction when not nearly horizontal,
+    else with the net advance from the tip end, else by a fixed convention);
     ``turns``: |net turning| of the projected curve / 2 pi; ``coherence``: |net turning| /
     total absolute turning, smoothed over ~1/8 turn (1 for a helix, ~0 for a random walk).
     Per full turn, in tip-to-free-end order, with the first (stem-to-coil transition) turn
@@ -339,6 +340,24 @@ def _core_turns(radii: Sequence[float], pitches: Sequence[float]) -> tuple[int, 
     return start, stop
 
 
+def _axis_sign(axis: np.ndarray, q: np.ndarray, prefer: np.ndarray) -> float:
+    """+1 or -1: orient the coil axis with ``prefer`` (the needle direction) unless it is
+    nearly horizontal, then with the tip-to-free-end advance of q, and when that is
+    round-off (a flat coil standing on edge) by the first of its components along
+    ``prefer`` and the fixed basis normal to it that is not round-off: neither the sign of
+    an eigenvector nor one of round-off decides it."""
+    c = float(axis @ prefer)
+    if abs(c) > 0.3:
+        return math.copysign(1.0, c)
+    advance = float((q[-1] - q[0]) @ axis)
+    if abs(advance) > ROUNDOFF_RTOL * float(np.ptp(q, axis=0).max()):
+        return math.copysign(1.0, advance)
+    for x in (c, *(axis @ _perp_basis(prefer))):
+        if abs(x) > ROUNDOFF_RTOL:
+            return math.copysign(1.0, float(x))
+    return 1.0
+
+
 def _analyse_coils(q: np.ndarray, prefer: np.ndarray) -> CoilGeometry | None:
     """Coil analysis of the tip-first polyline q (see :class:`CoilGeometry`)."""
     if len(q) < 4:
@@ -359,9 +378,7 @@ def _analyse_coils(q: np.ndarray, prefer: np.ndarray) -> CoilGeometry | None:
     else:
         _, vecs = np.linalg.eigh(np.cov(t.T))
         axis = vecs[:, 0] / np.linalg.norm(vecs[:, 0])
-    c = float(axis @ prefer)
-    sign = np.sign(c) if abs(c) > 0.3 else np.sign((q[-1] - q[0]) @ axis)
-    axis = axis * (sign if sign != 0 else 1.0)
+    axis = axis * _axis_sign(axis, q, prefer)
 
     u = q @ _perp_basis(axis)
     h = q @ axis
@@ -402,7 +419,9 @@ def _analyse_coils(q: np.ndarray, prefer: np.ndarray) -> CoilGeometry | None:
     radii, pitches, lengths = [], [], []
     for k in range(len(bounds) - 1):
         b0, b1 = bounds[k], bounds[k + 1]
-        lo, hi = K[int(np.floor(b0))], K[min(int(np.ceil(b1)), len(K) - 1)] + 1
+        # Nodes of the turn; a bound within round-off of a node counts as on it (one node
+        # more or less would otherwise be fitted by chance).
+        lo, hi = K[int(np.floor(b0 + 1e-9))], K[min(int(np.ceil(b1 - 1e-9)), len(K) - 1)] + 1
         fit = _circle_fit(u[lo : hi + 1])
         seg_len = float(np.interp(b1, idx, sm) - np.interp(b0, idx, sm))
         radius = fit[1] if fit is not None else float(pl[lo:hi].sum()) / (2 * np.pi)
