@@ -395,3 +395,23 @@ def test_coil_on_edge_axis_and_radius_do_not_depend_on_roundoff():
     assert np.ptp(radii) <= 1e-9 * R
     assert [g.pitch for g in geos] == pytest.approx([0.0] * len(geos), abs=1e-12)
     assert classify_regime([frame], None, NEEDLE, DOWN) == "drag_coiling"
+
+
+def test_a_pile_at_one_depth_has_no_plume_angle_whatever_the_needle_tilt():
+    """Points on one plane normal to the needle: their depths are equal (exactly with an
+    axis-aligned needle, to ~1e-17 m with a tilted one). A line fitted across that
+    round-off spread gave an angle of ~0.24 rad and a RankWarning; it is None either way."""
+    import warnings
+
+    rng = np.random.default_rng(5)
+    r, th = R * np.sqrt(rng.random(200)), rng.random(200) * 2 * np.pi
+    disc = np.column_stack([r * np.cos(th), r * np.sin(th), np.full(200, -ELL)])
+    (tilted_disc,), d = tilted([disc])
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        assert plume_angle(disc, NEEDLE, DOWN) is None
+        assert plume_angle(tilted_disc, NEEDLE, d) is None
+        # a real cone seen from the same tilted needle is still measured
+        (tilted_cone,), _ = tilted([disc * [1.0, 1.0, 0.0] + np.outer(-r / 0.2, [0, 0, 1.0])])
+        assert plume_angle(tilted_cone, NEEDLE, d) == pytest.approx(2 * math.atan(0.2), rel=0.1)
+    assert not caught

@@ -34,6 +34,7 @@ from __future__ import annotations
 
 import functools
 import math
+import warnings
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import Any, Literal, TypeVar
@@ -79,20 +80,22 @@ PD_ALTERNATION = 0.75  # fraction of successive pitch differences that change si
 PD_AMPLITUDE = 0.1  # |mean(even turns) - mean(odd turns)| / mean pitch
 N_VOTE = 5  # classify_regime: majority over the last N_VOTE frames
 GROWTH_RTOL = 1e-9  # relative arclength growth over the frame window below which nothing grows
-ROUNDOFF_RTOL = 1e-9  # per-turn lengths below this fraction of R are round-off (~1e-16 R)
+ROUNDOFF_RTOL = 1e-9  # lengths below this fraction of their scale (R, extent) are round-off
 
 _DOWN = np.array([0.0, 0.0, -1.0])
 _T = TypeVar("_T")
 
 
 def _never_raise(default: Callable[[], Any]) -> Callable[[Callable[..., _T]], Callable[..., _T]]:
-    """Decorator: silence numpy warnings and return ``default()`` instead of raising."""
+    """Decorator: silence numpy's floating-point errors and all warnings (np.polyfit's
+    RankWarning among them) and return ``default()`` instead of raising."""
 
     def deco(fn: Callable[..., _T]) -> Callable[..., _T]:
         @functools.wraps(fn)
         def wrapper(*args: Any, **kwargs: Any) -> _T:
             try:
-                with np.errstate(all="ignore"):
+                with np.errstate(all="ignore"), warnings.catch_warnings():
+                    warnings.simplefilter("ignore")
                     return fn(*args, **kwargs)
             except Exception:  # noqa: BLE001 - measurements must never break a run
                 return default()
@@ -604,8 +607,8 @@ def plume_angle(
     n/20 clipped to [3, 30]); the envelope in each bin is the ``quantile`` of the lateral
     distance from the needle axis; a straight line rho = c + a tan(theta/2) is fitted to
     envelope vs bin-centre depth (the intercept lets the apex sit off the needle tip) and
-    theta = 2 atan(max(slope, 0)). Measured about the needle axis. None with < 3 nodes
-    or < 2 populated bins.
+    theta = 2 atan(max(slope, 0)). Measured about the needle axis. None with < 3 nodes,
+    nodes all at one depth (to 1e-9 of their distance from the needle) or < 2 populated bins.
     """
     f = _frame(frame)
     if f is None or len(f) < 3:
@@ -614,7 +617,9 @@ def plume_angle(
     a, rho = _axial(f, o, d)
     m = a > max(_float(start_depth) or 0.0, 0.0)
     a, rho = a[m], rho[m]
-    if len(a) < 3 or np.ptp(a) <= 0:
+    # All at one depth (a pile on a plane normal to the needle): the spread of a is then
+    # round-off, ~1e-17 m with a tilted needle and 0 with an axis-aligned one.
+    if len(a) < 3 or np.ptp(a) <= ROUNDOFF_RTOL * max(float(np.abs(a).max()), float(rho.max())):
         return None
     nb = int(n_bins) if n_bins else int(np.clip(len(a) // 20, 3, 30))
     edges = np.linspace(a.min(), a.max(), nb + 1)
