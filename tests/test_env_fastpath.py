@@ -215,3 +215,33 @@ def test_observation_and_metric_equal_the_numpy_reference(env_id: str, kwargs: d
         if term:
             break
     assert term and math.isfinite(u._metric.value)
+
+
+# ------------------------------------------------------------------ target torsion
+@pytest.mark.parametrize("direction", [(0.0, 0.0, -1.0), (0.3, 0.5, -0.8), (-0.7, 0.1, 0.2)])
+def test_straight_target_file_has_no_torsion_in_any_direction(tmp_path, direction) -> None:
+    """A straight line from a target file: d1 x d2 is round-off everywhere, and with a
+    threshold relative to its own largest value the torsion was round-off / round-off (up
+    to ~17 1/mm along (0.3, 0.5, -0.8); exactly 0 only along an axis), which reached the
+    observation. It is 0, and the osculating coil radius inf, in every direction."""
+    from bathprint.envs.targets import load_target_file
+
+    d = np.asarray(direction) / np.linalg.norm(direction)
+    path = tmp_path / "line.npy"
+    np.save(path, np.array([12.0, -3.0, 40.0]) + np.outer(np.arange(50.0), d))
+    target = load_target_file(path, 0.25)
+    np.testing.assert_allclose(target.torsion_1_mm, 0.0, rtol=0, atol=1e-9)
+    assert np.isinf(target.coil_radius_mm()).all()
+
+
+@pytest.mark.parametrize("offset_mm", [0.0, 1e3])
+def test_helix_torsion_is_kept(offset_mm: float) -> None:
+    """The floor only removes round-off: a helix (R 3 mm, pitch 2 mm), near the origin or
+    1 m from it, keeps its torsion to the accuracy of the central differences."""
+    from bathprint.envs.targets import curve_from_curvature, discrete_torsion
+    from bathprint.envs.targets import helix_curvature_torsion as kt
+
+    kappa, tau = (float(x) for x in kt(np.array(3.0), np.array(2.0)))
+    pts = curve_from_curvature(np.full(400, kappa), np.full(400, tau), 0.25) + offset_mm
+    got = discrete_torsion(pts, 8)
+    np.testing.assert_allclose(got[16:-16], tau, rtol=2e-3)
