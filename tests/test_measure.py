@@ -61,6 +61,24 @@ def helix_frame(
     return pts[::-1].copy()
 
 
+def coil_on_edge(n_turn=6, drift=0.3e-3, yaw=0.4):
+    """Needle at the origin pointing -z: a straight stem of length ELL, then flat coils of
+    radius R in a VERTICAL plane (horizontal coil axis, no advance along it) that drift by
+    ``drift`` per turn within that plane, all turned by ``yaw`` about the needle axis (so
+    the zero advance along the axis comes out as round-off). Returned free end first."""
+    n_stem = round(ELL / H)
+    stem = np.column_stack(
+        [np.zeros(n_stem + 1), np.zeros(n_stem + 1), -np.linspace(0.0, ELL, n_stem + 1)]
+    )
+    n = int(np.ceil(2 * np.pi * n_turn * R / H))
+    phi = np.linspace(0.0, 2 * np.pi * n_turn, n + 1)[1:]
+    x = R - R * np.cos(phi) + drift * phi / (2 * np.pi)
+    coil = np.column_stack([x, np.zeros_like(phi), -ELL - R * np.sin(phi)])
+    c, s = math.cos(yaw), math.sin(yaw)
+    pts = np.vstack([stem, coil]) @ np.array([[c, s, 0.0], [-s, c, 0.0], [0.0, 0.0, 1.0]])
+    return pts[::-1].copy()
+
+
 def rotating(pitches, n=40, t_end=3.0, **kw):
     times = np.linspace(0.0, t_end, n)
     return [helix_frame(pitches, phase=OMEGA * t, **kw) for t in times], times
@@ -207,8 +225,8 @@ def test_rope_coiling_on_floor():
     assert classify_regime(frames, times, NEEDLE, DOWN, radius=R_FIL, z_floor=z_floor) == (
         "rope_coiling"
     )
-    # Without a floor the same shape is a (flat) suspended coil, not rope coiling.
-    assert classify_regime(frames, times, NEEDLE, DOWN) != "rope_coiling"
+    # Without a floor the same shape is a flat suspended coil: drag coiling, zero pitch.
+    assert classify_regime(frames, times, NEEDLE, DOWN) == "drag_coiling"
     m = measure_all(frames, times, NEEDLE, DOWN, H, R_FIL, z_floor=z_floor)
     assert m["regime"] == "rope_coiling"
     assert m["buckling_length_m"] == pytest.approx(ELL, rel=0.02)
@@ -319,3 +337,81 @@ def test_length_rate_reads_real_growth():
         tail = f[0] - np.outer(np.arange(1, round(v * t / H) + 1) * H, [0.0, 0.0, 1.0])
         frames.append(np.vstack([tail[::-1], f]))
     assert measure._length_rate(frames, times) == pytest.approx(v, rel=0.1)
+
+
+def tilted(frames, angle=0.3):
+    """Frames and the needle direction rotated by ``angle`` (rad) about x: a generic
+    orientation, in which exact zeros (a flat coil's pitch) come out as round-off."""
+    c, s = math.cos(angle), math.sin(angle)
+    rot = np.array([[1.0, 0.0, 0.0], [0.0, c, -s], [0.0, s, c]])
+    return [f @ rot.T for f in frames], rot @ DOWN
+
+
+def ulp_perturbed(frame, rng):
+    """Every coordinate moved by 0 or 1 ulp towards a random side."""
+    side = rng.choice([-np.inf, np.inf], size=frame.shape)
+    return np.where(rng.random(frame.shape) < 0.5, frame, np.nextafter(frame, side))
+
+
+def test_flat_coil_has_one_label_whatever_the_roundoff():
+    """Flat coils (zero pitch) seen from a tilted needle: each per-turn pitch is round-off
+    (~1e-18 m, its sign set by the BLAS kernels), which once labelled the frames
+    drag_coiling, chaotic_crumpling or period_doubling by chance (period_doubling overall
+    with OpenBLAS's Prescott and Sandybridge kernels, drag_coiling with Haswell and
+    SkylakeX). Every frame and every 1-ulp perturbation of it is now a drag coil."""
+    frames, times = rotating([0.0] * 6, n=8, stem=ELL, z_flat=-ELL, drift=0.3e-3)
+    frames, d = tilted(frames)
+    rng = np.random.default_rng(7)
+    labels = set()
+    for f in frames:
+        for g in [f] + [ulp_perturbed(f, rng) for _ in range(4)]:
+            labels.add(classify_regime([g], None, NEEDLE, d, n_vote=1))
+            lam, per_turn = coil_pitch(g, NEEDLE, d)
+            assert lam == pytest.approx(0.0, abs=1e-12) and len(per_turn) >= 4
+    assert labels == {"drag_coiling"}
+    m = measure_all(frames, times, NEEDLE, d, H, R_FIL)
+    assert m["regime"] == "drag_coiling"
+    assert m["coil_radius_m"] == pytest.approx(R, rel=0.05)
+    assert m["coil_pitch_m"] == pytest.approx(0.0, abs=1e-12)
+    assert m["coil_frequency_rad_s"] == pytest.approx(OMEGA, rel=0.05)
+
+
+def test_coil_on_edge_axis_and_radius_do_not_depend_on_roundoff():
+    """A horizontal coil axis with no advance along it: the axis's sign was read from the
+    round-off of the end-to-end advance and flipped under 1-ulp perturbations, and a turn
+    ending exactly on a node took one more node into its circle fit by chance (R moved by
+    4e-5 of itself). Both are now the same for every perturbation."""
+    from bathprint.analysis.measure import coil_geometry
+
+    frame = coil_on_edge()
+    rng = np.random.default_rng(3)
+    variants = [frame] + [ulp_perturbed(frame, rng) for _ in range(8)]
+    geos = [coil_geometry(g, NEEDLE, DOWN) for g in variants]
+    axis = np.array(geos[0].axis)
+    assert abs(axis @ DOWN) < 1e-9 and geos[0].full_turns >= 4  # horizontal, several turns
+    np.testing.assert_allclose([g.axis for g in geos], [axis] * len(geos), rtol=0, atol=1e-12)
+    radii = [g.radius for g in geos]
+    assert radii == pytest.approx([R] * len(geos), rel=0.01)
+    assert np.ptp(radii) <= 1e-9 * R
+    assert [g.pitch for g in geos] == pytest.approx([0.0] * len(geos), abs=1e-12)
+    assert classify_regime([frame], None, NEEDLE, DOWN) == "drag_coiling"
+
+
+def test_a_pile_at_one_depth_has_no_plume_angle_whatever_the_needle_tilt():
+    """Points on one plane normal to the needle: their depths are equal (exactly with an
+    axis-aligned needle, to ~1e-17 m with a tilted one). A line fitted across that
+    round-off spread gave an angle of ~0.24 rad and a RankWarning; it is None either way."""
+    import warnings
+
+    rng = np.random.default_rng(5)
+    r, th = R * np.sqrt(rng.random(200)), rng.random(200) * 2 * np.pi
+    disc = np.column_stack([r * np.cos(th), r * np.sin(th), np.full(200, -ELL)])
+    (tilted_disc,), d = tilted([disc])
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        assert plume_angle(disc, NEEDLE, DOWN) is None
+        assert plume_angle(tilted_disc, NEEDLE, d) is None
+        # a real cone seen from the same tilted needle is still measured
+        (tilted_cone,), _ = tilted([disc * [1.0, 1.0, 0.0] + np.outer(-r / 0.2, [0, 0, 1.0])])
+        assert plume_angle(tilted_cone, NEEDLE, d) == pytest.approx(2 * math.atan(0.2), rel=0.1)
+    assert not caught

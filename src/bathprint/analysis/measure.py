@@ -34,6 +34,7 @@ from __future__ import annotations
 
 import functools
 import math
+import warnings
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import Any, Literal, TypeVar
@@ -79,19 +80,22 @@ PD_ALTERNATION = 0.75  # fraction of successive pitch differences that change si
 PD_AMPLITUDE = 0.1  # |mean(even turns) - mean(odd turns)| / mean pitch
 N_VOTE = 5  # classify_regime: majority over the last N_VOTE frames
 GROWTH_RTOL = 1e-9  # relative arclength growth over the frame window below which nothing grows
+ROUNDOFF_RTOL = 1e-9  # lengths below this fraction of their scale (R, extent) are round-off
 
 _DOWN = np.array([0.0, 0.0, -1.0])
 _T = TypeVar("_T")
 
 
 def _never_raise(default: Callable[[], Any]) -> Callable[[Callable[..., _T]], Callable[..., _T]]:
-    """Decorator: silence numpy warnings and return ``default()`` instead of raising."""
+    """Decorator: silence numpy's floating-point errors and all warnings (np.polyfit's
+    RankWarning among them) and return ``default()`` instead of raising."""
 
     def deco(fn: Callable[..., _T]) -> Callable[..., _T]:
         @functools.wraps(fn)
         def wrapper(*args: Any, **kwargs: Any) -> _T:
             try:
-                with np.errstate(all="ignore"):
+                with np.errstate(all="ignore"), warnings.catch_warnings():
+                    warnings.simplefilter("ignore")
                     return fn(*args, **kwargs)
             except Exception:  # noqa: BLE001 - measurements must never break a run
                 return default()
@@ -171,13 +175,18 @@ def _perp_basis(axis: np.ndarray) -> np.ndarray:
     return np.column_stack([e1, e2])
 
 
-def _robust_cv(x: Sequence[float]) -> float:
-    """1.4826 * MAD / |median| (inf when the median is 0)."""
+def _robust_cv(x: Sequence[float], atol: float = 0.0) -> float:
+    """1.4826 * MAD / |median|: 0 when the scaled MAD is <= ``atol`` (no scatter), inf when
+    only the median is (scatter about nothing). ``atol`` (same units as x) is the size
+    below which a value is round-off: a flat coil's per-turn pitches are ~1e-16 R of either
+    sign, so with exact comparisons its CV would be 0, O(1) or inf by chance."""
     a = np.asarray(x, dtype=float)
     med = float(np.median(a))
     mad = 1.4826 * float(np.median(np.abs(a - med)))
-    if med == 0.0:
-        return 0.0 if mad == 0.0 else math.inf
+    if mad <= atol:
+        return 0.0
+    if abs(med) <= atol:
+        return math.inf
     return mad / abs(med)
 
 
@@ -264,7 +273,8 @@ def _curvatures(p: np.ndarray, step: float | None = None) -> np.ndarray:
 class CoilGeometry:
     """Turn-by-turn description of the coiled part of one frame.
 
-    ``axis``: unit coil axis (oriented with the needle direction when not horizontal);
+    ``axis``: unit coil axis (oriented with the needle direction when not nearly horizontal,
+    else with the net advance from the tip end, else by a fixed convention);
     ``turns``: |net turning| of the projected curve / 2 pi; ``coherence``: |net turning| /
     total absolute turning, smoothed over ~1/8 turn (1 for a helix, ~0 for a random walk).
     Per full turn, in tip-to-free-end order, with the first (stem-to-coil transition) turn
@@ -333,6 +343,24 @@ def _core_turns(radii: Sequence[float], pitches: Sequence[float]) -> tuple[int, 
     return start, stop
 
 
+def _axis_sign(axis: np.ndarray, q: np.ndarray, prefer: np.ndarray) -> float:
+    """+1 or -1: orient the coil axis with ``prefer`` (the needle direction) unless it is
+    nearly horizontal, then with the tip-to-free-end advance of q, and when that is
+    round-off (a flat coil standing on edge) by the first of its components along
+    ``prefer`` and the fixed basis normal to it that is not round-off: neither the sign of
+    an eigenvector nor one of round-off decides it."""
+    c = float(axis @ prefer)
+    if abs(c) > 0.3:
+        return math.copysign(1.0, c)
+    advance = float((q[-1] - q[0]) @ axis)
+    if abs(advance) > ROUNDOFF_RTOL * float(np.ptp(q, axis=0).max()):
+        return math.copysign(1.0, advance)
+    for x in (c, *(axis @ _perp_basis(prefer))):
+        if abs(x) > ROUNDOFF_RTOL:
+            return math.copysign(1.0, float(x))
+    return 1.0
+
+
 def _analyse_coils(q: np.ndarray, prefer: np.ndarray) -> CoilGeometry | None:
     """Coil analysis of the tip-first polyline q (see :class:`CoilGeometry`)."""
     if len(q) < 4:
@@ -353,9 +381,7 @@ def _analyse_coils(q: np.ndarray, prefer: np.ndarray) -> CoilGeometry | None:
     else:
         _, vecs = np.linalg.eigh(np.cov(t.T))
         axis = vecs[:, 0] / np.linalg.norm(vecs[:, 0])
-    c = float(axis @ prefer)
-    sign = np.sign(c) if abs(c) > 0.3 else np.sign((q[-1] - q[0]) @ axis)
-    axis = axis * (sign if sign != 0 else 1.0)
+    axis = axis * _axis_sign(axis, q, prefer)
 
     u = q @ _perp_basis(axis)
     h = q @ axis
@@ -396,7 +422,9 @@ def _analyse_coils(q: np.ndarray, prefer: np.ndarray) -> CoilGeometry | None:
     radii, pitches, lengths = [], [], []
     for k in range(len(bounds) - 1):
         b0, b1 = bounds[k], bounds[k + 1]
-        lo, hi = K[int(np.floor(b0))], K[min(int(np.ceil(b1)), len(K) - 1)] + 1
+        # Nodes of the turn; a bound within round-off of a node counts as on it (one node
+        # more or less would otherwise be fitted by chance).
+        lo, hi = K[int(np.floor(b0 + 1e-9))], K[min(int(np.ceil(b1 - 1e-9)), len(K) - 1)] + 1
         fit = _circle_fit(u[lo : hi + 1])
         seg_len = float(np.interp(b1, idx, sm) - np.interp(b0, idx, sm))
         radius = fit[1] if fit is not None else float(pl[lo:hi].sum()) / (2 * np.pi)
@@ -579,8 +607,8 @@ def plume_angle(
     n/20 clipped to [3, 30]); the envelope in each bin is the ``quantile`` of the lateral
     distance from the needle axis; a straight line rho = c + a tan(theta/2) is fitted to
     envelope vs bin-centre depth (the intercept lets the apex sit off the needle tip) and
-    theta = 2 atan(max(slope, 0)). Measured about the needle axis. None with < 3 nodes
-    or < 2 populated bins.
+    theta = 2 atan(max(slope, 0)). Measured about the needle axis. None with < 3 nodes,
+    nodes all at one depth (to 1e-9 of their distance from the needle) or < 2 populated bins.
     """
     f = _frame(frame)
     if f is None or len(f) < 3:
@@ -589,7 +617,9 @@ def plume_angle(
     a, rho = _axial(f, o, d)
     m = a > max(_float(start_depth) or 0.0, 0.0)
     a, rho = a[m], rho[m]
-    if len(a) < 3 or np.ptp(a) <= 0:
+    # All at one depth (a pile on a plane normal to the needle): the spread of a is then
+    # round-off, ~1e-17 m with a tilted needle and 0 with an axis-aligned one.
+    if len(a) < 3 or np.ptp(a) <= ROUNDOFF_RTOL * max(float(np.abs(a).max()), float(rho.max())):
         return None
     nb = int(n_bins) if n_bins else int(np.clip(len(a) // 20, 3, 30))
     edges = np.linspace(a.min(), a.max(), nb + 1)
@@ -753,11 +783,15 @@ def _is_straight(p: np.ndarray) -> bool:
     return sagitta <= STRAIGHT_SAGITTA * cl and tortuosity <= STRAIGHT_TORTUOSITY
 
 
-def _alternates(pitches: Sequence[float]) -> bool:
+def _alternates(pitches: Sequence[float], atol: float = 0.0) -> bool:
+    """Period doubling of the per-turn pitches (m): see :func:`classify_regime`, step 5.
+    Differences of at most ``atol`` (m) count as no change (they are round-off for a flat
+    coil), and a mean |pitch| of at most ``atol`` has no alternation to measure."""
     p = np.asarray(pitches, dtype=float)
     if len(p) < 4:
         return False
-    sg = np.sign(np.diff(p))
+    dp = np.diff(p)
+    sg = np.sign(np.where(np.abs(dp) > atol, dp, 0.0))
     if np.mean(sg[1:] * sg[:-1] < 0) < PD_ALTERNATION:
         return False
     even, odd = p[0::2], p[1::2]
@@ -767,7 +801,7 @@ def _alternates(pitches: Sequence[float]) -> bool:
         float(np.median(np.abs(even - np.median(even)))),
         float(np.median(np.abs(odd - np.median(odd)))),
     )
-    return mean > 0 and amp >= PD_AMPLITUDE * mean and scatter <= 0.5 * amp
+    return mean > atol and amp >= PD_AMPLITUDE * mean and scatter <= 0.5 * amp
 
 
 def _label_coils(g: CoilGeometry | None, q: np.ndarray) -> str:
@@ -784,11 +818,12 @@ def _label_coils(g: CoilGeometry | None, q: np.ndarray) -> str:
     k = _curvatures(q, 0.25 * r)
     if k.size >= 3 and float(np.var(k)) * r * r > ROUGHNESS_MAX:
         return "chaotic_crumpling"
-    if _robust_cv(g.core_radii) > CV_MAX:
+    atol = ROUNDOFF_RTOL * r
+    if _robust_cv(g.core_radii, atol) > CV_MAX:
         return "chaotic_crumpling"
-    if _alternates(g.core_pitches):
+    if _alternates(g.core_pitches, atol):
         return "period_doubling"
-    if _robust_cv(g.core_pitches) <= CV_MAX:
+    if _robust_cv(g.core_pitches, atol) <= CV_MAX:
         return "drag_coiling"
     return "chaotic_crumpling"
 
@@ -863,6 +898,11 @@ def classify_regime(
        scatter (1.4826 MAD) within each parity <= half that difference.
     6. ``drag_coiling`` if the robust CV of the core pitches <= 0.3, else
        ``chaotic_crumpling``.
+
+    In 4-6 lengths up to 1e-9 R are round-off (a flat coil's per-turn pitches are ~1e-16 R
+    of a sign set by the CPU's BLAS): pitch differences that small are no change, a scatter
+    that small is none (CV 0) and a median that small under a larger scatter gives CV inf.
+    A flat regular coil is therefore ``drag_coiling`` with zero pitch.
     """
     fr, _ = _valid_frames(frames, times)
     if not fr:

@@ -317,8 +317,9 @@ def _differentiation_matrices(n: int) -> tuple[np.ndarray, ...]:
     return tuple(out)
 
 
-def _pencil(beta: float, n: int, method: Method) -> tuple[np.ndarray, np.ndarray]:
-    """Matrices (A, M) with A u = s M u discretising 2 s eta + beta (xi eta)'' + eta'''' = 0."""
+def _pencil(beta: float, n: int, method: Method) -> tuple[np.ndarray, np.ndarray, int]:
+    """Matrices (A, M) with A u = s M u discretising 2 s eta + beta (xi eta)'' + eta'''' = 0,
+    and how many of the pencil's eigenvalues are infinite by construction."""
     if method == "integration":
         # Unknown w = eta'''' at the nodes. Integrating from the free end makes eta''(0) and
         # eta'''(0) vanish; the clamp fixes the remaining linear part:
@@ -327,7 +328,7 @@ def _pencil(beta: float, n: int, method: Method) -> tuple[np.ndarray, np.ndarray
         eta = j4 - j4[-1] + np.outer(1.0 - xi, j3[-1])
         deta = j3 - j3[-1]
         a = np.eye(n + 1) + beta * (2.0 * deta + xi[:, None] * j2)
-        return a, -2.0 * eta
+        return a, -2.0 * eta, 1  # the clamp row eta(1) = 0 has no s term: one infinite s
     if method == "differentiation":
         # Unknown eta at the nodes; the four boundary conditions are solved for the values at
         # the two nodes next to each end, and those equations' rows are dropped.
@@ -338,12 +339,13 @@ def _pencil(beta: float, n: int, method: Method) -> tuple[np.ndarray, np.ndarray
         inner = np.arange(2, n - 1)
         elim = -np.linalg.solve(bc[:, edge], bc[:, inner])
         a = op[np.ix_(inner, inner)] + op[np.ix_(inner, edge)] @ elim
-        return a, -2.0 * np.eye(inner.size)
+        return a, -2.0 * np.eye(inner.size), 0
     raise ValueError(f"unknown method {method!r}")
 
 
 def spectrum(beta: float, n: int = DEFAULT_N, method: Method = "integration") -> np.ndarray:
-    """Dimensionless growth rates s = sigma mu_s L^4 / B, sorted by decreasing real part.
+    """Dimensionless growth rates s = sigma mu_s L^4 / B, sorted by decreasing real part (the
+    finite eigenvalues of the discretised pencil; its infinite one, if any, is left out).
 
     ``method="integration"`` (default) collocates the equation for w = eta'''' with the
     boundary conditions built into spectral integration matrices: well conditioned, converged
@@ -354,8 +356,16 @@ def spectrum(beta: float, n: int = DEFAULT_N, method: Method = "integration") ->
     """
     if not math.isfinite(beta) or beta < 0:
         raise ValueError(f"beta must be finite and >= 0, got {beta!r}")
-    a, m = _pencil(beta, n, method)
-    values = scipy.linalg.eigvals(a, m)
+    a, m, n_infinite = _pencil(beta, n, method)
+    # The infinite eigenvalues are dropped by number, not by a test on round-off: they are
+    # the n_infinite pairs (alpha, beta) nearest to beta = 0, whether QZ returns their beta
+    # as exactly 0 (as LAPACK does here) or as round-off of either sign.
+    alpha, beta_h = scipy.linalg.eigvals(a, m, homogeneous_eigvals=True)
+    denom = beta_h.real
+    to_infinity = np.abs(denom) / np.maximum(np.hypot(np.abs(alpha), np.abs(denom)), 1e-300)
+    keep = np.sort(np.argsort(to_infinity, kind="stable")[n_infinite:])
+    with np.errstate(divide="ignore", invalid="ignore"):
+        values = alpha[keep] / denom[keep]
     values = values[np.isfinite(values)]
     return values[np.lexsort((-values.imag, -values.real))]
 

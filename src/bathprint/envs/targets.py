@@ -30,6 +30,7 @@ from typing import Any, Protocol
 import numpy as np
 
 FREE_DENSITY = (0.0, 1.0e4)  # kg/m^3: a density band that constrains nothing
+STRAIGHT_CURVATURE = 1e-9  # 1/length: discrete_torsion is 0 below this curvature
 
 
 # ------------------------------------------------------------------------------ targets
@@ -156,7 +157,14 @@ def discrete_curvature(points: np.ndarray, k: int) -> np.ndarray:
 
 
 def discrete_torsion(points: np.ndarray, k: int) -> np.ndarray:
-    """Torsion (1/length) by central differences over k samples (0 where the curve is straight)."""
+    """Torsion (1/length) by central differences over k samples (0 where the curve is straight).
+
+    Straight means |d1 x d2|^2 <= 1e-12 of its largest value on the curve, or a curvature
+    kappa = |d1 x d2| / |d1|^3 of at most ``STRAIGHT_CURVATURE`` (1e-9 1/length, as in
+    :func:`curve_from_curvature`) or 1e3 times its round-off eps max|x| / h^2 (samples h
+    apart). The absolute floor is what makes a wholly straight curve, whose d1 x d2 is
+    round-off everywhere (so is its largest value), have zero torsion rather than round-off
+    divided by round-off."""
     n = len(points)
     if k < 1 or n < 4 * k + 1:
         return np.zeros(n)
@@ -166,7 +174,13 @@ def discrete_torsion(points: np.ndarray, k: int) -> np.ndarray:
     cr = np.cross(d1, d2)
     den = np.einsum("ij,ij->i", cr, cr)
     num = np.einsum("ij,ij->i", cr, d3)
-    return np.where(den > 1e-12 * np.max(den, initial=1e-30), num / np.maximum(den, 1e-300), 0.0)
+    speed2 = np.einsum("ij,ij->i", d1, d1)  # |d1|^2 = (h / k)^2
+    kappa_roundoff = (
+        np.finfo(float).eps * float(np.abs(points).max()) / np.maximum(k * k * speed2, 1e-300)
+    )
+    kappa_min = np.maximum(STRAIGHT_CURVATURE, 1e3 * kappa_roundoff)
+    curved = (den > 1e-12 * np.max(den, initial=1e-30)) & (den > kappa_min**2 * speed2**3)
+    return np.where(curved, num / np.maximum(den, 1e-300), 0.0)
 
 
 def helix_curvature_torsion(radius: np.ndarray, pitch: np.ndarray) -> tuple[np.ndarray, ...]:
