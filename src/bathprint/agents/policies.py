@@ -192,7 +192,9 @@ class FeedforwardPolicy(BatchPolicy):
         tau = feats[1] / OBS_CURVATURE_MM
         rho_aim = feats[2] * OBS_DENSITY_SCALE_KG_M3 + OBS_DENSITY_REF_KG_M3
         phi = 0.0
-        if c.rho_gel - c.rho_inner > 0 and rho_aim < c.rho_gel - 1e-9:
+        # the aim comes through a float32 feature, which resolves ~3e-6 kg/m^3: below the gel
+        # by less than 1e-5 of the density scale is the gel itself
+        if c.rho_gel - c.rho_inner > 0 and rho_aim < c.rho_gel - 1e-5 * OBS_DENSITY_SCALE_KG_M3:
             phi = (c.rho_gel - rho_aim) / (c.rho_gel - c.rho_inner)
         offset = 0.0
         is_arc = kappa > 1e-6 and abs(tau) < 1e-6 and "inclusion_offset" in u.action_names

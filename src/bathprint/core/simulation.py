@@ -261,7 +261,7 @@ class Simulation:
         if q_inner_m3_s > 0 and not self.model.p.inclusions:
             raise ValueError(f"q_inner_m3_s = {q_inner_m3_s!r} > 0 needs the 'inclusions' effect")
         phi_max = self.scene.inclusions.max_inner_fraction
-        if q_inner_m3_s > phi_max / (1 - phi_max) * q_outer_m3_s + 1e-30:
+        if q_inner_m3_s > phi_max / (1 - phi_max) * q_outer_m3_s * (1.0 + 1e-12):
             raise ValueError(
                 f"q_inner_m3_s = {q_inner_m3_s!r} is more than the needle allows with "
                 f"q_outer_m3_s = {q_outer_m3_s!r} (inner fraction at most {phi_max:g})"
