@@ -11,9 +11,10 @@ import numpy as np
 from numba import njit
 
 from bathprint.core.banded import band_clear
-from bathprint.core.effects import drag, elasticity, end_load, floor, gravity, inertia
+from bathprint.core.effects import contact, drag, elasticity, end_load, floor, gravity, inertia
 from bathprint.core.freezing import accumulate_tail
 from bathprint.core.layout import (
+    E_CONTACT,
     E_DRAG,
     E_ELASTICITY,
     E_END_LOAD,
@@ -35,6 +36,7 @@ def assemble(model, rod, stage, out, calls: np.ndarray, energies: np.ndarray) ->
         force[k] = 0.0
     if stage.jac:
         band_clear(out.band, 3 * free_nodes(rod.n_nodes, model.params[0]))
+        out.cpl.count[0] = 0
     if enabled[E_ELASTICITY]:
         calls[E_ELASTICITY] += 1
         energies[E_ELASTICITY] = elasticity.accumulate(model, rod, stage, out)
@@ -53,5 +55,8 @@ def assemble(model, rod, stage, out, calls: np.ndarray, energies: np.ndarray) ->
     if enabled[E_END_LOAD]:
         calls[E_END_LOAD] += 1
         energies[E_END_LOAD] = end_load.accumulate(model, rod, stage, out)
+    if enabled[E_CONTACT]:
+        calls[E_CONTACT] += 1
+        energies[E_CONTACT] = contact.accumulate(model, rod, stage, out)
     if out.tail[0].on:  # a frozen tail (numerics.freeze_beyond_mm): part of the drag
         energies[E_DRAG] += accumulate_tail(model, rod, stage, out)

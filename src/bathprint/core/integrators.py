@@ -32,7 +32,7 @@ from numba import njit
 
 from bathprint.core import solver
 from bathprint.core.assemble import assemble
-from bathprint.core.effects import gelation
+from bathprint.core.effects import contact, gelation
 from bathprint.core.extrusion import (
     extruded_length,
     flow_rate,
@@ -43,6 +43,7 @@ from bathprint.core.extrusion import (
 )
 from bathprint.core.freezing import tail_load
 from bathprint.core.layout import (
+    C_CONTACT_REJECTIONS,
     C_FACTORIZATIONS,
     C_FAIL_NODE,
     C_NEWTON_FAILURES,
@@ -50,6 +51,7 @@ from bathprint.core.layout import (
     C_REJECTED,
     C_SPLITS,
     C_STEPS,
+    E_CONTACT,
     E_FLOOR,
     E_GELATION,
     E_GRAVITY,
@@ -63,7 +65,9 @@ from bathprint.core.layout import (
     MAT_STRETCH_FACTOR,
     MAT_YOUNGS_MODULUS,
     STATUS_CAPACITY,
+    STATUS_CONTACT,
     STATUS_ERROR,
+    STATUS_KRYLOV,
     STATUS_NAN,
     STATUS_NEWTON,
     STATUS_OK,
@@ -76,6 +80,11 @@ from bathprint.core.topology import filament_segments, free_nodes
 
 GAMMA = 1.0 - 1.0 / math.sqrt(2.0)
 MIN_ACTIVE_NODES = 6  # freezing leaves at least this many nodes (tip and ghost included)
+# why a step attempt ended as it did (integrators._attempt)
+CAUSE_ERROR = 0  # the error estimate (or a Newton failure)
+CAUSE_STRAIN = 1  # a strain bound
+CAUSE_CONTACT = 2  # the no-pass-through bound of self-contact
+CAUSE_CAPACITY = 3  # the contact pairs do not fit: grow and call again (nothing was done)
 
 # Butcher tableaux of the SDIRK methods: lower-triangular A (equal diagonal gamma), nodes c
 # and the weights b_hat of the embedded solution whose difference estimates the local error.
@@ -130,8 +139,8 @@ def active_rod(state, ws, frozen: int) -> Rod:
 
 
 @njit(cache=True, inline="always")
-def _out(ws, band) -> Out:
-    return Out(ws.vecs[V_FORCE], band, ws.tail, ws.scratch)
+def _out(ws, band, cpl) -> Out:
+    return Out(ws.vecs[V_FORCE], band, ws.tail, ws.scratch, cpl, ws.contact)
 
 
 @njit(cache=True, inline="always")
@@ -177,7 +186,7 @@ def _stage_solve(model, rod, state, ws, hg: float, t_stage: float) -> bool:
     sx = ws.vecs[V_SX]
     sv = ws.vecs[V_SV]
     rhs = ws.vecs[V_RHS]
-    out = _out(ws, ws.band)
+    out = _out(ws, ws.band, ws.cpl)
     force = out.force
     scale = p.tolerance * p.node_spacing
     stage = Stage(t_stage, 1.0, 1.0 / hg, 1.0 / (hg * hg) if inertial else 0.0, False)
@@ -201,9 +210,7 @@ def _stage_solve(model, rod, state, ws, hg: float, t_stage: float) -> bool:
         # full Newton, or modified Newton: factorise once per step (all stages share
         # h gamma) and again only when the iteration stops contracting fast
         need_jac = (not modified) or (not sol.lu_valid) or refresh
-        assemble(
-            model, rod, jac_stage if need_jac else stage, out, state.calls, state.energies
-        )
+        assemble(model, rod, jac_stage if need_jac else stage, out, state.calls, state.energies)
         for k in range(nd):
             rhs[k] = force[k]
         if need_jac:
@@ -216,7 +223,10 @@ def _stage_solve(model, rod, state, ws, hg: float, t_stage: float) -> bool:
             sol.lu_hg = hg
             sol.lu_nd = nd
             refresh = False
-        solver.solve(ws, nd, rhs)
+        if not solver.solve(ws, nd, rhs, state.counters):
+            sol.krylov_failed = True
+            state.info[1] = _worst_node(force, nd)
+            return False
         state.counters[C_NEWTON_ITERATIONS] += 1
         norm = _rms(rhs, nd, ws) / scale
         if not np.isfinite(norm) or norm > 1e12:
@@ -266,9 +276,12 @@ def _filtered_norm(model, rod, state, ws, hg: float, t: float) -> float:
     rhs = ws.vecs[V_RHS]
     ca = 1.0 / (hg * hg) if p.inertial else 0.0
     stage = Stage(t, 0.0, 1.0 / hg, ca, True)
-    assemble(model, rod, stage, _out(ws, ws.band2), state.calls, state.energies)
+    # D keeps its band only (an off-band damping, contact friction, is dropped from the
+    # filter); A^-1 is the whole Newton matrix's
+    assemble(model, rod, stage, _out(ws, ws.band2, ws.cpl_drop), state.calls, state.energies)
     solver.damping_times(ws, nd, evec, rhs)
-    solver.solve(ws, nd, rhs)
+    if not solver.solve(ws, nd, rhs, state.counters):
+        return np.inf
     return _rms(rhs, nd, ws)
 
 
@@ -316,6 +329,7 @@ def _implicit_step(model, rod, state, ws, h: float, t: float) -> float:
     if not (abs(sol.lu_hg - hg) <= 1e-9 * hg and sol.lu_nd == nd and not sol.newton_slow):
         sol.lu_valid = False
     sol.newton_slow = False
+    sol.krylov_failed = False
     sol.newton_eta = 0.0
     for i in range(n_stages):
         c_i = 1.0 if euler else c_vec[i]
@@ -376,7 +390,7 @@ def explicit_step(model, rod, state, ws, h: float, t: float) -> float:
     rhs = ws.vecs[V_RHS]
     pos0 = ws.vecs[V_POS0]
     vel0 = ws.vecs[V_VEL0]
-    out = _out(ws, ws.band)
+    out = _out(ws, ws.band, ws.cpl)
     force = out.force
     set_boundary(model, rod, t, ws.scratch)
     if p.inertial:
@@ -386,10 +400,9 @@ def explicit_step(model, rod, state, ws, h: float, t: float) -> float:
         assemble(model, rod, Stage(t, 0.0, 0.0, 1.0, True), out, state.calls, state.energies)
         for k in range(nd):
             rhs[k] = force[k]
-        if not solver.factor(ws, nd):
+        if not solver.factor(ws, nd) or not solver.solve(ws, nd, rhs, state.counters):
             state.info[1] = _worst_node(force, nd)
             return -1.0
-        solver.solve(ws, nd, rhs)
         for k in range(nd):
             vel[k] = vel0[k] + h * rhs[k]
             pos[k] = pos0[k] + h * vel[k]
@@ -400,10 +413,9 @@ def explicit_step(model, rod, state, ws, h: float, t: float) -> float:
         assemble(model, rod, stage, out, state.calls, state.energies)
         for k in range(nd):
             rhs[k] = force[k]
-        if not solver.factor(ws, nd):
+        if not solver.factor(ws, nd) or not solver.solve(ws, nd, rhs, state.counters):
             state.info[1] = _worst_node(force, nd)
             return -1.0
-        solver.solve(ws, nd, rhs)
         norm = 0.0
         for k in range(nd):
             vel[k] += rhs[k]
@@ -540,9 +552,9 @@ def _proposed_step(model, state) -> float:
 
 
 @njit(cache=True)
-def _attempt(model, state, ws, h: float) -> tuple[float, bool]:
+def _attempt(model, state, ws, h: float) -> tuple[float, int]:
     """Take one step of size h on the active rod; returns (scaled error, or -1 on failure;
-    whether a strain bound set the error)."""
+    which bound set it: CAUSE_*)."""
     p = model.params[0]
     t = state.clock[0]
     frozen = state.ints[2]
@@ -551,6 +563,9 @@ def _attempt(model, state, ws, h: float) -> tuple[float, bool]:
         gravity_on = model.enabled[E_GRAVITY] > 0
         tail_load(model, whole, frozen, gravity_on, model.enabled[E_FLOOR] > 0, ws)
     rod = active_rod(state, ws, frozen)
+    contact_on = model.enabled[E_CONTACT] > 0
+    if contact_on and not contact.prepare(model, rod, ws.contact):
+        return -1.0, CAUSE_CAPACITY
     pos0 = ws.vecs[V_POS0]
     vel0 = ws.vecs[V_VEL0]
     for k in range(3 * rod.n_nodes):
@@ -561,20 +576,31 @@ def _attempt(model, state, ws, h: float) -> tuple[float, bool]:
         err = explicit_step(model, rod, state, ws, h, t)
     else:
         err = _implicit_step(model, rod, state, ws, h, t)
-    strained = False
+    cause = CAUSE_ERROR
     if err >= 0.0 and p.fixed_step <= 0.0:
         # a jump in strain means Newton found a spurious (folded) branch: step back
         jump = _max_strain_change(pos0, rod, p) / p.max_strain_change
         if jump > 1.0:
-            strained = 16.0 * jump > err
+            if 16.0 * jump > err:
+                cause = CAUSE_STRAIN
             err = max(err, 16.0 * jump)
-    if err < 0.0:
+    if err >= 0.0 and contact_on:
+        ratio = contact.check(rod, pos0, ws.contact, ws.scratch.step_work)
+        if ratio >= 1.0:
+            # segments may have passed through each other: never accepted; the retry is
+            # about 0.5 / ratio as long (the controller's factor 0.9 / sqrt(err))
+            state.counters[C_CONTACT_REJECTIONS] += 1
+            state.info[1] = ws.contact.memory[0].pair_i + frozen
+            state.info[2] = ws.contact.memory[0].pair_j + frozen
+            cause = CAUSE_CONTACT
+            err = max(err, 3.24 * ratio * ratio) if p.fixed_step <= 0.0 else -1.0
+    if err < 0.0 and cause != CAUSE_CONTACT:
         state.info[1] += frozen  # node numbers of the whole filament
-    return err, strained
+    return err, cause
 
 
 @njit(cache=True)
-def _reject(model, state, ws, h: float, err: float, strained: bool) -> int:
+def _reject(model, state, ws, h: float, err: float, cause: int) -> int:
     """Restore the state of the step's start and shrink the next step; a status code."""
     p = model.params[0]
     sol = ws.solver[0]
@@ -585,7 +611,7 @@ def _reject(model, state, ws, h: float, err: float, strained: bool) -> int:
         rod.pos[k] = pos0[k]
         rod.vel[k] = vel0[k]
     state.counters[C_REJECTED] += 1
-    if err < 0.0:
+    if err < 0.0 and cause != CAUSE_CONTACT:
         state.counters[C_NEWTON_FAILURES] += 1
         sol.full_newton_steps = 20.0
         sol.newton_eta = 0.0  # the contraction rate is no longer known
@@ -593,18 +619,22 @@ def _reject(model, state, ws, h: float, err: float, strained: bool) -> int:
     t = state.clock[0]
     if p.fixed_step > 0.0:
         state.info[0] = t
+        if cause == CAUSE_CONTACT:
+            return STATUS_CONTACT
         state.counters[C_FAIL_NODE] = int(state.info[1])
-        return STATUS_NEWTON
+        return STATUS_KRYLOV if sol.krylov_failed else STATUS_NEWTON
     if err < 0.0:
         state.clock[1] = 0.25 * h
     else:
         state.clock[1] = h * max(0.2, 0.9 / _error_root(err, p.integrator))
     if state.clock[1] < p.min_step:
         state.info[0] = t
+        if cause == CAUSE_CONTACT:
+            return STATUS_CONTACT
         state.info[2] = state.clock[1]
         if err < 0.0:
-            return STATUS_NEWTON
-        return STATUS_STRAIN if strained else STATUS_ERROR
+            return STATUS_KRYLOV if sol.krylov_failed else STATUS_NEWTON
+        return STATUS_STRAIN if cause == CAUSE_STRAIN else STATUS_ERROR
     return STATUS_OK
 
 
@@ -640,6 +670,8 @@ def _accept(model, state, ws, h: float, h_taken: float, err: float) -> int:
                 state.vel[3 * j + c] = rod.vel[c]
     if p.fixed_step <= 0.0 and h_taken >= 0.999 * h:
         state.clock[1] = h * min(5.0, 0.9 / _error_root(max(err, 1e-10), p.integrator))
+    if enabled[E_CONTACT]:
+        contact.accepted(ws.contact)
     s_tip = extruded_length(model.flow, model.flow_cum, p.needle_area, t)
     capacity = state.pos.shape[0] // 3
     whole = active_rod(state, ws, 0)
@@ -699,9 +731,13 @@ def advance(model, state, ws, t_end: float, max_steps: int) -> int:
         h_taken = min(h, t_end - t)
         if t_end - t - h_taken < 1e-3 * h_taken:
             h_taken = t_end - t
-        err, strained = _attempt(model, state, ws, h_taken)
+        if ws.cpl.count[0] > ws.cpl.row.shape[0]:
+            return STATUS_CAPACITY  # couplings off the band overflowed: grow them
+        err, cause = _attempt(model, state, ws, h_taken)
+        if cause == CAUSE_CAPACITY:
+            return STATUS_CAPACITY
         if err < 0.0 or (model.params[0].fixed_step <= 0.0 and err > 1.0):
-            status = _reject(model, state, ws, h_taken, err, strained)
+            status = _reject(model, state, ws, h_taken, err, cause)
             if status != STATUS_OK:
                 return status
             continue

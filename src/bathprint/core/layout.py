@@ -91,6 +91,11 @@ PARAMS_FIELDS: tuple[tuple[str, str, str], ...] = (
     ("freeze_beyond", "f8", "m, material further behind the needle is frozen (0: off)"),
     ("buckling_steps", "f8", "-, adaptive steps per e-folding of the fastest buckling mode"),
     ("integrator", "i8", "-, one of INTEGRATOR_*"),
+    ("contact_stiffness", "f8", "Pa, self-contact force per length per penetration"),
+    ("contact_distance_factor", "f8", "-, contact distance / the sum of the two radii"),
+    ("contact_width_fraction", "f8", "-, penetration (in contact distances) of the soft onset"),
+    ("contact_friction", "f8", "-, Coulomb coefficient between touching segments"),
+    ("contact_friction_velocity", "f8", "m/s, regularisation of that friction"),
 )
 PARAMS_DTYPE = np.dtype([(name, kind) for name, kind, _ in PARAMS_FIELDS])
 
@@ -103,7 +108,8 @@ E_INERTIA = 4
 E_END_LOAD = 5
 E_GELATION = 6  # a material effect: updates modulus and natural curvature after each step
 E_INCLUSIONS = 7  # a material effect: composite properties of material at its birth
-N_EFFECTS = 8
+E_CONTACT = 8  # self-contact between non-adjacent segments (couplings off the band)
+N_EFFECTS = 9
 
 EFFECT_NAMES = (
     "elasticity",
@@ -114,6 +120,7 @@ EFFECT_NAMES = (
     "end_load",
     "gelation",
     "inclusions",
+    "contact",
 )
 
 # --- integrators ----------------------------------------------------------------------
@@ -132,6 +139,8 @@ STATUS_STRETCH = 4
 STATUS_STEP_LIMIT = 5  # step budget of this call used up; call again
 STATUS_ERROR = 6  # the error estimate stays above tolerance down to the smallest step
 STATUS_STRAIN = 7  # strains stay beyond numerics.max_strain (or change too fast) at every step
+STATUS_CONTACT = 8  # steps would let segments pass through each other even at the smallest step
+STATUS_KRYLOV = 9  # the Krylov solve of Newton's linear systems stalled at the smallest step
 STATUS_MESSAGES = {
     STATUS_NAN: "non-finite position or velocity",
     STATUS_NEWTON: "Newton iteration failed to converge at the smallest allowed time step",
@@ -140,6 +149,10 @@ STATUS_MESSAGES = {
     STATUS_STRAIN: "segment strain beyond numerics.max_strain (or changing faster than "
     "numerics.max_strain_change) even at the smallest allowed time step: the filament is "
     "too soft for its load at this resolution; raise numerics.max_strain to accept it",
+    STATUS_CONTACT: "self-contact: a step would let two segments pass through each other even "
+    "at the smallest allowed time step (or at the fixed step)",
+    STATUS_KRYLOV: "the Krylov solve of Newton's linear systems (couplings off the band) "
+    "stalled even at the smallest allowed time step",
 }
 
 # --- integer counters (``counters[C_*]``) ----------------------------------------------
@@ -150,7 +163,10 @@ C_FAIL_NODE = 3
 C_SPLITS = 4
 C_NEWTON_FAILURES = 5
 C_FACTORIZATIONS = 6  # Jacobians assembled and LU-factorised
-N_COUNTERS = 7
+C_KRYLOV_ITERATIONS = 7  # GMRES iterations (only with couplings off the band)
+C_KRYLOV_FAILURES = 8  # GMRES solves that stalled (each a Newton failure)
+C_CONTACT_REJECTIONS = 9  # steps retried because segments could have passed through each other
+N_COUNTERS = 10
 
 # --- band storage -------------------------------------------------------------------------
 # A node's force depends on nodes i-2..i+2 (bending), so the Jacobian has 8 sub- and
@@ -169,6 +185,7 @@ SOLVER_FIELDS: tuple[tuple[str, str, str], ...] = (
     ("lu_nd", "i8", "unknowns of the factorised Jacobian"),
     ("newton_slow", "?", "a stage of this step contracted slower than REUSE_THETA"),
     ("norm_extra", "f8", "degrees of freedom of the frozen tail, counted in the RMS norms"),
+    ("krylov_failed", "?", "the last Newton failure was a stalled Krylov solve"),
 )
 SOLVER_DTYPE = np.dtype([(name, kind) for name, kind, _ in SOLVER_FIELDS])
 
@@ -181,3 +198,15 @@ TAIL_FIELDS: tuple[tuple[str, str, str], ...] = (
     ("on_floor", "?", "the tail rests on the floor and slides at its height"),
 )
 TAIL_DTYPE = np.dtype([(name, kind) for name, kind, _ in TAIL_FIELDS])
+
+# --- what self-contact remembers between steps: one record (``ws.contact.memory[0]``) ------
+CONTACT_FIELDS: tuple[tuple[str, str, str], ...] = (
+    ("delta_max", "f8", "m, the largest contact distance on the rod"),
+    ("skin", "f8", "m, search distance beyond delta_max (a Verlet skin)"),
+    ("min_separation", "i8", "segments closer than this along the rod never pair"),
+    ("ratio", "f8", "-, the last step's worst displacement / allowance (>= 1: retried)"),
+    ("pair_i", "i8", "segments of the pair that set the last violation (active-rod indices)"),
+    ("pair_j", "i8", ""),
+    ("max_step_disp", "f8", "m, largest relative node displacement of the last accepted step"),
+)
+CONTACT_DTYPE = np.dtype([(name, kind) for name, kind, _ in CONTACT_FIELDS])

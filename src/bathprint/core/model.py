@@ -244,6 +244,12 @@ def compile_model(scene: Scene) -> Model:
     p.seed = scene.seed
     p.initial_age = scene.initial.age_s
     p.integrator = L.INTEGRATOR_NAMES.index(scene.numerics.integrator)
+    c = scene.contact
+    p.contact_stiffness = c.stiffness_pa
+    p.contact_distance_factor = c.distance_factor
+    p.contact_width_fraction = c.width_fraction
+    p.contact_friction = c.friction_coefficient
+    p.contact_friction_velocity = c.friction_velocity_mm_s * MM
     enabled = np.array([1 if e in scene.effects else 0 for e in L.EFFECT_NAMES], dtype=np.int64)
     flow = _flow_table(scene)
     return Model(

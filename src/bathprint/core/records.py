@@ -63,6 +63,43 @@ class Scratch(NamedTuple):
     bend_grad: np.ndarray  # (6,) gradient of a bending stencil in (e1, e2)
     bend_hess: np.ndarray  # (6, 6) its Hessian
     bend_work: np.ndarray  # (64,) scratch of elasticity.bend_energy_grad_hess
+    pair_grad: np.ndarray  # (12,) gradient of a segment pair's distance (contact)
+    pair_hess: np.ndarray  # (12, 12) its Hessian
+    step_work: np.ndarray  # (3,) scratch of the contact step bound
+
+
+class Couplings(NamedTuple):
+    """Jacobian blocks between nodes further apart than the band holds (contact pairs):
+    block k adds ``block[k]`` (3x3) at node block (row[k], col[k])."""
+
+    count: np.ndarray  # (1,) int64: blocks written (may exceed the capacity: grow, retry)
+    row: np.ndarray  # (K,) int64 node
+    col: np.ndarray  # (K,) int64 node
+    block: np.ndarray  # (K, 3, 3)
+
+
+class Krylov(NamedTuple):
+    """GMRES workspace of :mod:`bathprint.core.solver` (empty when nothing is off the band)."""
+
+    band_a: np.ndarray  # (3 cap, BAND_WIDTH): the Newton matrix's band, unfactored
+    basis: np.ndarray  # (m + 1, 3 cap): Arnoldi vectors
+    hess: np.ndarray  # (m + 1, m): the Hessenberg matrix
+    small: np.ndarray  # (4, m + 1): g, Givens cosines, sines, y
+    w: np.ndarray  # (3 cap,)
+    z: np.ndarray  # (3 cap,)
+
+
+class Contact(NamedTuple):
+    """Candidate pairs of self-contact (:mod:`bathprint.core.effects.contact`), rebuilt at the
+    start of every step, and the spatial hash that finds them."""
+
+    pairs: np.ndarray  # (P, 2) int64: segments i < j of the active rod
+    count: np.ndarray  # (1,) int64: pairs found (may exceed P: grow, rebuild)
+    cell_start: np.ndarray  # (buckets + 1,) int64
+    seg_order: np.ndarray  # (cap,) int64
+    seg_cell: np.ndarray  # (3 cap,) int64
+    seen: np.ndarray  # (27,) int64: buckets already scanned around a segment
+    memory: np.ndarray  # (1,) CONTACT_DTYPE: search distance, skin, the last violation
 
 
 class Workspace(NamedTuple):
@@ -75,6 +112,10 @@ class Workspace(NamedTuple):
     solver: np.ndarray  # (1,) SOLVER_DTYPE: what Newton remembers between steps
     tail: np.ndarray  # (1,) TAIL_DTYPE: the frozen tail's lumped load
     scratch: Scratch
+    cpl: Couplings  # off-band Jacobian blocks of the Newton matrix
+    cpl_drop: Couplings  # zero capacity: where evaluations that keep only the band write
+    krylov: Krylov
+    contact: Contact
 
 
 class Rod(NamedTuple):
@@ -101,12 +142,14 @@ class Stage(NamedTuple):
 
 
 class Out(NamedTuple):
-    """Where a force evaluation writes."""
+    """Where a force evaluation writes (and what it reads besides the rod)."""
 
     force: np.ndarray  # (3 cap,) N, on each node
     band: np.ndarray  # (3 cap, BAND_WIDTH) the Jacobian's band
     tail: np.ndarray  # (1,) TAIL_DTYPE (read by the frozen tail's load)
     scratch: Scratch
+    cpl: Couplings  # Jacobian blocks off the band (a zero-capacity one drops them)
+    contact: Contact  # the candidate pairs of self-contact
 
 
 def new_params() -> np.ndarray:
@@ -130,19 +173,69 @@ def new_scratch() -> Scratch:
         bend_grad=np.zeros(6),
         bend_hess=np.zeros((6, 6)),
         bend_work=np.zeros(64),
+        pair_grad=np.zeros(12),
+        pair_hess=np.zeros((12, 12)),
+        step_work=np.zeros(3),
     )
 
 
-def new_workspace(capacity: int, n_vecs: int) -> Workspace:
-    """Scratch for a state of ``capacity`` nodes."""
+def new_couplings(capacity: int) -> Couplings:
+    return Couplings(
+        count=np.zeros(1, dtype=np.int64),
+        row=np.zeros(capacity, dtype=np.int64),
+        col=np.zeros(capacity, dtype=np.int64),
+        block=np.zeros((capacity, 3, 3)),
+    )
+
+
+def new_krylov(n_dof: int, restart: int) -> Krylov:
+    from bathprint.core.layout import BAND_WIDTH
+
+    return Krylov(
+        band_a=np.zeros((n_dof, BAND_WIDTH)),
+        basis=np.zeros((restart + 1, n_dof)),
+        hess=np.zeros((restart + 1, max(restart, 1))),
+        small=np.zeros((4, restart + 1)),
+        w=np.zeros(n_dof),
+        z=np.zeros(n_dof),
+    )
+
+
+def new_contact(capacity: int, pairs: int) -> Contact:
+    from bathprint.core.layout import CONTACT_DTYPE
+
+    buckets = 1 << max(4, int(2 * max(capacity, 1) - 1).bit_length())
+    return Contact(
+        pairs=np.zeros((pairs, 2), dtype=np.int64),
+        count=np.zeros(1, dtype=np.int64),
+        cell_start=np.zeros(buckets + 1, dtype=np.int64),
+        seg_order=np.zeros(capacity, dtype=np.int64),
+        seg_cell=np.zeros(3 * capacity, dtype=np.int64),
+        seen=np.zeros(27, dtype=np.int64),
+        memory=np.zeros(1, dtype=CONTACT_DTYPE),
+    )
+
+
+# GMRES restart length; the Krylov workspace exists only where couplings off the band can
+KRYLOV_RESTART = 30
+
+
+def new_workspace(capacity: int, n_vecs: int, off_band: bool = False) -> Workspace:
+    """Scratch for a state of ``capacity`` nodes; ``off_band``: room for couplings off the
+    band (contact), their GMRES workspace and the contact pairs (else zero-size arrays)."""
     from bathprint.core.layout import BAND_WIDTH, SOLVER_DTYPE, TAIL_DTYPE
 
+    n_dof = 3 * capacity
     return Workspace(
-        vecs=np.zeros((n_vecs, 3 * capacity)),
-        band=np.zeros((3 * capacity, BAND_WIDTH)),
-        band2=np.zeros((3 * capacity, BAND_WIDTH)),
-        piv=np.zeros(3 * capacity, dtype=np.int64),
+        vecs=np.zeros((n_vecs, n_dof)),
+        band=np.zeros((n_dof, BAND_WIDTH)),
+        band2=np.zeros((n_dof, BAND_WIDTH)),
+        piv=np.zeros(n_dof, dtype=np.int64),
         solver=np.zeros(1, dtype=SOLVER_DTYPE),
         tail=np.zeros(1, dtype=TAIL_DTYPE),
         scratch=new_scratch(),
+        cpl=new_couplings(16 * capacity if off_band else 0),
+        cpl_drop=new_couplings(0),
+        krylov=new_krylov(n_dof, KRYLOV_RESTART) if off_band else new_krylov(0, 0),
+        contact=new_contact(capacity, 8 * capacity) if off_band else new_contact(0, 0),
     )

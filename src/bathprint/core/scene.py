@@ -155,6 +155,26 @@ class Floor:
 
 
 @dataclass
+class Contact:
+    """Self-contact between non-adjacent segments (effect 'contact'): a penalty on the
+    penetration of the centre-line distance below the contact distance f (r_A + r_B)."""
+
+    stiffness_pa: float = _num(
+        1e4, 1e-3, 1e9, lo_open=True, doc="force per length per penetration (as the floor's)"
+    )
+    distance_factor: float = _num(
+        1.0, 0.0, 10.0, lo_open=True, doc="contact distance / the sum of the two radii"
+    )
+    width_fraction: float = _num(
+        0.02, 1e-4, 1.0, lo_open=True, doc="penetration of the soft onset, in contact distances"
+    )
+    friction_coefficient: float = _num(0.0, 0.0, 2.0, doc="Coulomb mu between touching turns")
+    friction_velocity_mm_s: float = _num(
+        1.0, 1e-6, 1e3, lo_open=True, doc="regularisation of that friction"
+    )
+
+
+@dataclass
 class Inertia:
     """Filament mass plus added mass C_a rho_bath A across the axis."""
 
@@ -254,6 +274,7 @@ class Scene:
     gelation: Gelation = field(default_factory=Gelation)
     inclusions: Inclusions = field(default_factory=Inclusions)
     floor: Floor = field(default_factory=Floor)
+    contact: Contact = field(default_factory=Contact)
     inertia: Inertia = field(default_factory=Inertia)
     end_load: EndLoad = field(default_factory=EndLoad)
     initial: Initial = field(default_factory=Initial)
@@ -349,6 +370,17 @@ def _check_tables(scene: Scene) -> None:
         raise SceneError(
             f"effects = {scene.effects!r}: an overdamped scene needs 'drag' "
             "(without drag or inertia the equations of motion are singular)"
+        )
+    if "contact" in scene.effects and "elasticity" not in scene.effects:
+        raise SceneError(
+            f"effects = {scene.effects!r}: 'contact' needs 'elasticity' (a filament without "
+            "elastic forces cannot hold its segments apart); allowed: add 'elasticity'"
+        )
+    if "contact" in scene.effects and scene.numerics.freeze_beyond_mm > 0.0:
+        raise SceneError(
+            f"numerics.freeze_beyond_mm = {scene.numerics.freeze_beyond_mm!r} with the contact "
+            "effect: frozen material would not be an obstacle to the active filament's turns; "
+            "allowed: 0 with 'contact'"
         )
     d = scene.needle.direction
     if math.hypot(*d) < 1e-6:

@@ -118,11 +118,12 @@ class Simulation:
         self.seg_rest = np.zeros(cap)
         self.seg_mat = np.zeros((cap, L.N_MAT))
         old = getattr(self, "ws", None)
-        self.ws = records.new_workspace(cap, N_VECS)
+        self.ws = records.new_workspace(cap, N_VECS, off_band=self._off_band())
         if old is not None:  # what the stepper remembers survives a grow, but not the LU
             self.ws.solver[:] = old.solver
             self.ws.solver[0]["lu_valid"] = False
             self.ws.tail[:] = old.tail
+            self.ws.contact.memory[:] = old.contact.memory
         if not hasattr(self, "istate"):
             self.istate = np.zeros(3, dtype=np.int64)  # n_nodes, n_splits, n_frozen
             self.fstate = np.zeros(2)  # t, next step
@@ -130,6 +131,24 @@ class Simulation:
             self.counters = np.zeros(L.N_COUNTERS, dtype=np.int64)
             self.energies = np.zeros(L.N_EFFECTS)
             self.info = np.zeros(3)
+
+    def _off_band(self) -> bool:
+        """The scene lists an effect that couples distant nodes (contact)."""
+        return bool(self.model.enabled[L.E_CONTACT])
+
+    def _grow_off_band(self) -> None:
+        """Double the room for couplings off the band and for contact pairs."""
+        ws = self.ws
+        cpl, con = ws.cpl, ws.contact
+        if cpl.count[0] > cpl.row.shape[0]:
+            cpl = records.new_couplings(max(2 * cpl.row.shape[0], int(cpl.count[0]) + 16))
+        if con.count[0] > con.pairs.shape[0]:
+            fresh = records.new_contact(
+                self.capacity, max(2 * con.pairs.shape[0], int(con.count[0]))
+            )
+            fresh.memory[:] = con.memory
+            con = fresh
+        self.ws = ws._replace(cpl=cpl, contact=con)
 
     @property
     def state(self) -> records.State:
@@ -294,8 +313,9 @@ class Simulation:
         return float(np.sum(self.rest_lengths() * math.pi * self.material()[:, L.MAT_RADIUS] ** 2))
 
     def counts(self) -> dict[str, int]:
-        """Steps, rejected steps, Newton iterations, node births, Newton failures and
-        Jacobian factorisations so far."""
+        """Steps, rejected steps, Newton iterations, node births, Newton failures, Jacobian
+        factorisations, GMRES iterations and stalls (couplings off the band only) and steps
+        retried by the self-contact bound so far."""
         c = self.counters
         return {
             "steps": int(c[L.C_STEPS]),
@@ -304,6 +324,9 @@ class Simulation:
             "nodes_born": int(c[L.C_SPLITS]),
             "newton_failures": int(c[L.C_NEWTON_FAILURES]),
             "jacobians": int(c[L.C_FACTORIZATIONS]),
+            "krylov_iterations": int(c[L.C_KRYLOV_ITERATIONS]),
+            "krylov_failures": int(c[L.C_KRYLOV_FAILURES]),
+            "contact_rejections": int(c[L.C_CONTACT_REJECTIONS]),
         }
 
     def effect_calls(self) -> dict[str, int]:
@@ -322,7 +345,9 @@ class Simulation:
         rod = records.Rod(
             self.pos, self.vel, zero, self.n_nodes, self.node_s, self.seg_rest, self.seg_mat
         )
-        out = records.Out(force, self.ws.band2, tail, self.ws.scratch)
+        out = records.Out(
+            force, self.ws.band2, tail, self.ws.scratch, self.ws.cpl_drop, self.ws.contact
+        )
         stage = records.Stage(self.t, 1.0, 0.0, 0.0, False)
         assemble(self.model.record, rod, stage, out, calls, energies)
         return {n: float(energies[k]) for k, n in enumerate(L.EFFECT_NAMES) if calls[k]}
@@ -351,7 +376,12 @@ class Simulation:
             self.seg_mat,
         )
         out = records.Out(
-            np.zeros(n3), np.zeros_like(self.ws.band), self.ws.tail.copy(), records.new_scratch()
+            np.zeros(n3),
+            np.zeros_like(self.ws.band),
+            self.ws.tail.copy(),
+            records.new_scratch(),
+            records.new_couplings(16 * self.capacity),
+            self.ws.contact,
         )
         return self.model.record, rod, records.Stage(self.t, cx, cv, ca, jacobian), out
 
@@ -391,7 +421,10 @@ class Simulation:
             if status == L.STATUS_OK:
                 return
             if status == L.STATUS_CAPACITY:
-                self._grow()
+                if self.n_nodes + 2 > self.capacity:
+                    self._grow()
+                else:
+                    self._grow_off_band()
                 continue
             if status == L.STATUS_STEP_LIMIT:
                 return
@@ -403,7 +436,19 @@ class Simulation:
         detail = ""
         if status == L.STATUS_STRETCH:
             detail = f"strain {value:+.3g} beyond numerics.stretch_limit"
-        elif status in (L.STATUS_NEWTON, L.STATUS_ERROR, L.STATUS_STRAIN):
+        elif status == L.STATUS_CONTACT:
+            mem = self.ws.contact.memory[0]
+            step = (
+                f"fixed step {self.scene.numerics.time_step_s:g} s; use a smaller "
+                "numerics.time_step_s"
+                if self.scene.numerics.time_step_s > 0
+                else f"step {self.fstate[1]:.3g} s, min step {self.scene.numerics.min_step_s:g} s"
+            )
+            detail = (
+                f"segments {int(node)} and {int(value)} (from the free end) moved "
+                f"{mem['ratio']:.3g} times what keeps them apart; {step}"
+            )
+        elif status in (L.STATUS_NEWTON, L.STATUS_ERROR, L.STATUS_STRAIN, L.STATUS_KRYLOV):
             detail = (
                 f"integrator {self.scene.numerics.integrator}, "
                 f"step {self.fstate[1]:.3g} s, min step {self.scene.numerics.min_step_s:g} s"

@@ -1,32 +1,192 @@
-"""The linear solves of Newton's method: the banded LU of the local Jacobian.
+"""The linear solves of Newton's method: banded LU, and GMRES for couplings off the band.
 
-Forces couple nodes at most two apart (bending), so the Newton matrix is banded (8 sub- and
-super-diagonals in 3 unknowns per node) and :func:`factor` / :func:`solve` cost O(N):
-:mod:`bathprint.core.banded`, partial pivoting, in place in ``ws.band``.
+Forces of the local effects couple nodes at most two apart (bending), so the Newton matrix
+is banded (8 sub- and super-diagonals in 3 unknowns per node) and its LU
+(:mod:`bathprint.core.banded`, partial pivoting, in place in ``ws.band``) costs O(N). That
+is the whole path while nothing couples distant nodes: :func:`solve` is then one banded
+back-substitution, exactly as without this module.
+
+Effects may add couplings between distant nodes (self-contact: 3x3 blocks between the nodes
+of two segments about a coil turn apart, ``ws.cpl``). The Newton matrix is then
+A = B + C, B its band and C the off-band blocks, and :func:`solve` runs restarted GMRES
+(Saad & Schultz 1986) on A, right-preconditioned by the banded LU of B: the iterations
+needed grow with the strength of C relative to B, not with N. A solve that does not reach
+``KRYLOV_RTOL`` in ``KRYLOV_MAX_RESTARTS`` cycles returns False; the integrator treats it
+as a Newton failure (a shorter step), never passes it on.
 """
 
 from __future__ import annotations
+
+import math
 
 import numpy as np
 from numba import njit
 
 from bathprint.core.banded import band_lu, band_matvec, band_solve
-from bathprint.core.layout import KL, KU
+from bathprint.core.layout import C_KRYLOV_FAILURES, C_KRYLOV_ITERATIONS, KL, KU
+
+KRYLOV_RTOL = 1e-8  # residual of a GMRES solve relative to its right-hand side
+KRYLOV_MAX_RESTARTS = 4  # restarts of KRYLOV_RESTART iterations each before a solve stalls
+
+
+@njit(cache=True, inline="always")
+def off_band(ws) -> bool:
+    """True when the last assembled Newton matrix has blocks off the band."""
+    return ws.cpl.count[0] > 0
 
 
 @njit(cache=True)
 def factor(ws, nd: int) -> bool:
-    """Factorise the assembled Newton matrix (``ws.band``) in place; False if singular."""
+    """Factorise the assembled Newton matrix's band (``ws.band``) in place (keeping an
+    unfactored copy when couplings off the band need it for GMRES); False if singular."""
+    if off_band(ws):
+        a = ws.krylov.band_a
+        for i in range(nd):
+            for k in range(ws.band.shape[1]):
+                a[i, k] = ws.band[i, k]
     return band_lu(ws.band, nd, KL, KU, ws.piv) == 0
 
 
 @njit(cache=True)
-def solve(ws, nd: int, rhs: np.ndarray) -> None:
-    """Overwrite ``rhs`` with the Newton matrix's inverse applied to it."""
-    band_solve(ws.band, nd, KL, KU, ws.piv, rhs)
+def solve(ws, nd: int, rhs: np.ndarray, counters: np.ndarray) -> bool:
+    """Overwrite ``rhs`` with the Newton matrix's inverse applied to it; False if GMRES
+    stalled (only possible with couplings off the band)."""
+    if not off_band(ws):
+        band_solve(ws.band, nd, KL, KU, ws.piv, rhs)
+        return True
+    return _gmres(ws, nd, rhs, counters)
 
 
 @njit(cache=True)
 def damping_times(ws, nd: int, x: np.ndarray, y: np.ndarray) -> None:
     """y = D x with D the damping / mass matrix assembled into ``ws.band2``."""
     band_matvec(ws.band2, nd, KL, KU, x, y)
+
+
+@njit(cache=True)
+def matvec(ws, nd: int, x: np.ndarray, y: np.ndarray) -> None:
+    """y = A x, A = the unfactored band (``ws.krylov.band_a``) plus the off-band blocks."""
+    band_matvec(ws.krylov.band_a, nd, KL, KU, x, y)
+    cpl = ws.cpl
+    for k in range(min(cpl.count[0], cpl.row.shape[0])):
+        r = 3 * cpl.row[k]
+        c = 3 * cpl.col[k]
+        blk = cpl.block[k]
+        for a in range(3):
+            y[r + a] += blk[a, 0] * x[c] + blk[a, 1] * x[c + 1] + blk[a, 2] * x[c + 2]
+
+
+@njit(cache=True)
+def _dot(a: np.ndarray, b: np.ndarray, nd: int) -> float:
+    s = 0.0
+    for k in range(nd):
+        s += a[k] * b[k]
+    return s
+
+
+@njit(cache=True)
+def _gmres(ws, nd: int, b: np.ndarray, counters: np.ndarray) -> bool:
+    """Restarted GMRES for A x = b, right-preconditioned by the banded LU (in ``ws.band``):
+    minimise |b - A M^-1 u| over the Krylov space, x = M^-1 u. ``b`` is overwritten by x."""
+    kr = ws.krylov
+    basis = kr.basis
+    hess = kr.hess
+    g = kr.small[0]
+    cs = kr.small[1]
+    sn = kr.small[2]
+    y = kr.small[3]
+    w = kr.w
+    x = kr.z
+    m = hess.shape[1]
+    beta0 = math.sqrt(_dot(b, b, nd))
+    for k in range(nd):
+        x[k] = 0.0
+    if beta0 == 0.0:  # an exactly zero right-hand side has the exact solution 0
+        return True
+    r = basis[0]
+    for k in range(nd):
+        r[k] = b[k]
+    beta = beta0
+    converged = False
+    for _restart in range(KRYLOV_MAX_RESTARTS):
+        for k in range(nd):
+            basis[0, k] = r[k] / beta
+        g[0] = beta
+        for i in range(1, m + 1):
+            g[i] = 0.0
+        n_used = 0
+        for j in range(m):
+            # w = M^-1 v_j, then v_{j+1} = A w, orthogonalised (modified Gram-Schmidt)
+            vj = basis[j]
+            for k in range(nd):
+                w[k] = vj[k]
+            band_solve(ws.band, nd, KL, KU, ws.piv, w)
+            v_new = basis[j + 1]
+            matvec(ws, nd, w, v_new)
+            for i in range(j + 1):
+                h = _dot(v_new, basis[i], nd)
+                hess[i, j] = h
+                vi = basis[i]
+                for k in range(nd):
+                    v_new[k] -= h * vi[k]
+            h_next = math.sqrt(_dot(v_new, v_new, nd))
+            hess[j + 1, j] = h_next
+            if h_next > 0.0:
+                for k in range(nd):
+                    v_new[k] /= h_next
+            # the earlier Givens rotations, then a new one that zeroes hess[j + 1, j]
+            for i in range(j):
+                t = cs[i] * hess[i, j] + sn[i] * hess[i + 1, j]
+                hess[i + 1, j] = -sn[i] * hess[i, j] + cs[i] * hess[i + 1, j]
+                hess[i, j] = t
+            den = math.hypot(hess[j, j], hess[j + 1, j])
+            if den == 0.0:
+                break
+            cs[j] = hess[j, j] / den
+            sn[j] = hess[j + 1, j] / den
+            hess[j, j] = den
+            hess[j + 1, j] = 0.0
+            g[j + 1] = -sn[j] * g[j]
+            g[j] = cs[j] * g[j]
+            n_used = j + 1
+            counters[C_KRYLOV_ITERATIONS] += 1
+            if abs(g[j + 1]) <= KRYLOV_RTOL * beta0 or h_next == 0.0:
+                converged = True
+                break
+        # y = H^-1 g (upper triangular), u = V y, x += M^-1 u
+        for i in range(n_used - 1, -1, -1):
+            s = g[i]
+            for q in range(i + 1, n_used):
+                s -= hess[i, q] * y[q]
+            y[i] = s / hess[i, i]
+        for k in range(nd):
+            w[k] = 0.0
+        for i in range(n_used):
+            vi = basis[i]
+            yi = y[i]
+            for k in range(nd):
+                w[k] += yi * vi[k]
+        band_solve(ws.band, nd, KL, KU, ws.piv, w)
+        for k in range(nd):
+            x[k] += w[k]
+        if converged:
+            break
+        # the true residual for the restart
+        matvec(ws, nd, x, r)
+        for k in range(nd):
+            r[k] = b[k] - r[k]
+        beta = math.sqrt(_dot(r, r, nd))
+        if beta <= KRYLOV_RTOL * beta0:
+            converged = True
+            break
+    finite = True
+    for k in range(nd):
+        if not np.isfinite(x[k]):
+            finite = False
+            break
+    if not converged or not finite:
+        counters[C_KRYLOV_FAILURES] += 1
+        return False
+    for k in range(nd):
+        b[k] = x[k]
+    return True
