@@ -1,4 +1,4 @@
-"""Errors bathprint raises: bad scenes and diverging simulations."""
+"""Errors bathprint raises: bad scenes, bad options and diverging simulations."""
 
 from __future__ import annotations
 
@@ -7,6 +7,13 @@ class SceneError(ValueError):
     """A scene key, value or effect is unknown, missing or non-physical.
 
     The message names the key, the value given and what is allowed.
+    """
+
+
+class OptionError(ValueError):
+    """An option of a command or function (not a scene key) is out of range, or an output
+    path is a file or cannot be written. The message names the option, the value and what
+    is allowed; it is raised before any long work starts.
     """
 
 

@@ -185,10 +185,15 @@ def simulate(
 ) -> Result:
     """Run a scene (built-in name, TOML path, dict or Scene) to its duration.
 
-    Returns a :class:`Result`; with ``out_dir`` also writes its files. A progress bar is
+    Returns a :class:`Result`; with ``out_dir`` also writes its files (a file there, or a
+    directory that cannot be written, raises OptionError before the run). A progress bar is
     shown when ``progress`` is true (default: when the run is long and stderr is a TTY).
     """
     sim = Simulation(scene, overrides)
+    if out_dir is not None:  # refused now, not after the run (OptionError)
+        from bathprint.paths import check_output_dir
+
+        check_output_dir(out_dir, "out_dir")
     sc = sim.scene
     n_frames = max(1, int(math.ceil(sc.duration_s / sc.outputs.frame_interval_s - 1e-9)))
     times = np.minimum(np.arange(1, n_frames + 1) * sc.outputs.frame_interval_s, sc.duration_s)
