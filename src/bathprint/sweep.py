@@ -361,11 +361,16 @@ def _iter_pool(
             procs = list((getattr(pool, "_processes", None) or {}).values())
             pool.shutdown(wait=False, cancel_futures=True)
             for proc in procs:
+                # by pid: the workers ignore SIGTERM, and when a SIGTERM to the process
+                # group has ended the forkserver, proc.is_alive() wrongly says False
                 try:
-                    if proc.is_alive():
-                        proc.kill()  # the workers ignore SIGTERM
+                    os.kill(proc.pid, signal.SIGKILL)
+                except (ProcessLookupError, PermissionError, TypeError, ValueError):
+                    pass
+            for proc in procs:
+                try:
                     proc.join(timeout=5.0)
-                except ValueError:  # already closed by the pool
+                except (ValueError, AssertionError):  # closed by the pool / not our child
                     pass
 
 
