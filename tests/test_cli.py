@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import os
+import signal
 import subprocess
 import sys
 import tomllib
@@ -240,3 +241,16 @@ def test_every_command_refuses_bad_options_in_one_line(
     a_file.write_text("x")
     argv = [a.format(file=a_file, dir=tmp_path) for a in argv]
     _one_line_refusal(capsys, argv, *words)
+
+
+def test_an_interrupted_simulation_exits_with_one_line(tmp_path, capsys, monkeypatch) -> None:
+    from bathprint.interrupt import Interrupted
+
+    def advance(self, *a, **k):
+        raise Interrupted(signal.SIGTERM)
+
+    monkeypatch.setattr(Simulation, "advance", advance)
+    code = main(["simulate", "drag_coiling_22G", "--quiet", "--out", str(tmp_path / "r")])
+    assert code == 143
+    err = capsys.readouterr().err
+    assert err == "bathprint simulate: interrupted (SIGTERM)\n"
