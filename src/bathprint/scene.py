@@ -520,7 +520,10 @@ def _check_schedule(key: str, rows: list, width: int, limits: tuple | None) -> N
             raise SceneError(f"{key}[{k}] = {row!r} must be a list of {width} numbers")
         for x in row:
             if isinstance(x, bool) or not isinstance(x, int | float) or not _finite(x):
-                raise SceneError(f"{key}[{k}] = {row!r} holds {x!r}; allowed: finite numbers only")
+                raise SceneError(
+                    f"{key}[{k}] = {row!r} holds {x!r}, a non-finite or non-number value; allowed: "
+                    "finite numbers only"
+                )
         t = row[0]
         if t < 0:
             raise SceneError(f"{key}[{k}] time = {t!r} s is negative; times must be >= 0")
