@@ -63,6 +63,8 @@ from bathprint.scene import parse_override, read_scene_data
 
 __all__ = [
     "add_arguments",
+    "check_points",
+    "check_scheduler",
     "default_extract",
     "expand_grid",
     "latest_rows",
