@@ -147,10 +147,20 @@ def test_lumped_tail_equals_drag_and_weight_of_the_tail_moving_with_the_active_e
     free = _unclamped(sim.model.record)
     off = Stage(0.0, 0.0, 0.0, 0.0, False)
     for mod in (drag, gravity):
-        mod.accumulate(free, tail_rod, off, Out(f_ref, band, ws.tail.copy(), new_scratch()))
+        mod.accumulate(
+            free,
+            tail_rod,
+            off,
+            Out(f_ref, band, ws.tail.copy(), new_scratch(), ws.cpl_drop, ws.contact),
+        )
     lumped = np.zeros(3 * sim.capacity)
     active = Rod(sim.pos[3 * k :], vel, zero, 10, sim.node_s, sim.seg_rest, sim.seg_mat)
-    accumulate_tail(sim.model.record, active, off, Out(lumped, band, ws.tail, new_scratch()))
+    accumulate_tail(
+        sim.model.record,
+        active,
+        off,
+        Out(lumped, band, ws.tail, new_scratch(), ws.cpl_drop, ws.contact),
+    )
     total = f_ref[: 3 * n_tail].reshape(-1, 3).sum(axis=0)
     np.testing.assert_allclose(lumped[:3], total, rtol=1e-10, atol=1e-18)
     assert abs(total[2]) > 0  # the weight is in it
@@ -272,7 +282,12 @@ def test_the_tail_load_jacobian_matches_finite_differences(on_floor: bool) -> No
             sim.pos[3 * k :], v, zero, n_act, sim.node_s[k:], sim.seg_rest[k:], sim.seg_mat[k:]
         )
         stage = Stage(0.0, 0.0, 1.0, 0.0, do_jac)
-        accumulate_tail(sim.model.record, rod, stage, Out(f, band, ws.tail, new_scratch()))
+        accumulate_tail(
+            sim.model.record,
+            rod,
+            stage,
+            Out(f, band, ws.tail, new_scratch(), ws.cpl_drop, ws.contact),
+        )
         return f[:3]
 
     force(vel, True)

@@ -215,7 +215,8 @@ def test_without_the_buckling_bound_steps_outrun_the_buckling_mode() -> None:
     straight. Whether it then stays straight (~4e-8 m at 0.7 s with the default Newton) or
     buckles late (1e-3 m with full Newton) depends on how exactly the stages are solved,
     i.e. on chance, so the test asserts the step sizes, not that outcome."""
-    from bathprint.core.integrators import _buckling_step
+    from bathprint.core.integrators import buckling_time
+    from bathprint.core.records import Rod
 
     def lateral(sim: Simulation) -> float:
         c = sim.centerline()
@@ -233,13 +234,9 @@ def test_without_the_buckling_bound_steps_outrun_the_buckling_mode() -> None:
         worst = 0.0
         while sim.t < 0.7 - 1e-9:  # one accepted step per call: same steps as advance(0.7)
             f = sim.n_frozen
-            e_fold = _buckling_step(
-                sim.pos[3 * f :],
-                sim.seg_rest[f:],
-                sim.seg_mat[f:],
-                sim.n_nodes - f,
-                sim.model.params,
-            )
+            x = sim.pos[3 * f :]
+            rod = Rod(x, x, x, sim.n_nodes - f, sim.node_s[f:], sim.seg_rest[f:], sim.seg_mat[f:])
+            e_fold = buckling_time(rod, sim.model.params[0])
             t = sim.t
             sim.advance(0.7, max_steps=1)
             assert sim.t > t  # a step was taken

@@ -124,3 +124,71 @@ def test_accuracy_presets_set_tolerance_growth_and_resolution() -> None:
     assert compile_model(fine).node_spacing == pytest.approx(0.5e-3 * base.numerics.node_spacing_mm)
     with pytest.raises(SceneError, match="numerics.accuracy"):
         load_scene("drag_coiling_22G", {"numerics.accuracy": "perfect"})
+
+
+@pytest.mark.parametrize(
+    "overrides, words",
+    [
+        ({"effects": "drag"}, ["effects = 'drag'", "string", 'effects=["drag", ...]']),
+        ({"effects": "drag gravity"}, ['effects=["drag", "gravity"]']),
+        ({"effects": 3}, ["effects = 3", "not a list"]),
+        ({"effects": ["drag", 1]}, ["effects", "holds 1", "effect name"]),
+        ({"effects": ["drag", ["gravity"]]}, ["effects", "holds ['gravity']"]),
+        ({"needle.path": 5}, ["needle.path = 5", "list of rows"]),
+        ({"needle.path": "0,0,0"}, ["needle.path", "not a list"]),
+        ({"flow.schedule": [0.0, 1.0, 0.0]}, ["flow.schedule", "one row", "[[0.0, 1.0, 0.0]]"]),
+        ({"flow.schedule": 2.0}, ["flow.schedule = 2.0", "list of rows"]),
+        ({"flow.schedule": [[0.0, 1.0, "x"]]}, ["flow.schedule[0]", "'x'", "finite numbers"]),
+        ({"flow.schedule": [[0.0, 10**400, 0.0]]}, ["flow.schedule[0]", "finite"]),
+        ({"flow.schedule": [[0.0, 0.5, 0.1]]}, ["flow.schedule[0]", "inclusions"]),
+        ({"bath": 3}, ["bath = 3", "table of keys", "bath.viscosity_pa_s"]),
+        ({"numerics": "fine"}, ["numerics = 'fine'", "table of keys"]),
+        ({"needle.position_mm": 5.0}, ["needle.position_mm = 5.0", "list of 3 numbers"]),
+        ({"needle.position_mm": [0, 0, 1e9]}, ["needle.position_mm = [0, 0, 1000000000.0]"]),
+        ({"needle.direction": [0, 0, "down"]}, ["needle.direction", "'down'"]),
+        ({"seed": 1.5}, ["seed = 1.5", "integer"]),
+        ({"seed": 10**400}, ["seed", "an integer in [0, 2147483647]"]),
+        ({"duration_s": 10**400}, ["duration_s", "outside"]),
+        ({"outputs.plot": 1}, ["outputs.plot = 1", "true or false"]),
+        ({"numerics.integrator": ["implicit"]}, ["numerics.integrator", "unknown"]),
+        ({"name": 3}, ["name = 3", "string"]),
+        ({"initial.length_mm": 1e-200}, ["initial.length_mm", "0.001"]),
+        (
+            {"needle.path": [[0, 0, 0, -5, 0, 0, 0]]},
+            ["needle.path[0] direction", "non-zero"],
+        ),
+        ({"needle.path": [[0, 0, 0, -5, 0, 0, -2]]}, ["needle.path[0] dz = -2", "[-1, 1]"]),
+        ({"needle.path": [[0, 1e5, 0, -5, 0, 0, -1]]}, ["needle.path[0] x_mm", "10000"]),
+        (
+            {"needle.inner_diameter_mm": 11.0},
+            ["numerics.node_spacing_mm", "needle.inner_diameter_mm", "allowed"],
+        ),
+    ],
+)
+def test_wrong_readings_are_refused_by_name(overrides: dict, words: list[str]) -> None:
+    with pytest.raises(SceneError) as err:
+        load_scene("paper_simulation", overrides)
+    for w in words:
+        assert w in str(err.value), str(err.value)
+
+
+def test_rows_are_read_as_lists_and_files_and_types_are_checked(tmp_path) -> None:
+    s = load_scene("paper_simulation", {"flow.schedule": [(0.0, 1.0, 0.0), (1.0, 2.0, 0.0)]})
+    assert s.flow.schedule == [[0.0, 1.0, 0.0], [1.0, 2.0, 0.0]]
+    assert load_scene(s.to_dict()) == s
+    s = load_scene("paper_simulation", {"effects": ("elasticity", "drag")})
+    assert s.effects == ["elasticity", "drag"]
+    with pytest.raises(SceneError, match="is a directory"):
+        load_scene("paper_simulation", {"flow.schedule_csv": str(tmp_path)})
+    binary = tmp_path / "flow.csv"
+    binary.write_bytes(b"\xff\xfe\x00bad")
+    with pytest.raises(SceneError, match="flow.schedule_csv .* cannot be read"):
+        load_scene("paper_simulation", {"flow.schedule_csv": str(binary)})
+    with pytest.raises(SceneError, match="is a directory"):
+        load_scene(tmp_path)
+    with pytest.raises(SceneError, match="scene = 42"):
+        load_scene(42)  # type: ignore[arg-type]
+    with pytest.raises(SceneError, match="override key 3"):
+        load_scene("paper_simulation", {3: 1.0})  # type: ignore[dict-item]
+    with pytest.raises(SceneError, match="overrides"):
+        load_scene("paper_simulation", [("seed", 1)])  # type: ignore[arg-type]

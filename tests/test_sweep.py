@@ -4,6 +4,12 @@ from __future__ import annotations
 
 import csv
 import json
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -96,7 +102,7 @@ def test_main_parses_grid_and_set(tmp_path, monkeypatch, capsys) -> None:
             "--grid",
             "needle.direction=[0,0,-1];[1,0,-1]",
             "--grid",
-            "bath.name=a,'b c'",
+            "name=a,'b c'",
             "--set",
             "duration_s=0.1",
             "--set",
@@ -115,7 +121,7 @@ def test_main_parses_grid_and_set(tmp_path, monkeypatch, capsys) -> None:
     assert seen["grid"] == {
         "flow.q_outer_ml_min": [0.5, 1.5],
         "needle.direction": [[0, 0, -1], [1, 0, -1]],
-        "bath.name": ["a", "b c"],
+        "name": ["a", "b c"],
     }
     assert seen["base_overrides"] == {"duration_s": 0.1, "outputs.plot": False}
     assert seen["workers"] == 3 and seen["scheduler"] == "local-dask"
@@ -260,3 +266,135 @@ def test_local_dask_sweep_writes_rows(tmp_path) -> None:
     assert len(on_disk) == 2 and {r["run_id"] for r in on_disk} == {r["run_id"] for r in rows}
     for row in on_disk:
         _check_ok_row(row)
+
+
+# --------------------------------------------------------------------------- signals, checks
+
+SIGNAL_GRID = "flow.q_outer_ml_min=0.30,0.35,0.40,0.45,0.50,0.55,0.60,0.65"
+SIGNAL_ARGS = [SCENE, "--grid", SIGNAL_GRID, "--set", "duration_s=0.4", "--set"]
+SIGNAL_ARGS += ["outputs.plot=false", "--workers", "2", "--no-progress"]
+
+
+def _session_alive(sid: int) -> list[int]:
+    """Pids of the live (not zombie) processes of session ``sid``."""
+    alive = []
+    for stat in Path("/proc").glob("[0-9]*/stat"):
+        try:
+            fields = stat.read_text().rsplit(")", 1)[1].split()
+        except OSError:
+            continue
+        if int(fields[3]) == sid and fields[0] != "Z":  # fields: state, ppid, pgrp, session
+            alive.append(int(stat.parent.name))
+    return alive
+
+
+@pytest.mark.skipif(not Path("/proc/self/stat").exists(), reason="needs Linux /proc")
+@pytest.mark.parametrize("signum", [signal.SIGTERM, signal.SIGINT], ids=["SIGTERM", "SIGINT"])
+def test_a_real_signal_keeps_rows_stops_workers_and_a_rerun_resumes(tmp_path, signum) -> None:
+    out = tmp_path / "results.jsonl"
+    env = {**os.environ, "PYTHONPATH": str(Path(sweep.__file__).parents[1])}
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "bathprint.cli", "sweep", *SIGNAL_ARGS, "--out", str(out)],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        env=env,
+        start_new_session=True,  # its own session: its workers can be found afterwards
+    )
+    try:
+        deadline = time.monotonic() + 300
+        while not (out.exists() and out.read_bytes().count(b"\n") >= 1):
+            assert proc.poll() is None, proc.communicate()
+            assert time.monotonic() < deadline, "no row written"
+            time.sleep(0.05)
+        proc.send_signal(signum)
+        _, err = proc.communicate(timeout=60)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+    assert proc.returncode == 128 + signum, err
+    assert "Traceback" not in err, err
+    assert "interrupted" in err and err.strip().count("\n") == 0, err
+    kept = _lines(out)
+    assert 1 <= len(kept) < 8, "the sweep was not interrupted before its end"
+    assert all(r["status"] == "ok" for r in read_results(out))
+    deadline = time.monotonic() + 10
+    while _session_alive(proc.pid) and time.monotonic() < deadline:
+        time.sleep(0.1)
+    assert not _session_alive(proc.pid), "worker processes outlived the sweep"
+
+    # the same command again: runs only the missing points, the kept rows stay as they are
+    assert sweep.main([*SIGNAL_ARGS, "--out", str(out)]) == 0
+    lines = _lines(out)
+    assert lines[: len(kept)] == kept
+    assert len(lines) == 8 and len({json.loads(x)["run_id"] for x in lines}) == 8
+
+
+def test_pool_workers_ignore_sigint_and_sigterm() -> None:
+    old = {s: signal.getsignal(s) for s in (signal.SIGINT, signal.SIGTERM)}
+    try:
+        sweep._init_pool_worker()
+        assert signal.getsignal(signal.SIGINT) is signal.SIG_IGN
+        assert signal.getsignal(signal.SIGTERM) is signal.SIG_IGN
+    finally:
+        for s, h in old.items():
+            signal.signal(s, h)
+
+
+def _refusal(capsys, argv: list[str], *words: str) -> None:
+    assert sweep.main(argv) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "Traceback" not in err, err
+    for w in words:
+        assert w in err, err
+
+
+def test_bad_options_and_grid_points_are_refused_before_anything_runs(
+    tmp_path, capsys, monkeypatch
+) -> None:
+    def no_run(*a, **k):
+        raise AssertionError("the sweep started")
+
+    monkeypatch.setattr(sweep, "run_sweep", no_run)
+    out = tmp_path / "r.jsonl"
+    base = [SCENE, "--grid", "flow.q_outer_ml_min=0.5,1"]
+    _refusal(capsys, [*base, "--out", str(tmp_path)], "--out", str(tmp_path), "is a directory")
+    (tmp_path / "file").write_text("x")
+    _refusal(capsys, [*base, "--out", str(tmp_path / "file" / "r.jsonl")], "--out", "below a file")
+    _refusal(capsys, [*base, "--out", str(out), "--csv", str(tmp_path)], "--csv", "directory")
+    _refusal(capsys, [*base, "--out", str(out), "--csv", str(out)], "--csv", "results file")
+    _refusal(capsys, [*base, "--out", str(out), "--workers", "0"], "--workers", "0", ">= 1")
+    _refusal(capsys, [*base, "--out", str(out), "--scheduler", "nowhere"], "--scheduler", "nowhere")
+    _refusal(
+        capsys,
+        [SCENE, "--grid", "flow.q_outer_ml_min=0.5,-1", "--out", str(out)],
+        "grid point 2 of 2",
+        "flow.q_outer_ml_min = -1",
+        "[0, 1000]",
+        "--allow-invalid",
+    )
+    _refusal(capsys, [SCENE, "--grid", "effects=drag", "--out", str(out)], 'effects=["drag", ...]')
+    _refusal(capsys, [SCENE, "--set", "bath=1", "--out", str(out)], "bath = 1", "table of keys")
+    _refusal(capsys, ["no_such_scene", "--out", str(out)], "no_such_scene")
+    assert not out.exists()
+
+
+def test_allow_invalid_records_invalid_points_as_failed(tmp_path, monkeypatch) -> None:
+    seen = {}
+
+    def fake_run_sweep(scene, grid, results_path, **kw):
+        seen["grid"] = grid
+        return []
+
+    monkeypatch.setattr(sweep, "run_sweep", fake_run_sweep)
+    argv = [SCENE, "--grid", "flow.q_outer_ml_min=0.5,-1", "--out", str(tmp_path / "r.jsonl")]
+    assert sweep.main([*argv, "--allow-invalid"]) == 0
+    assert seen["grid"] == {"flow.q_outer_ml_min": [0.5, -1]}
+
+
+def test_check_points_names_the_point_and_the_key() -> None:
+    assert sweep.check_points(SCENE, {"flow.q_outer_ml_min": [0.5, 1.0]}, TINY) == 2
+    with pytest.raises(sweep.SceneError, match=r"grid point 1 of 1 .*drag\.length_scale_mm"):
+        sweep.check_points(SCENE, [{"drag.length_scale_mm": 0.2}])  # L < e r: compile_model
+    with pytest.raises(sweep.OptionError, match="workers"):
+        run_sweep(SCENE, {}, "unused.jsonl", workers=0, progress=False)

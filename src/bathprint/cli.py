@@ -1,23 +1,38 @@
-"""The ``bathprint`` command."""
+"""The ``bathprint`` command.
+
+Every command checks its options (output paths included) before it starts working and
+refuses bad input with one line on stderr and exit code 2; a diverged simulation exits 3;
+an interrupted command (Ctrl-C or SIGTERM) exits 130 / 143.
+"""
 
 from __future__ import annotations
 
 import argparse
 import json
+import signal
 import sys
 from pathlib import Path
 
-from bathprint.errors import SceneError, SimulationError
+from bathprint.errors import OptionError, SceneError, SimulationError
+from bathprint.interrupt import exit_code, signals_interrupt
+
+
+def _version() -> str:
+    from bathprint import __version__
+
+    return __version__
 
 
 def _cmd_simulate(args: argparse.Namespace) -> int:
     from bathprint.core.run import simulate
-    from bathprint.core.scene import parse_override
+    from bathprint.core.scene import load_scene, parse_override
+    from bathprint.paths import check_output_dir
 
     overrides = dict(parse_override(s) for s in args.set or [])
     if args.accuracy:
         overrides["numerics.accuracy"] = args.accuracy
-    out = Path(args.out or f"runs/{Path(args.scene).stem}")
+    load_scene(args.scene, overrides)  # a bad scene is refused first
+    out = check_output_dir(args.out or f"runs/{Path(args.scene).stem}", "--out")
     result = simulate(args.scene, overrides, out_dir=out, progress=not args.quiet)
     s = result.summary
     mb = s["mass_balance"]
@@ -42,10 +57,14 @@ def _cmd_scenes(args: argparse.Namespace) -> int:
 
 
 def _cmd_show(args: argparse.Namespace) -> int:
-    from bathprint.core.scene import load_scene, parse_override
+    from bathprint.core.scene import load_scene, parse_override, scene_to_toml
 
     overrides = dict(parse_override(s) for s in args.set or [])
-    print(json.dumps(load_scene(args.scene, overrides).to_dict(), indent=2))
+    scene = load_scene(args.scene, overrides)
+    if args.json:
+        print(json.dumps(scene.to_dict(), indent=2))
+    else:
+        print(scene_to_toml(scene), end="")
     return 0
 
 
@@ -63,9 +82,10 @@ def _cmd_validate(args: argparse.Namespace) -> int:
 
 
 def _cmd_composites(args: argparse.Namespace) -> int:
+    from bathprint.paths import check_output_dir
     from bathprint.studies.reproduce import fig3
 
-    res = fig3.run(args.out, quick=args.quick)
+    res = fig3.run(check_output_dir(args.out, "--out"), quick=args.quick)
     print(f"{'flow ratio':>10} {'phi':>6} {'E_c/E_alg':>10} {'rho_c (kg/m^3)':>15}")
     for r in res["composites"]:
         print(
@@ -82,11 +102,20 @@ def _cmd_composites(args: argparse.Namespace) -> int:
     return 0
 
 
+def _cmd_bench(args: argparse.Namespace) -> int:
+    """``bathprint bench`` without a benchmark: its help, on stderr, and exit code 2 (as
+    argparse does for a missing sub-command)."""
+    args.bench_parser.print_help(sys.stderr)
+    print("bathprint bench: error: name a benchmark (accuracy)", file=sys.stderr)
+    return 2
+
+
 def build_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(
         prog="bathprint",
         description="Simulate soft gelling filaments extruded into a reacting bath.",
     )
+    p.add_argument("--version", action="version", version=f"bathprint {_version()}")
     sub = p.add_subparsers(dest="command", required=True)
     s = sub.add_parser("simulate", help="run a scene and write trajectory, summary and picture")
     s.add_argument(
@@ -112,9 +141,14 @@ def build_parser() -> argparse.ArgumentParser:
     s.set_defaults(func=_cmd_simulate)
     sc = sub.add_parser("scenes", help="list the built-in scenes")
     sc.set_defaults(func=_cmd_scenes)
-    sh = sub.add_parser("show", help="print a scene, with overrides applied, as JSON")
-    sh.add_argument("scene")
-    sh.add_argument("--set", action="append", metavar="KEY=VALUE")
+    show_help = (
+        "print a scene, with overrides applied, as TOML: `bathprint show SCENE > my.toml` "
+        "then `bathprint simulate my.toml` runs exactly that scene"
+    )
+    sh = sub.add_parser("show", help=show_help, description=show_help)
+    sh.add_argument("scene", help="built-in scene name or a TOML path")
+    sh.add_argument("--set", action="append", metavar="KEY=VALUE", help="override a value")
+    sh.add_argument("--json", action="store_true", help="JSON instead of TOML (not read back)")
     sh.set_defaults(func=_cmd_show)
     v = sub.add_parser("validate", help="run the analytic checks and print the table")
     v.set_defaults(func=_cmd_validate)
@@ -124,9 +158,18 @@ def build_parser() -> argparse.ArgumentParser:
     sub.add_parser("train", help="train an agent: bathprint train --algo ppo --env ENV ...")
     sub.add_parser("evaluate", help="held-out rollouts: bathprint evaluate POLICY... --env ENV")
     sub.add_parser("baselines", help="fit the constant / feedforward baselines: ... fit --env ENV")
-    sub.add_parser(
-        "bench", help="work-precision study: bathprint bench accuracy --out DIR [--quick]"
+    b = sub.add_parser(
+        "bench",
+        help="benchmarks: bathprint bench accuracy --out DIR [--quick]",
+        description="Benchmarks of the simulator.",
     )
+    bsub = b.add_subparsers(dest="benchmark", metavar="BENCHMARK")
+    bsub.add_parser(
+        "accuracy",
+        help="work-precision study: error against wall time per integrator and refinement "
+        "(bathprint bench accuracy --help)",
+    )
+    b.set_defaults(func=_cmd_bench, bench_parser=b)
     from bathprint.studies import sweep
 
     sw = sub.add_parser("sweep", help="run a grid of scenes; resumable; process pool or Dask")
@@ -174,15 +217,28 @@ def main(argv: list[str] | None = None) -> int:
             "baselines": agents_cli.baselines_main,
         }
         return main_of[argv[0]](argv[1:])
-    args = build_parser().parse_args(argv)
-    try:
-        return int(args.func(args))
-    except SceneError as exc:
-        print(f"bathprint: scene error: {exc}", file=sys.stderr)
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    if not hasattr(args, "func"):  # a command without its own handler: show the help
+        parser.print_help(sys.stderr)
         return 2
-    except SimulationError as exc:
-        print(f"bathprint: {exc}", file=sys.stderr)
-        return 3
+    prog = f"bathprint {args.command}"
+    with signals_interrupt():
+        try:
+            return int(args.func(args))
+        except SceneError as exc:
+            print(f"{prog}: scene error: {exc}", file=sys.stderr)
+            return 2
+        except OptionError as exc:
+            print(f"{prog}: {exc}", file=sys.stderr)
+            return 2
+        except SimulationError as exc:
+            print(f"{prog}: {exc}", file=sys.stderr)
+            return 3
+        except KeyboardInterrupt as exc:
+            name = signal.Signals(exit_code(exc) - 128).name
+            print(f"{prog}: interrupted ({name})", file=sys.stderr)
+            return exit_code(exc)
 
 
 if __name__ == "__main__":

@@ -1,4 +1,4 @@
-"""Errors bathprint raises: bad scenes, bad run settings and diverging simulations."""
+"""Errors bathprint raises: bad scenes, bad settings or options, and diverging simulations."""
 
 from __future__ import annotations
 
@@ -11,13 +11,16 @@ class SceneError(ValueError):
 
 
 class ConfigError(ValueError):
-    """A run setting is unknown, of the wrong type or out of range: a hyperparameter file, an
-    environment's keyword arguments, a run folder or a command-line value (the agents, the
-    environments' player).
+    """A setting or option (not a scene key) is unknown, of the wrong type or out of range:
+    a hyperparameter file, an environment's keyword arguments, a run folder, a command-line
+    option, or an output path that is a file or cannot be written.
 
     The message names the parameter, the value given and what is allowed; commands print it
     as one line and exit with code 2, before any work starts.
     """
+
+
+OptionError = ConfigError  # the name the commands' option checks raise
 
 
 class SimulationError(RuntimeError):

@@ -186,12 +186,17 @@ def simulate(
 ) -> Result:
     """Run a scene (built-in name, TOML path, dict or Scene) to its duration.
 
-    Returns a :class:`Result`; with ``out_dir`` also writes its files. A progress bar is
+    Returns a :class:`Result`; with ``out_dir`` also writes its files (a file there, or a
+    directory that cannot be written, raises OptionError before the run). A progress bar is
     shown when ``progress`` is true (default: when the run is long and stderr is a TTY).
     """
     from bathprint.warmup import ensure_compiled
 
     load_scene(scene, overrides)  # bad input is refused before anything compiles
+    if out_dir is not None:  # refused now, not after the run (OptionError)
+        from bathprint.paths import check_output_dir
+
+        check_output_dir(out_dir, "out_dir")
     compile_s = ensure_compiled(announce=True)
     sim = Simulation(scene, overrides)
     sc = sim.scene

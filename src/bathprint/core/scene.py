@@ -70,7 +70,10 @@ class Needle:
     direction: tuple[float, float, float] = _vec((0.0, 0.0, -1.0), -1.0, 1.0)
     path: list = field(
         default_factory=list,
-        metadata={"doc": "optional waypoints [[t_s, x_mm, y_mm, z_mm, dx, dy, dz], ...]"},
+        metadata={
+            "rows": 7,
+            "doc": "optional waypoints [[t_s, x_mm, y_mm, z_mm, dx, dy, dz], ...]",
+        },
     )
     imperfection_um: float = _num(
         1.0, 0.0, 1e3, doc="transverse offset given to each node born at the needle"
@@ -95,7 +98,10 @@ class Flow:
     q_inner_ml_min: float = _num(0.0, 0.0, 1000.0, doc="co-extruded inner flow rate Q_i")
     schedule: list = field(
         default_factory=list,
-        metadata={"doc": "optional [[t_s, q_outer_ml_min, q_inner_ml_min], ...], times rising"},
+        metadata={
+            "rows": 3,
+            "doc": "optional [[t_s, q_outer_ml_min, q_inner_ml_min], ...], times rising",
+        },
     )
     schedule_csv: str = field(
         default="",
@@ -265,7 +271,10 @@ class Scene:
     description: str = ""
     duration_s: float = _num(2.0, 0.0, 1e6, lo_open=True, doc="simulated time")
     seed: int = field(default=0, metadata={"range": (0, 2**31 - 1)})
-    effects: list = field(default_factory=lambda: ["elasticity", "drag", "gravity"])
+    effects: list = field(
+        default_factory=lambda: ["elasticity", "drag", "gravity"],
+        metadata={"effects": True, "doc": "what is simulated; nothing else is computed"},
+    )
     bath: Bath = field(default_factory=Bath)
     needle: Needle = field(default_factory=Needle)
     material: Material = field(default_factory=Material)
@@ -289,12 +298,21 @@ class Scene:
 # ------------------------------------------------------------------------------------
 def _allowed(f: dataclasses.Field) -> str:
     md = f.metadata
+    if "rows" in md:
+        doc = md["doc"]
+        return "a list of rows " + doc[doc.index("[[") :]
+    if "effects" in md:
+        return 'a list of effect names, e.g. effects=["elasticity", "drag"]; names: ' + (
+            ", ".join(EFFECT_NAMES)
+        )
     if "choices" in md:
         return "one of " + ", ".join(repr(c) for c in md["choices"])
     if "range" in md:
         lo, hi = md["range"]
         left = "(" if md.get("lo_open") else "["
         kind = f"a list of 3 numbers each in {left}{lo:g}, {hi:g}]" if "vector" in md else None
+        if f.type == "int":
+            return f"an integer in [{int(lo)}, {int(hi)}]"
         return kind or f"a number in {left}{lo:g}, {hi:g}]"
     return f"a value of type {type(f.default).__name__}"
 
@@ -302,7 +320,10 @@ def _allowed(f: dataclasses.Field) -> str:
 def _check_number(key: str, value: Any, f: dataclasses.Field) -> float:
     if isinstance(value, bool) or not isinstance(value, int | float):
         raise SceneError(f"{key} = {value!r} is not a number; allowed: {_allowed(f)}")
-    v = float(value)
+    try:
+        v = float(value)
+    except OverflowError:  # an int beyond the float range
+        v = math.inf
     lo, hi = f.metadata["range"]
     bad = not math.isfinite(v) or v < lo or v > hi or (f.metadata.get("lo_open") and v <= lo)
     if bad:
@@ -310,16 +331,57 @@ def _check_number(key: str, value: Any, f: dataclasses.Field) -> float:
     return v
 
 
+def _toml_list(words: list[str]) -> str:
+    return "[" + ", ".join(f'"{w}"' for w in words) + "]"
+
+
+def _coerce_effects(key: str, value: Any, f: dataclasses.Field) -> list[str]:
+    if isinstance(value, str):  # --set effects=drag: a string, not a list of its letters
+        words = [w for w in value.replace(",", " ").split() if w] or ["drag"]
+        example = _toml_list(words) if len(words) > 1 else f'["{words[0]}", ...]'
+        raise SceneError(
+            f"{key} = {value!r} is a string; allowed: a TOML list of effect names, e.g. "
+            f"{key}={example} (names: {', '.join(EFFECT_NAMES)})"
+        )
+    if not isinstance(value, list | tuple):
+        raise SceneError(f"{key} = {value!r} is not a list; allowed: {_allowed(f)}")
+    for e in value:
+        if not isinstance(e, str):
+            raise SceneError(
+                f"{key} = {list(value)!r} holds {e!r}, not an effect name; allowed: {_allowed(f)}"
+            )
+    return list(value)
+
+
+def _coerce_rows(key: str, value: Any, f: dataclasses.Field) -> list:
+    """A list of rows (lists of numbers), rows as lists; the numbers are checked later."""
+    if not isinstance(value, list | tuple):
+        raise SceneError(f"{key} = {value!r} is not a list; allowed: {_allowed(f)}")
+    if value and all(isinstance(x, int | float) for x in value):
+        raise SceneError(
+            f"{key} = {list(value)!r} is one row, not a list of rows (write [{list(value)!r}]); "
+            f"allowed: {_allowed(f)}"
+        )
+    return [list(r) if isinstance(r, list | tuple) else r for r in value]
+
+
 def _coerce(key: str, value: Any, f: dataclasses.Field) -> Any:
     md = f.metadata
+    if "effects" in md:
+        return _coerce_effects(key, value, f)
+    if "rows" in md:
+        return _coerce_rows(key, value, f)
     if "choices" in md:
-        if value not in md["choices"]:
+        if isinstance(value, list | dict) or value not in md["choices"]:
             raise SceneError(f"{key} = {value!r} is unknown; allowed: {_allowed(f)}")
         return value
     if "vector" in md:
         if not isinstance(value, list | tuple) or len(value) != 3:
             raise SceneError(f"{key} = {value!r} must be {_allowed(f)}")
-        return tuple(_check_number(key, x, f) for x in value)
+        try:
+            return tuple(_check_number(key, x, f) for x in value)
+        except SceneError as exc:  # name the whole vector, not only the bad component
+            raise SceneError(f"{key} = {list(value)!r} must be {_allowed(f)}") from exc
     if f.type == "int":
         v = _check_number(key, value, f)
         if v != int(v):
@@ -335,7 +397,7 @@ def _coerce(key: str, value: Any, f: dataclasses.Field) -> Any:
         if not isinstance(value, str):
             raise SceneError(f"{key} = {value!r} must be a string")
         return value
-    return value
+    raise SceneError(f"{key} = {value!r}: no rule to read this key")  # a field without one
 
 
 def _build(cls: type, data: dict[str, Any], prefix: str) -> Any:
@@ -353,7 +415,8 @@ def _build(cls: type, data: dict[str, Any], prefix: str) -> Any:
             raise SceneError(f"{full} is missing a value; allowed: {_allowed(f)}")
         if isinstance(f.default_factory, type) and dataclasses.is_dataclass(f.default_factory):
             if not isinstance(value, dict):
-                raise SceneError(f"{full} = {value!r} must be a table of keys")
+                sub = ", ".join(f"{full}.{g.name}" for g in dataclasses.fields(f.default_factory))
+                raise SceneError(f"{full} = {value!r} is a value; allowed: a table of keys ({sub})")
             kwargs[key] = _build(f.default_factory, value, f"{full}.")
         else:
             kwargs[key] = _coerce(full, value, f)
@@ -394,10 +457,16 @@ def _check_tables(scene: Scene) -> None:
     _check_inner_flow(scene, rows, key)
     if scene.needle.path:
         _check_schedule("needle.path", scene.needle.path, 7, None)
+        _check_path(scene.needle.path)
     if scene.bath.density_bottom_kg_m3 and scene.bath.density_bottom_kg_m3 < 500.0:
         raise SceneError(
             f"bath.density_bottom_kg_m3 = {scene.bath.density_bottom_kg_m3!r}; allowed: 0 "
             "(uniform bath) or a number in [500, 3000]"
+        )
+    if 0.0 < scene.initial.length_mm < 1e-3:
+        raise SceneError(
+            f"initial.length_mm = {scene.initial.length_mm!r}; allowed: 0 (a stub of two node "
+            "spacings) or a number in [0.001, 1e5]"
         )
     if scene.numerics.min_step_s >= scene.numerics.max_step_s:
         raise SceneError(
@@ -406,9 +475,15 @@ def _check_tables(scene: Scene) -> None:
         )
     r_mm = scene.material.radius_mm or scene.needle.inner_diameter_mm / 2
     if scene.numerics.node_spacing_mm < 0.2 * r_mm:
+        source = (
+            f"material.radius_mm = {r_mm!r}"
+            if scene.material.radius_mm
+            else f"needle.inner_diameter_mm / 2 = {r_mm:g}"
+        )
         raise SceneError(
             f"numerics.node_spacing_mm = {scene.numerics.node_spacing_mm!r} is below 0.2 times "
-            f"the filament radius ({r_mm:g} mm); a rod model needs segments at least that long"
+            f"the filament radius ({source} mm); allowed: numerics.node_spacing_mm >= "
+            f"{0.2 * r_mm:g} (a rod model needs segments at least that long)"
         )
 
 
@@ -417,26 +492,32 @@ def flow_rows(scene: Scene) -> list[list[float]]:
     CSV file, or the constant rates)."""
     if scene.flow.schedule_csv:
         path = Path(scene.flow.schedule_csv)
-        if not path.exists():
-            raise SceneError(f"flow.schedule_csv = {str(path)!r} does not exist")
+        if not path.is_file():
+            why = "is a directory" if path.is_dir() else "does not exist"
+            raise SceneError(f"flow.schedule_csv = {str(path)!r} {why}; allowed: a CSV file")
         import csv
 
-        with path.open(newline="") as f:
-            reader = csv.DictReader(f)
-            need = ["t_s", "q_outer_ml_min", "q_inner_ml_min"]
-            if reader.fieldnames is None or any(c not in reader.fieldnames for c in need):
-                raise SceneError(
-                    f"flow.schedule_csv = {str(path)!r} has columns {reader.fieldnames!r}; "
-                    f"allowed: a header with {', '.join(need)}"
-                )
-            rows = []
-            for k, rec in enumerate(reader):
-                try:
-                    rows.append([float(rec[c]) for c in need])
-                except (TypeError, ValueError) as exc:
+        need = ["t_s", "q_outer_ml_min", "q_inner_ml_min"]
+        rows = []
+        try:
+            with path.open(newline="", encoding="utf-8") as f:
+                reader = csv.DictReader(f)
+                if reader.fieldnames is None or any(c not in reader.fieldnames for c in need):
                     raise SceneError(
-                        f"flow.schedule_csv = {str(path)!r} row {k + 1}: {rec!r} is not numeric"
-                    ) from exc
+                        f"flow.schedule_csv = {str(path)!r} has columns {reader.fieldnames!r}; "
+                        f"allowed: a header with {', '.join(need)}"
+                    )
+                for k, rec in enumerate(reader):
+                    try:
+                        rows.append([float(rec[c]) for c in need])
+                    except (TypeError, ValueError) as exc:
+                        raise SceneError(
+                            f"flow.schedule_csv = {str(path)!r} row {k + 1}: {rec!r} is not numeric"
+                        ) from exc
+        except (OSError, UnicodeDecodeError, csv.Error) as exc:
+            raise SceneError(
+                f"flow.schedule_csv = {str(path)!r} cannot be read as CSV text ({exc})"
+            ) from exc
         if not rows:
             raise SceneError(f"flow.schedule_csv = {str(path)!r} holds no rows")
         return rows
@@ -447,8 +528,9 @@ def flow_rows(scene: Scene) -> list[list[float]]:
 
 def _check_inner_flow(scene: Scene, rows: list, key: str) -> None:
     phi_max = scene.inclusions.max_inner_fraction
+    tabled = bool(scene.flow.schedule or scene.flow.schedule_csv)
     for k, (_, qo, qi) in enumerate(rows):
-        where = f"{key}[{k}]" if len(rows) > 1 or key != "flow.schedule" else "flow.q_inner_ml_min"
+        where = f"{key}[{k}]" if tabled else "flow.q_inner_ml_min"
         if qi > 0 and "inclusions" not in scene.effects:
             raise SceneError(
                 f"{where}: q_inner_ml_min = {qi!r} > 0 but effects = {scene.effects!r} does not "
@@ -469,8 +551,11 @@ def _check_schedule(key: str, rows: list, width: int, limits: tuple | None) -> N
         if not isinstance(row, list | tuple) or len(row) != width:
             raise SceneError(f"{key}[{k}] = {row!r} must be a list of {width} numbers")
         for x in row:
-            if isinstance(x, bool) or not isinstance(x, int | float) or not math.isfinite(x):
-                raise SceneError(f"{key}[{k}] = {row!r} holds a non-finite or non-number value")
+            if isinstance(x, bool) or not isinstance(x, int | float) or not _finite(x):
+                raise SceneError(
+                    f"{key}[{k}] = {row!r} holds {x!r}, a non-finite or non-number value; allowed: "
+                    "finite numbers only"
+                )
         t = row[0]
         if t < 0:
             raise SceneError(f"{key}[{k}] time = {t!r} s is negative; times must be >= 0")
@@ -483,6 +568,28 @@ def _check_schedule(key: str, rows: list, width: int, limits: tuple | None) -> N
                     raise SceneError(
                         f"{key}[{k}] flow = {x!r} ml/min; allowed: a number in [0, {hi:g}]"
                     )
+
+
+def _finite(x: float) -> bool:
+    try:
+        return math.isfinite(x)
+    except OverflowError:  # an int beyond the float range
+        return False
+
+
+def _check_path(rows: list) -> None:
+    """Waypoints: positions within +-1e4 mm, direction components in [-1, 1], not zero."""
+    for k, row in enumerate(rows):
+        for name, x in zip(("x_mm", "y_mm", "z_mm"), row[1:4], strict=True):
+            if abs(x) > 1e4:
+                raise SceneError(
+                    f"needle.path[{k}] {name} = {x!r}; allowed: a number in [-10000, 10000]"
+                )
+        for name, x in zip(("dx", "dy", "dz"), row[4:7], strict=True):
+            if abs(x) > 1.0:
+                raise SceneError(f"needle.path[{k}] {name} = {x!r}; allowed: a number in [-1, 1]")
+        if math.hypot(*row[4:7]) < 1e-6:
+            raise SceneError(f"needle.path[{k}] direction = {row[4:7]!r} must be a non-zero vector")
 
 
 def scene_from_dict(data: dict[str, Any]) -> Scene:
@@ -509,7 +616,11 @@ def parse_override(text: str) -> tuple[str, Any]:
 def apply_overrides(data: dict[str, Any], overrides: dict[str, Any] | None) -> dict[str, Any]:
     """Set dotted keys in a nested dict (a copy); unknown keys fail at validation."""
     out = _deep_copy(data)
+    if overrides is not None and not isinstance(overrides, dict):
+        raise SceneError(f"overrides = {overrides!r}; allowed: a dict of dotted keys to values")
     for key, value in (overrides or {}).items():
+        if not isinstance(key, str):
+            raise SceneError(f"override key {key!r} is not a string; allowed: dotted keys")
         parts = key.split(".")
         node = out
         for p in parts[:-1]:
@@ -539,9 +650,13 @@ def read_scene_data(name_or_path: str | Path) -> dict[str, Any]:
     """Raw dict of a built-in scene (by name) or a TOML file (by path)."""
     p = Path(name_or_path)
     if p.suffix == ".toml" or p.exists():
-        if not p.exists():
-            raise SceneError(f"scene file {str(p)!r} does not exist")
-        text = p.read_text()
+        if not p.is_file():
+            why = "is a directory" if p.is_dir() else "does not exist"
+            raise SceneError(f"scene file {str(p)!r} {why}; allowed: a TOML file")
+        try:
+            text = p.read_text(encoding="utf-8")
+        except (OSError, UnicodeDecodeError) as exc:
+            raise SceneError(f"scene file {str(p)!r} cannot be read as text ({exc})") from exc
     else:
         names = builtin_scene_names()
         if str(name_or_path) not in names:
@@ -564,9 +679,22 @@ def load_scene(
         data = name_or_path.to_dict()
     elif isinstance(name_or_path, dict):
         data = name_or_path
-    else:
+    elif isinstance(name_or_path, str | Path):
         data = read_scene_data(name_or_path)
+    else:
+        raise SceneError(
+            f"scene = {name_or_path!r}; allowed: a built-in scene name, a TOML path, a dict "
+            "or a Scene"
+        )
     return scene_from_dict(apply_overrides(data, overrides))
+
+
+def scene_to_toml(scene: Scene) -> str:
+    """The scene as TOML text that :func:`load_scene` reads back to an equal Scene
+    (``bathprint show``)."""
+    import tomli_w
+
+    return tomli_w.dumps(scene.to_dict())
 
 
 def scene_summary_line(scene: Scene) -> str:

@@ -65,6 +65,11 @@ def make(env_id: str, **kwargs: Any) -> Any:
     safe env factory for subprocess vector envs started with spawn or forkserver."""
     import gymnasium
 
+    from bathprint.errors import ConfigError
+
+    mode = kwargs.get("render_mode")
+    if mode is not None and not isinstance(mode, str):  # gymnasium.make would fail on it
+        raise ConfigError(f"render_mode = {mode!r}; allowed: None, 'human', 'rgb_array'")
     register_envs()
     return gymnasium.make(resolve_id(env_id), **kwargs)
 

@@ -12,6 +12,7 @@ import hashlib
 import json
 import math
 import pickle
+from pathlib import Path
 from typing import Any, ClassVar
 
 import gymnasium as gym
@@ -40,7 +41,7 @@ from bathprint.envs.targets import (
     TargetSampler,
     load_target_file,
 )
-from bathprint.errors import SimulationError
+from bathprint.errors import ConfigError, SimulationError
 
 ML_MIN = 1e-6 / 60.0  # m^3/s per ml/min
 MM = 1e-3  # m per mm
@@ -112,7 +113,7 @@ def obs_slices() -> dict[str, slice]:
 
 def _check_index_type(index: Any, name: str = "target_index") -> None:
     if isinstance(index, bool) or not isinstance(index, int | np.integer):
-        raise ValueError(f"{name} = {index!r}; allowed: an integer (an evaluation target)")
+        raise ConfigError(f"{name} = {index!r}; allowed: an integer (an evaluation target)")
 
 
 # Warm-up states are the same for every instance with the same scene: computed once per
@@ -139,33 +140,47 @@ class BathprintEnv(gym.Env[np.ndarray, np.ndarray]):
         spec_overrides: dict[str, Any] | None = None,
         spec_file: str | None = None,
     ) -> None:
-        if render_mode is not None and render_mode not in self.metadata["render_modes"]:
-            raise ValueError(
+        if render_mode is not None and (
+            not isinstance(render_mode, str) or render_mode not in self.metadata["render_modes"]
+        ):
+            raise ConfigError(
                 f"render_mode = {render_mode!r}; allowed: None, "
                 + ", ".join(repr(m) for m in self.metadata["render_modes"])
             )
         if target_set not in ("train", "eval"):
-            raise ValueError(f"target_set = {target_set!r}; allowed: 'train', 'eval'")
+            raise ConfigError(f"target_set = {target_set!r}; allowed: 'train', 'eval'")
         if not isinstance(accuracy, str) or accuracy not in ACCURACY_PRESETS:
-            raise ValueError(
+            raise ConfigError(
                 f"accuracy = {accuracy!r}; allowed: " + ", ".join(map(repr, ACCURACY_PRESETS))
             )
         if scene_overrides is not None and not (
             isinstance(scene_overrides, dict) and all(isinstance(k, str) for k in scene_overrides)
         ):
-            raise ValueError(
+            raise ConfigError(
                 f"scene_overrides = {scene_overrides!r}; allowed: None or a mapping of dotted "
                 "scene keys to values, e.g. {'bath.viscosity_pa_s': 1.0}"
             )
+        if target_file is not None:
+            if not isinstance(target_file, str | Path):
+                raise ConfigError(
+                    f"target_file = {target_file!r}; allowed: a path to a CSV or NPY polyline"
+                )
+            if not Path(target_file).is_file():
+                raise ConfigError(f"target_file = {str(target_file)!r} does not exist")
+        if spec_file is not None:
+            if not isinstance(spec_file, str | Path):
+                raise ConfigError(f"spec_file = {spec_file!r}; allowed: a path to a spec TOML")
+            if not Path(spec_file).is_file():
+                raise ConfigError(f"spec_file = {str(spec_file)!r} does not exist")
         if target_index is not None:
             _check_index_type(target_index)
             if target_set != "eval":
-                raise ValueError(
+                raise ConfigError(
                     f"target_index = {target_index!r} selects an evaluation target: use "
                     "target_set='eval'"
                 )
             if target_file is not None:
-                raise ValueError(
+                raise ConfigError(
                     f"target_index = {target_index!r} and target_file = {target_file!r}: a "
                     "target file is the only target; give one of them"
                 )
@@ -219,8 +234,10 @@ class BathprintEnv(gym.Env[np.ndarray, np.ndarray]):
             )
         if needle_velocity is True:
             needle_velocity = "xyz"
-        if needle_velocity not in (False, None, "xy", "xyz"):
-            raise ValueError(f"needle_velocity = {needle_velocity!r}; allowed: False, True, 'xy'")
+        if not (needle_velocity in (False, None) or needle_velocity in ("xy", "xyz")):
+            raise ConfigError(
+                f"needle_velocity = {needle_velocity!r}; allowed: False, True, 'xy', 'xyz'"
+            )
         self.needle_axes = "" if not needle_velocity else str(needle_velocity)
         self.action_names += [f"needle_v{a}" for a in self.needle_axes]
         self._action_index = {name: k for k, name in enumerate(self.action_names)}
@@ -261,7 +278,7 @@ class BathprintEnv(gym.Env[np.ndarray, np.ndarray]):
         _check_index_type(index, name)
         n = self.sampler.eval_size
         if not 0 <= index < n:
-            raise ValueError(
+            raise ConfigError(
                 f"{name} = {index!r}; the evaluation set of {self.env_id} has {n} targets: "
                 f"allowed 0..{n - 1}"
             )
@@ -368,7 +385,7 @@ class BathprintEnv(gym.Env[np.ndarray, np.ndarray]):
                 self._eval_cursor += 1
             return self.sampler.eval_target(int(index)), int(index)
         if options.get("target_index") is not None:
-            raise ValueError("target_index selects evaluation targets: use target_set='eval'")
+            raise ConfigError("target_index selects evaluation targets: use target_set='eval'")
         return self.sampler.train_target(self.np_random), -1
 
     def reset(

@@ -17,6 +17,7 @@ from pathlib import Path
 from typing import Any
 
 from bathprint._resources import shared_dir
+from bathprint.errors import ConfigError
 
 #: Environment id -> spec file name (in the specs directory).
 SPEC_FILES: dict[str, str] = {
@@ -85,7 +86,7 @@ _NUMBERS: dict[str, tuple[bool, float, bool]] = {
 }
 
 
-class SpecError(ValueError):
+class SpecError(ConfigError):
     """A spec file is missing, unreadable, or has an unknown or invalid key."""
 
 

@@ -29,6 +29,8 @@ from typing import Any, Protocol
 
 import numpy as np
 
+from bathprint.errors import ConfigError
+
 FREE_DENSITY = (0.0, 1.0e4)  # kg/m^3: a density band that constrains nothing
 STRAIGHT_CURVATURE = 1e-9  # 1/length: discrete_torsion is 0 below this curvature
 
@@ -514,8 +516,9 @@ class TargetSampler:
     def eval_target(self, index: int) -> Target:
         """Evaluation target number ``index`` (0 <= index < eval_size)."""
         if not 0 <= index < len(self.eval_params):
-            raise IndexError(
-                f"target_index = {index!r}; the evaluation set has {len(self.eval_params)} targets"
+            raise ConfigError(
+                f"target_index = {index!r}; allowed: 0 to {len(self.eval_params) - 1} (the "
+                f"evaluation set has {len(self.eval_params)} targets)"
             )
         if index not in self._eval_cache:
             self._eval_cache[index] = self.family.build(self.eval_params[index])

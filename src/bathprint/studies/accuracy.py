@@ -22,8 +22,11 @@ import argparse
 import csv
 import json
 import math
+import os
+import signal
 import sys
 import time
+import warnings
 from collections.abc import Callable, Sequence
 from dataclasses import asdict, dataclass
 from pathlib import Path
@@ -37,7 +40,8 @@ from bathprint.analysis.theory import beta_critical
 from bathprint.analysis.validation import CANTILEVER, extruded_rod_growth_rate_for
 from bathprint.core.scene import ACCURACY_PRESETS
 from bathprint.core.simulation import Simulation
-from bathprint.errors import SimulationError
+from bathprint.errors import OptionError, SimulationError
+from bathprint.interrupt import atomic, exit_code, signals_interrupt
 
 PROBLEMS = ("cantilever", "onset", "coil_radius", "coil_frequency")
 CANTILEVER_T_END = 0.1  # s: about 30 relaxation times of the slowest bending mode
@@ -84,8 +88,9 @@ def timed(fn: Callable[[], Any], repeats: int = 2) -> tuple[float, Any]:
 
 
 class Points:
-    """Measured points, kept in ``points.jsonl`` of the output directory as they finish, so
-    that an interrupted study resumes where it stopped (``--fresh`` starts over). Shows a
+    """Measured points, kept in ``points.jsonl`` of the output directory as they finish
+    (each line flushed and fsync'd), so that an interrupted study resumes where it stopped
+    (``--fresh`` starts over); a line cut by a crash is dropped and measured again. Shows a
     progress bar over the plan's points."""
 
     def __init__(self, path: Path | None, total: int, fresh: bool = False) -> None:
@@ -94,28 +99,47 @@ class Points:
         self.path = path
         self.done: dict[str, tuple[float, Any]] = {}
         if path is not None and path.exists() and not fresh:
-            for line in path.read_text().splitlines():
-                if line.strip():
-                    rec = json.loads(line)
-                    res = rec["result"]
-                    self.done[rec["key"]] = (
-                        rec["wall_s"],
-                        tuple(res) if isinstance(res, list) else res,
-                    )
+            self._load(path)
         elif path is not None and fresh and path.exists():
             path.unlink()
         self.bar = tqdm(total=total, unit="point", desc="work-precision", disable=path is None)
         self.bar.update(min(len(self.done), total))
+
+    def _load(self, path: Path) -> None:
+        data = path.read_bytes()
+        lines = data.split(b"\n")
+        tail = lines.pop()  # b"" when the file ends with a newline
+        if tail.strip():  # a line cut by a crash: drop it (that point is measured again)
+            with path.open("r+b") as f:
+                f.truncate(len(data) - len(tail))
+        bad = 0
+        for line in lines:
+            if not line.strip():
+                continue
+            try:
+                rec = json.loads(line)
+                res = rec["result"]
+                self.done[rec["key"]] = (
+                    float(rec["wall_s"]),
+                    tuple(res) if isinstance(res, list) else res,
+                )
+            except (ValueError, KeyError, TypeError):
+                bad += 1
+        if bad:
+            warnings.warn(f"{path}: ignored {bad} malformed line(s)", RuntimeWarning, stacklevel=3)
 
     def measure(self, key: str, fn: Callable[[], Any], repeats: int = 2) -> tuple[float, Any]:
         """(wall s, result) of ``fn``: stored if this key was measured before, else timed."""
         if key in self.done:
             return self.done[key]
         wall, result = timed(fn, repeats)
-        self.done[key] = (wall, result)
-        if self.path is not None:
-            with self.path.open("a") as f:
-                f.write(json.dumps({"key": key, "wall_s": wall, "result": result}) + "\n")
+        with atomic():  # a SIGINT/SIGTERM now is raised once the line is on disk
+            self.done[key] = (wall, result)
+            if self.path is not None:
+                with self.path.open("a") as f:
+                    f.write(json.dumps({"key": key, "wall_s": wall, "result": result}) + "\n")
+                    f.flush()
+                    os.fsync(f.fileno())
         self.bar.set_postfix_str(key, refresh=False)
         self.bar.update(1)
         return wall, result
@@ -495,20 +519,48 @@ def preset_table(presets: Sequence[Row]) -> str:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    """Run the study; ``--out DIR`` (required), ``--quick`` (about a minute)."""
-    ap = argparse.ArgumentParser(prog="bathprint bench accuracy", description=__doc__)
-    ap.add_argument("--out", required=True, type=Path, help="output directory")
+    """Run the study; ``--out DIR`` (required), ``--quick`` (about a minute). Exit codes: 0
+    done, 2 bad options (checked first), 130 / 143 interrupted by SIGINT / SIGTERM (the
+    points measured so far are kept; the same command resumes)."""
+    ap = argparse.ArgumentParser(
+        prog="bathprint bench accuracy",
+        description=__doc__,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    ap.add_argument("--out", required=True, help="output directory")
     ap.add_argument("--quick", action="store_true", help="fewer points, shorter coil run")
     ap.add_argument(
         "--fresh", action="store_true", help="discard points measured by an earlier run in --out"
     )
     args = ap.parse_args(argv)
+    from bathprint.paths import check_output_dir
+
+    try:
+        out = check_output_dir(args.out, "--out")
+    except OptionError as exc:
+        print(f"bathprint bench accuracy: {exc}", file=sys.stderr)
+        return 2
     plan = QUICK if args.quick else FULL
-    out: Path = args.out
-    out.mkdir(parents=True, exist_ok=True)
-    global _POINTS
     name = "points_quick.jsonl" if args.quick else "points.jsonl"
-    _POINTS = Points(out / name, plan_size(plan), fresh=args.fresh)
+    with signals_interrupt():
+        try:
+            return _run(out, plan, name, args.fresh)
+        except KeyboardInterrupt as exc:  # Ctrl-C or SIGTERM
+            kept = len(_POINTS.done)
+            _POINTS.close()
+            print(
+                f"bathprint bench accuracy: interrupted "
+                f"({signal.Signals(exit_code(exc) - 128).name}); {kept} points kept in "
+                f"{out / name}; run the same command again to resume",
+                file=sys.stderr,
+            )
+            return exit_code(exc)
+
+
+def _run(out: Path, plan: Plan, name: str, fresh: bool) -> int:
+    global _POINTS
+    out.mkdir(parents=True, exist_ok=True)
+    _POINTS = Points(out / name, plan_size(plan), fresh=fresh)
     if _POINTS.done:
         _log(f"resuming: {len(_POINTS.done)} points already measured in {out / name}")
     t0 = time.perf_counter()

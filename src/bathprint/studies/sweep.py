@@ -3,6 +3,9 @@
 Every finished run appends one JSON object (a *row*) to a JSON Lines results file,
 flushed and fsync'd at once, so an interrupted sweep loses at most the runs in flight.
 Rerunning the same sweep skips every point whose ``run_id`` is already in the file.
+``bathprint sweep`` checks every option and every grid point's scene before it runs
+anything, and treats SIGTERM like Ctrl-C: pending runs are cancelled, the workers stopped,
+the rows written are kept, and it exits with 130 (SIGINT) or 143 (SIGTERM).
 
 Row fields::
 
@@ -38,6 +41,7 @@ import itertools
 import json
 import math
 import multiprocessing
+import operator
 import os
 import signal
 import sys
@@ -53,10 +57,14 @@ from pathlib import Path
 from typing import Any
 
 from bathprint.core.scene import parse_override, read_scene_data
-from bathprint.errors import SceneError, SimulationError
+from bathprint.errors import OptionError, SceneError, SimulationError
+from bathprint.interrupt import atomic, exit_code, signals_interrupt
+from bathprint.paths import check_output_file
 
 __all__ = [
     "add_arguments",
+    "check_points",
+    "check_scheduler",
     "default_extract",
     "expand_grid",
     "latest_rows",
@@ -264,8 +272,9 @@ class _ResultsFile:
 
     def append(self, row: Mapping[str, Any]) -> None:
         line = json.dumps(_jsonable(row), ensure_ascii=False, allow_nan=False) + "\n"
-        self._f.write(line.encode())
-        self._sync()
+        with atomic():  # a SIGINT/SIGTERM now is raised after the row is on disk
+            self._f.write(line.encode())
+            self._sync()
 
     def close(self) -> None:
         self._f.close()  # closing releases the lock
@@ -304,8 +313,10 @@ def _run_point(scene_data: dict[str, Any], overrides: dict[str, Any]) -> dict[st
 
 
 def _init_pool_worker() -> None:
-    # Ctrl-C is the driver's business: it cancels pending work and ends the workers.
+    # Ctrl-C and SIGTERM (also when sent to the whole process group) are the driver's
+    # business: it cancels pending work and kills the workers (SIGKILL).
     signal.signal(signal.SIGINT, signal.SIG_IGN)
+    signal.signal(signal.SIGTERM, signal.SIG_IGN)
 
 
 def _mp_context() -> multiprocessing.context.BaseContext:
@@ -352,8 +363,17 @@ def _iter_pool(
             procs = list((getattr(pool, "_processes", None) or {}).values())
             pool.shutdown(wait=False, cancel_futures=True)
             for proc in procs:
-                if proc.is_alive():
-                    proc.terminate()
+                # by pid: the workers ignore SIGTERM, and when a SIGTERM to the process
+                # group has ended the forkserver, proc.is_alive() wrongly says False
+                try:
+                    os.kill(proc.pid, signal.SIGKILL)
+                except (ProcessLookupError, PermissionError, TypeError, ValueError):
+                    pass
+            for proc in procs:
+                try:
+                    proc.join(timeout=5.0)
+                except (ValueError, AssertionError):  # closed by the pool / not our child
+                    pass
 
 
 def _iter_dask(
@@ -382,7 +402,13 @@ def _iter_dask(
         if progress and dashboard is not None:
             print(f"sweep: dask dashboard at {client.dashboard_link}", file=sys.stderr)
     else:
-        client = Client(scheduler, set_as_default=False)
+        try:
+            client = Client(scheduler, set_as_default=False)
+        except (OSError, TimeoutError, ValueError, TypeError) as exc:
+            raise OptionError(
+                f"scheduler = {scheduler!r}: cannot connect ({exc}); allowed: the address of "
+                f"a running Dask scheduler (tcp://host:8786), {LOCAL_DASK!r} or {SERIAL!r}"
+            ) from None
     futures: dict[Any, int] = {}
     try:
         for i, ov in tasks:
@@ -409,6 +435,61 @@ def _iter_dask(
 # --------------------------------------------------------------------------- sweep
 
 
+def _check_workers(workers: Any, option: str) -> int:
+    """``workers`` as an int >= 1 (None: the number of CPUs)."""
+    if workers is None:
+        return os.cpu_count() or 1
+    try:
+        n = operator.index(workers)  # ints and numpy ints; not 2.5, not True
+    except TypeError:
+        n = 0
+    if isinstance(workers, bool) or n < 1:
+        raise OptionError(f"{option} = {workers!r}; allowed: an integer >= 1")
+    return n
+
+
+def check_scheduler(scheduler: Any, option: str = "scheduler") -> None:
+    """Refuse a ``scheduler`` that cannot be one: None, ``"local-dask"``, ``"serial"`` or a
+    Dask address (``tcp://host:port``, ``host:port``); Dask must be installed for the last two.
+    Whether a scheduler answers at the address is found when the sweep connects."""
+    if scheduler is None or scheduler == SERIAL:
+        return
+    allowed = f"{LOCAL_DASK!r}, {SERIAL!r} or a Dask scheduler address such as tcp://host:8786"
+    if not isinstance(scheduler, str) or ":" not in scheduler and scheduler != LOCAL_DASK:
+        raise OptionError(f"{option} = {scheduler!r}; allowed: {allowed}")
+    try:
+        import distributed  # noqa: F401
+    except ImportError:
+        raise OptionError(
+            f"{option} = {scheduler!r} needs Dask (pip install 'dask[distributed]'); "
+            "allowed without it: the default local process pool"
+        ) from None
+
+
+def check_points(
+    scene: str | os.PathLike,
+    grid: Grid,
+    base_overrides: Mapping[str, Any] | None = None,
+) -> int:
+    """Validate the scene of every grid point (as :func:`bathprint.core.scene.load_scene` and
+    :func:`bathprint.core.model.compile_model` do, without running anything); returns the number
+    of points. Raises :class:`SceneError` for the first invalid point, naming it."""
+    from bathprint.core.model import compile_model
+    from bathprint.core.scene import load_scene
+
+    data = read_scene_data(scene)
+    base = dict(base_overrides or {})
+    points = expand_grid(grid)
+    for k, point in enumerate(points):
+        overrides = _jsonable({**base, **point})
+        try:
+            compile_model(load_scene(data, overrides))
+        except SceneError as exc:
+            where = f"grid point {k + 1} of {len(points)} {_canonical(point)}: " if point else ""
+            raise SceneError(f"{where}{exc}") from None
+    return len(points)
+
+
 def run_sweep(
     scene: str | os.PathLike,
     grid: Grid,
@@ -429,7 +510,9 @@ def run_sweep(
     order. A failing run is recorded and the sweep goes on. ``scheduler``: None (local
     process pool of ``workers`` processes, default ``os.cpu_count()``), ``"local-dask"``,
     ``"serial"`` or a Dask scheduler address. ``extract(summary)`` runs in this process.
-    On Ctrl-C pending runs are cancelled, written rows kept and KeyboardInterrupt re-raised.
+    On Ctrl-C pending runs are cancelled, the workers stopped, written rows kept and
+    KeyboardInterrupt re-raised (inside :func:`bathprint.interrupt.signals_interrupt`, as
+    the command line runs it, SIGTERM does the same).
 
     Returns one row per distinct point of the grid, in grid order (the latest row for
     points that were skipped).
@@ -444,9 +527,7 @@ def run_sweep(
     for point in expand_grid(grid):
         overrides = _jsonable({**base, **point})  # plain types: what runs is what is recorded
         points.setdefault(run_id(scene_name, overrides), overrides)
-    workers = int(workers) if workers is not None else os.cpu_count() or 1
-    if workers < 1:
-        raise ValueError(f"workers = {workers} must be at least 1")
+    workers = _check_workers(workers, "workers")
 
     out = _ResultsFile(Path(results_path))
     try:
@@ -643,20 +724,61 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "--retry-failed", action="store_true", help="run again the points recorded as failed"
     )
     parser.add_argument("--csv", metavar="PATH", help="also write all results as CSV to PATH")
+    parser.add_argument(
+        "--allow-invalid",
+        action="store_true",
+        help="record grid points whose scene is invalid as failed rows and run the rest "
+        "(default: refuse the sweep before running anything)",
+    )
     parser.add_argument("--no-progress", action="store_true", help="no progress bar")
 
 
 def run_args(args: argparse.Namespace) -> int:
-    """Run a sweep from parsed arguments; 0 if no point failed, 1 if some did, 2 on bad input."""
+    """Run a sweep from parsed arguments: 0 if no point failed, 1 if some did, 2 on bad input
+    (checked before anything runs), 130 / 143 when interrupted by SIGINT / SIGTERM."""
+    with signals_interrupt():
+        try:
+            return _run_args(args)
+        except KeyboardInterrupt as exc:  # Ctrl-C or SIGTERM
+            out = Path(args.out)
+            kept = len(latest_rows(read_results(out))) if out.is_file() else 0
+            print(
+                f"bathprint sweep: interrupted ({_signal_name(exc)}); {kept} points kept in "
+                f"{out}; run the same command again to resume",
+                file=sys.stderr,
+            )
+            return exit_code(exc)
+
+
+def _check_args(args: argparse.Namespace) -> tuple[dict[str, list[Any]], dict[str, Any]]:
+    """(grid axes, base overrides), every option checked; raises SceneError / OptionError."""
+    check_output_file(args.out, "--out")
+    if args.csv is not None:
+        check_output_file(args.csv, "--csv")
+        if Path(args.csv).resolve() == Path(args.out).resolve():
+            raise OptionError(f"--csv = {args.csv!r} is the results file; allowed: another path")
+    _check_workers(args.workers, "--workers")
+    check_scheduler(args.scheduler, "--scheduler")
+    axes: dict[str, list[Any]] = {}
+    for text in args.grid:
+        key, values = parse_grid_arg(text)
+        if key in axes:
+            raise SceneError(f"--grid {key} is given twice")
+        axes[key] = values
+    base = dict(parse_override(s) for s in args.set)
+    if not getattr(args, "allow_invalid", False):
+        try:
+            check_points(args.scene, axes, base)
+        except SceneError as exc:
+            hint = " (--allow-invalid records invalid points as failed and runs the rest)"
+            raise SceneError(f"{exc}{hint if axes else ''}") from None
+    return axes, base
+
+
+def _run_args(args: argparse.Namespace) -> int:
     out = Path(args.out)
     try:
-        axes: dict[str, list[Any]] = {}
-        for text in args.grid:
-            key, values = parse_grid_arg(text)
-            if key in axes:
-                raise SceneError(f"--grid {key} is given twice")
-            axes[key] = values
-        base = dict(parse_override(s) for s in args.set)
+        axes, base = _check_args(args)
         existing = {r["run_id"]: r["status"] for r in read_results(out)}
         rows = run_sweep(
             args.scene,
@@ -668,20 +790,12 @@ def run_args(args: argparse.Namespace) -> int:
             base_overrides=base,
             retry_failed=args.retry_failed,
         )
-    except (SceneError, ValueError) as exc:
+    except (SceneError, ValueError) as exc:  # OptionError is a ValueError
         print(f"bathprint sweep: {exc}", file=sys.stderr)
         return 2
     except RuntimeError as exc:  # results file locked, or a worker process died
         print(f"bathprint sweep: {exc}", file=sys.stderr)
         return 1
-    except KeyboardInterrupt:
-        kept = len(read_results(out))
-        print(
-            f"bathprint sweep: interrupted; {kept} rows kept in {out}; "
-            "run the same command again to resume",
-            file=sys.stderr,
-        )
-        return 130
     skipped = {
         rid
         for rid, status in existing.items()
@@ -707,6 +821,10 @@ def run_args(args: argparse.Namespace) -> int:
         n = rows_to_csv(out, args.csv)
         print(f"wrote {n} rows to {args.csv}")
     return 1 if failed else 0
+
+
+def _signal_name(exc: BaseException) -> str:
+    return signal.Signals(exit_code(exc) - 128).name
 
 
 def main(argv: Sequence[str] | None = None) -> int:

@@ -404,8 +404,8 @@ def build_candidate_pairs(
     on every axis (so every pair at distance <= search_dist is included). Work arrays
     (int64, reused between calls, :class:`bathprint.core.records.Contact`): cell_start
     (n_buckets + 1), seg_order (>= n_seg), seg_cell (>= 3 n_seg), seen (27); pairs_out
-    (capacity, 2) receives the pairs, ordered by i. If the return value exceeds pairs_out.shape[0], only the first capacity
-    pairs were written: grow pairs_out to at least the returned count and call again.
+    (capacity, 2) receives the pairs, ordered by i. If the return value exceeds the
+    capacity, only that many pairs were written: grow pairs_out and call again.
 
     Grid: cell size h = search_dist + the largest per-axis extent of any segment; each
     segment sits in the cell of its midpoint, and two candidates' midpoints differ by at most
