@@ -151,7 +151,17 @@ def test_lumped_tail_equals_drag_and_weight_of_the_tail_moving_with_the_active_e
             free,
             tail_rod,
             off,
-            Out(f_ref, band, ws.tail.copy(), new_scratch(), ws.cpl_drop, ws.contact),
+            Out(
+                f_ref,
+                band,
+                ws.tail.copy(),
+                new_scratch(),
+                ws.cpl_drop,
+                ws.contact,
+                tail_rod,
+                0,
+                sim.pos,
+            ),
         )
     lumped = np.zeros(3 * sim.capacity)
     active = Rod(sim.pos[3 * k :], vel, zero, 10, sim.node_s, sim.seg_rest, sim.seg_mat)
@@ -159,7 +169,7 @@ def test_lumped_tail_equals_drag_and_weight_of_the_tail_moving_with_the_active_e
         sim.model.record,
         active,
         off,
-        Out(lumped, band, ws.tail, new_scratch(), ws.cpl_drop, ws.contact),
+        Out(lumped, band, ws.tail, new_scratch(), ws.cpl_drop, ws.contact, active, 0, sim.pos),
     )
     total = f_ref[: 3 * n_tail].reshape(-1, 3).sum(axis=0)
     np.testing.assert_allclose(lumped[:3], total, rtol=1e-10, atol=1e-18)
@@ -286,7 +296,7 @@ def test_the_tail_load_jacobian_matches_finite_differences(on_floor: bool) -> No
             sim.model.record,
             rod,
             stage,
-            Out(f, band, ws.tail, new_scratch(), ws.cpl_drop, ws.contact),
+            Out(f, band, ws.tail, new_scratch(), ws.cpl_drop, ws.contact, rod, 0, sim.pos),
         )
         return f[:3]
 

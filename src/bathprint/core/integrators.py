@@ -139,8 +139,13 @@ def active_rod(state, ws, frozen: int) -> Rod:
 
 
 @njit(cache=True, inline="always")
-def _out(ws, band, cpl) -> Out:
-    return Out(ws.vecs[V_FORCE], band, ws.tail, ws.scratch, cpl, ws.contact)
+def _out(state, ws, band, cpl) -> Out:
+    """Where a force evaluation of the current step writes."""
+    whole = active_rod(state, ws, 0)
+    start = ws.vecs[V_POS0]
+    return Out(
+        ws.vecs[V_FORCE], band, ws.tail, ws.scratch, cpl, ws.contact, whole, state.ints[2], start
+    )
 
 
 @njit(cache=True, inline="always")
@@ -186,7 +191,7 @@ def _stage_solve(model, rod, state, ws, hg: float, t_stage: float) -> bool:
     sx = ws.vecs[V_SX]
     sv = ws.vecs[V_SV]
     rhs = ws.vecs[V_RHS]
-    out = _out(ws, ws.band, ws.cpl)
+    out = _out(state, ws, ws.band, ws.cpl)
     force = out.force
     scale = p.tolerance * p.node_spacing
     stage = Stage(t_stage, 1.0, 1.0 / hg, 1.0 / (hg * hg) if inertial else 0.0, False)
@@ -223,7 +228,7 @@ def _stage_solve(model, rod, state, ws, hg: float, t_stage: float) -> bool:
             sol.lu_hg = hg
             sol.lu_nd = nd
             refresh = False
-        if not solver.solve(ws, nd, rhs, state.counters):
+        if not solver.solve(ws, nd, rhs, state.counters, p.krylov_tolerance):
             sol.krylov_failed = True
             state.info[1] = _worst_node(force, nd)
             return False
@@ -278,9 +283,9 @@ def _filtered_norm(model, rod, state, ws, hg: float, t: float) -> float:
     stage = Stage(t, 0.0, 1.0 / hg, ca, True)
     # D keeps its band only (an off-band damping, contact friction, is dropped from the
     # filter); A^-1 is the whole Newton matrix's
-    assemble(model, rod, stage, _out(ws, ws.band2, ws.cpl_drop), state.calls, state.energies)
+    assemble(model, rod, stage, _out(state, ws, ws.band2, ws.cpl_drop), state.calls, state.energies)
     solver.damping_times(ws, nd, evec, rhs)
-    if not solver.solve(ws, nd, rhs, state.counters):
+    if not solver.solve(ws, nd, rhs, state.counters, p.krylov_tolerance):
         return np.inf
     return _rms(rhs, nd, ws)
 
@@ -390,7 +395,7 @@ def explicit_step(model, rod, state, ws, h: float, t: float) -> float:
     rhs = ws.vecs[V_RHS]
     pos0 = ws.vecs[V_POS0]
     vel0 = ws.vecs[V_VEL0]
-    out = _out(ws, ws.band, ws.cpl)
+    out = _out(state, ws, ws.band, ws.cpl)
     force = out.force
     set_boundary(model, rod, t, ws.scratch)
     if p.inertial:
@@ -400,7 +405,9 @@ def explicit_step(model, rod, state, ws, h: float, t: float) -> float:
         assemble(model, rod, Stage(t, 0.0, 0.0, 1.0, True), out, state.calls, state.energies)
         for k in range(nd):
             rhs[k] = force[k]
-        if not solver.factor(ws, nd) or not solver.solve(ws, nd, rhs, state.counters):
+        if not solver.factor(ws, nd) or not solver.solve(
+            ws, nd, rhs, state.counters, p.krylov_tolerance
+        ):
             state.info[1] = _worst_node(force, nd)
             return -1.0
         for k in range(nd):
@@ -413,7 +420,9 @@ def explicit_step(model, rod, state, ws, h: float, t: float) -> float:
         assemble(model, rod, stage, out, state.calls, state.energies)
         for k in range(nd):
             rhs[k] = force[k]
-        if not solver.factor(ws, nd) or not solver.solve(ws, nd, rhs, state.counters):
+        if not solver.factor(ws, nd) or not solver.solve(
+            ws, nd, rhs, state.counters, p.krylov_tolerance
+        ):
             state.info[1] = _worst_node(force, nd)
             return -1.0
         norm = 0.0
@@ -523,9 +532,10 @@ def _rests_on_floor(pos, seg_mat, node: int, p) -> bool:
 
 
 @njit(cache=True)
-def _proposed_step(model, state) -> float:
+def _proposed_step(model, state, ws) -> float:
     """The next step: fixed, or the controller's, bounded by the largest step, the inlet's
-    growth (``numerics.max_inlet_growth`` node spacings) and the buckling rate."""
+    growth (``numerics.max_inlet_growth`` node spacings), the buckling rate and, with
+    contact, the relative motion that keeps segments from passing through each other."""
     p = model.params[0]
     if p.fixed_step > 0.0:
         return p.fixed_step
@@ -548,6 +558,8 @@ def _proposed_step(model, state) -> float:
             state.seg_mat[f:],
         )
         h = min(h, buckling_time(rod, p) / p.buckling_steps)
+    if model.enabled[E_CONTACT]:
+        h = min(h, contact.step_limit(ws.contact))
     return h
 
 
@@ -564,7 +576,7 @@ def _attempt(model, state, ws, h: float) -> tuple[float, int]:
         tail_load(model, whole, frozen, gravity_on, model.enabled[E_FLOOR] > 0, ws)
     rod = active_rod(state, ws, frozen)
     contact_on = model.enabled[E_CONTACT] > 0
-    if contact_on and not contact.prepare(model, rod, ws.contact):
+    if contact_on and not contact.prepare(model, active_rod(state, ws, 0), frozen, ws.contact):
         return -1.0, CAUSE_CAPACITY
     pos0 = ws.vecs[V_POS0]
     vel0 = ws.vecs[V_VEL0]
@@ -585,13 +597,15 @@ def _attempt(model, state, ws, h: float) -> tuple[float, int]:
                 cause = CAUSE_STRAIN
             err = max(err, 16.0 * jump)
     if err >= 0.0 and contact_on:
-        ratio = contact.check(rod, pos0, ws.contact, ws.scratch.step_work)
+        sc = ws.scratch
+        whole = active_rod(state, ws, 0)
+        ratio = contact.check(whole, pos0, frozen, ws.contact, sc.step_work, sc.pair_grad)
         if ratio >= 1.0:
             # segments may have passed through each other: never accepted; the retry is
             # about 0.5 / ratio as long (the controller's factor 0.9 / sqrt(err))
             state.counters[C_CONTACT_REJECTIONS] += 1
-            state.info[1] = ws.contact.memory[0].pair_i + frozen
-            state.info[2] = ws.contact.memory[0].pair_j + frozen
+            state.info[1] = ws.contact.memory[0].pair_i
+            state.info[2] = ws.contact.memory[0].pair_j
             cause = CAUSE_CONTACT
             err = max(err, 3.24 * ratio * ratio) if p.fixed_step <= 0.0 else -1.0
     if err < 0.0 and cause != CAUSE_CONTACT:
@@ -671,7 +685,7 @@ def _accept(model, state, ws, h: float, h_taken: float, err: float) -> int:
     if p.fixed_step <= 0.0 and h_taken >= 0.999 * h:
         state.clock[1] = h * min(5.0, 0.9 / _error_root(max(err, 1e-10), p.integrator))
     if enabled[E_CONTACT]:
-        contact.accepted(ws.contact)
+        contact.accepted(ws.contact, h_taken)
     s_tip = extruded_length(model.flow, model.flow_cum, p.needle_area, t)
     capacity = state.pos.shape[0] // 3
     whole = active_rod(state, ws, 0)
@@ -727,7 +741,7 @@ def advance(model, state, ws, t_end: float, max_steps: int) -> int:
         if state.ints[0] + 2 > capacity:
             return STATUS_CAPACITY
         t = state.clock[0]
-        h = _proposed_step(model, state)
+        h = _proposed_step(model, state, ws)
         h_taken = min(h, t_end - t)
         if t_end - t - h_taken < 1e-3 * h_taken:
             h_taken = t_end - t

@@ -96,6 +96,7 @@ PARAMS_FIELDS: tuple[tuple[str, str, str], ...] = (
     ("contact_width_fraction", "f8", "-, penetration (in contact distances) of the soft onset"),
     ("contact_friction", "f8", "-, Coulomb coefficient between touching segments"),
     ("contact_friction_velocity", "f8", "m/s, regularisation of that friction"),
+    ("krylov_tolerance", "f8", "-, GMRES residual relative to the right-hand side"),
 )
 PARAMS_DTYPE = np.dtype([(name, kind) for name, kind, _ in PARAMS_FIELDS])
 
@@ -208,5 +209,7 @@ CONTACT_FIELDS: tuple[tuple[str, str, str], ...] = (
     ("pair_i", "i8", "segments of the pair that set the last violation (active-rod indices)"),
     ("pair_j", "i8", ""),
     ("max_step_disp", "f8", "m, largest relative node displacement of the last accepted step"),
+    ("last_ratio", "f8", "-, the no-pass-through ratio of the last accepted step"),
+    ("last_step", "f8", "s, the last accepted step"),
 )
 CONTACT_DTYPE = np.dtype([(name, kind) for name, kind, _ in CONTACT_FIELDS])

@@ -244,6 +244,7 @@ def compile_model(scene: Scene) -> Model:
     p.seed = scene.seed
     p.initial_age = scene.initial.age_s
     p.integrator = L.INTEGRATOR_NAMES.index(scene.numerics.integrator)
+    p.krylov_tolerance = scene.numerics.krylov_tolerance
     c = scene.contact
     p.contact_stiffness = c.stiffness_pa
     p.contact_distance_factor = c.distance_factor

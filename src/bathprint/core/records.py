@@ -66,6 +66,7 @@ class Scratch(NamedTuple):
     pair_grad: np.ndarray  # (12,) gradient of a segment pair's distance (contact)
     pair_hess: np.ndarray  # (12, 12) its Hessian
     step_work: np.ndarray  # (3,) scratch of the contact step bound
+    pair_x: np.ndarray  # (12,) the four node positions of a segment pair
 
 
 class Couplings(NamedTuple):
@@ -150,6 +151,10 @@ class Out(NamedTuple):
     scratch: Scratch
     cpl: Couplings  # Jacobian blocks off the band (a zero-capacity one drops them)
     contact: Contact  # the candidate pairs of self-contact
+    whole: Rod  # the whole filament, frozen tail included (the rod is its view from frozen)
+    frozen: int  # nodes in the frozen tail
+    start: np.ndarray  # the active nodes' positions at the step's start (the frozen tail
+    # follows the first active node: it is at its start position + that node's displacement)
 
 
 def new_params() -> np.ndarray:
@@ -176,6 +181,7 @@ def new_scratch() -> Scratch:
         pair_grad=np.zeros(12),
         pair_hess=np.zeros((12, 12)),
         step_work=np.zeros(3),
+        pair_x=np.zeros(12),
     )
 
 

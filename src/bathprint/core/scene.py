@@ -166,7 +166,7 @@ class Contact:
     penetration of the centre-line distance below the contact distance f (r_A + r_B)."""
 
     stiffness_pa: float = _num(
-        1e4, 1e-3, 1e9, lo_open=True, doc="force per length per penetration (as the floor's)"
+        1e3, 1e-3, 1e9, lo_open=True, doc="force per length per penetration (as the floor's)"
     )
     distance_factor: float = _num(
         1.0, 0.0, 10.0, lo_open=True, doc="contact distance / the sum of the two radii"
@@ -253,6 +253,14 @@ class Numerics:
         "follows the active filament's end rigidly; 0: off",
     )
     newton_tolerance: float = _num(0.01, 1e-8, 1.0, lo_open=True, doc="in units of tolerance")
+    krylov_tolerance: float = _num(
+        1e-2,
+        1e-12,
+        0.5,
+        lo_open=True,
+        doc="GMRES residual relative to the right-hand side, with couplings off the band "
+        "(contact); Newton's own iteration corrects the rest",
+    )
 
 
 @dataclass
@@ -438,12 +446,6 @@ def _check_tables(scene: Scene) -> None:
         raise SceneError(
             f"effects = {scene.effects!r}: 'contact' needs 'elasticity' (a filament without "
             "elastic forces cannot hold its segments apart); allowed: add 'elasticity'"
-        )
-    if "contact" in scene.effects and scene.numerics.freeze_beyond_mm > 0.0:
-        raise SceneError(
-            f"numerics.freeze_beyond_mm = {scene.numerics.freeze_beyond_mm!r} with the contact "
-            "effect: frozen material would not be an obstacle to the active filament's turns; "
-            "allowed: 0 with 'contact'"
         )
     d = scene.needle.direction
     if math.hypot(*d) < 1e-6:

@@ -346,7 +346,15 @@ class Simulation:
             self.pos, self.vel, zero, self.n_nodes, self.node_s, self.seg_rest, self.seg_mat
         )
         out = records.Out(
-            force, self.ws.band2, tail, self.ws.scratch, self.ws.cpl_drop, self.ws.contact
+            force,
+            self.ws.band2,
+            tail,
+            self.ws.scratch,
+            self.ws.cpl_drop,
+            self.ws.contact,
+            rod,
+            0,
+            self.pos,
         )
         stage = records.Stage(self.t, 1.0, 0.0, 0.0, False)
         assemble(self.model.record, rod, stage, out, calls, energies)
@@ -382,6 +390,9 @@ class Simulation:
             records.new_scratch(),
             records.new_couplings(16 * self.capacity),
             self.ws.contact,
+            rod,
+            0,
+            self.pos,
         )
         return self.model.record, rod, records.Stage(self.t, cx, cv, ca, jacobian), out
 

@@ -10,9 +10,12 @@ Effects may add couplings between distant nodes (self-contact: 3x3 blocks betwee
 of two segments about a coil turn apart, ``ws.cpl``). The Newton matrix is then
 A = B + C, B its band and C the off-band blocks, and :func:`solve` runs restarted GMRES
 (Saad & Schultz 1986) on A, right-preconditioned by the banded LU of B: the iterations
-needed grow with the strength of C relative to B, not with N. A solve that does not reach
-``KRYLOV_RTOL`` in ``KRYLOV_MAX_RESTARTS`` cycles returns False; the integrator treats it
-as a Newton failure (a shorter step), never passes it on.
+needed grow with the strength of C relative to B, not with N. Newton needs its updates only
+to the accuracy of its own contraction (an inexact Newton method, Dembo, Eisenstat &
+Steihaug 1982), so a solve stops at a residual ``numerics.krylov_tolerance`` (default 1e-2)
+of its right-hand side. One that does not get there in ``KRYLOV_MAX_RESTARTS`` cycles
+returns False; the integrator treats it as a Newton failure (a shorter step), never passes
+it on.
 """
 
 from __future__ import annotations
@@ -25,7 +28,6 @@ from numba import njit
 from bathprint.core.banded import band_lu, band_matvec, band_solve
 from bathprint.core.layout import C_KRYLOV_FAILURES, C_KRYLOV_ITERATIONS, KL, KU
 
-KRYLOV_RTOL = 1e-8  # residual of a GMRES solve relative to its right-hand side
 KRYLOV_MAX_RESTARTS = 4  # restarts of KRYLOV_RESTART iterations each before a solve stalls
 
 
@@ -48,13 +50,13 @@ def factor(ws, nd: int) -> bool:
 
 
 @njit(cache=True)
-def solve(ws, nd: int, rhs: np.ndarray, counters: np.ndarray) -> bool:
-    """Overwrite ``rhs`` with the Newton matrix's inverse applied to it; False if GMRES
-    stalled (only possible with couplings off the band)."""
+def solve(ws, nd: int, rhs: np.ndarray, counters: np.ndarray, rtol: float) -> bool:
+    """Overwrite ``rhs`` with the Newton matrix's inverse applied to it (with couplings off
+    the band: to a residual ``rtol`` of the right-hand side); False if GMRES stalled."""
     if not off_band(ws):
         band_solve(ws.band, nd, KL, KU, ws.piv, rhs)
         return True
-    return _gmres(ws, nd, rhs, counters)
+    return _gmres(ws, nd, rhs, counters, rtol)
 
 
 @njit(cache=True)
@@ -85,7 +87,7 @@ def _dot(a: np.ndarray, b: np.ndarray, nd: int) -> float:
 
 
 @njit(cache=True)
-def _gmres(ws, nd: int, b: np.ndarray, counters: np.ndarray) -> bool:
+def _gmres(ws, nd: int, b: np.ndarray, counters: np.ndarray, rtol: float) -> bool:
     """Restarted GMRES for A x = b, right-preconditioned by the banded LU (in ``ws.band``):
     minimise |b - A M^-1 u| over the Krylov space, x = M^-1 u. ``b`` is overwritten by x."""
     kr = ws.krylov
@@ -150,7 +152,7 @@ def _gmres(ws, nd: int, b: np.ndarray, counters: np.ndarray) -> bool:
             g[j] = cs[j] * g[j]
             n_used = j + 1
             counters[C_KRYLOV_ITERATIONS] += 1
-            if abs(g[j + 1]) <= KRYLOV_RTOL * beta0 or h_next == 0.0:
+            if abs(g[j + 1]) <= rtol * beta0 or h_next == 0.0:
                 converged = True
                 break
         # y = H^-1 g (upper triangular), u = V y, x += M^-1 u
@@ -176,7 +178,7 @@ def _gmres(ws, nd: int, b: np.ndarray, counters: np.ndarray) -> bool:
         for k in range(nd):
             r[k] = b[k] - r[k]
         beta = math.sqrt(_dot(r, r, nd))
-        if beta <= KRYLOV_RTOL * beta0:
+        if beta <= rtol * beta0:
             converged = True
             break
     finite = True

@@ -396,11 +396,14 @@ def build_candidate_pairs(
     seg_cell,
     seen,
     pairs_out,
+    query_first: int = 0,
 ) -> int:
     """Candidate contact pairs by a uniform spatial hash; returns the number of pairs found.
 
-    Segments j = (nodes j, j+1) for j in [seg_first, seg_last); pairs (i, j) with
-    j - i > min_separation whose bounding boxes are within ``search_dist`` (m) of each other
+    Segments j = (nodes j, j+1) for j in [seg_first, seg_last); pairs (i, j), i < j, with
+    j - i > min_separation and j >= query_first (pairs of two segments before
+    ``query_first``, a frozen tail, are not wanted), whose bounding boxes are within
+    ``search_dist`` (m) of each other
     on every axis (so every pair at distance <= search_dist is included). Work arrays
     (int64, reused between calls, :class:`bathprint.core.records.Contact`): cell_start
     (n_buckets + 1), seg_order (>= n_seg), seg_cell (>= 3 n_seg), seen (27); pairs_out
@@ -456,6 +459,8 @@ def build_candidate_pairs(
     n_pairs = 0
     for k in range(n_seg):
         i = seg_first + k
+        if i < query_first:
+            continue
         n_seen = 0
         for dx in range(-1, 2):
             for dy in range(-1, 2):
@@ -477,12 +482,18 @@ def build_candidate_pairs(
                     n_seen += 1
                     for idx in range(cell_start[b], cell_start[b + 1]):
                         j = seg_first + seg_order[idx]
-                        if j - i <= min_separation:
-                            continue
+                        if j >= query_first:  # both query segments: each pair once, i < j
+                            if j - i <= min_separation:
+                                continue
+                            first, second = i, j
+                        else:  # a partner before query_first (it never queries)
+                            if i - j <= min_separation:
+                                continue
+                            first, second = j, i
                         if _boxes_near(pos, i, j, search_dist):
                             if n_pairs < capacity:
-                                pairs_out[n_pairs, 0] = i
-                                pairs_out[n_pairs, 1] = j
+                                pairs_out[n_pairs, 0] = first
+                                pairs_out[n_pairs, 1] = second
                             n_pairs += 1
     return n_pairs
 
@@ -504,42 +515,47 @@ def brute_force_pairs(
     return n_pairs
 
 
-@njit(cache=True)
-def step_bound(pos0, pos1, pairs, n_pairs: int, n_nodes: int, skin: float, out) -> float:
-    """How close a step from pos0 to pos1 (flat, m) comes to letting segments pass through
-    each other: a ratio, < 1 when the step is provably crossing-free. ``out`` (3,) receives
-    the worst pair (i, j; -1 when the skin set the ratio) and the largest node displacement
-    relative to the common motion (m).
+@njit(cache=True, inline="always")
+def _disp(pos0, pos, frozen: int, g: int, c: int) -> float:
+    """Displacement of coordinate c of node g over a step: pos0 holds the active nodes (from
+    ``frozen``); a frozen node moves with the first active node (the tail's translation)."""
+    k = g - frozen if g >= frozen else 0
+    return pos[3 * (k + frozen) + c] - pos0[3 * k + c]
 
-    - Candidate pairs: with d0 a pair's distance at pos0 and u = max_{a in A, b in B}
+
+@njit(cache=True)
+def step_bound(pos0, pos, frozen: int, pairs, n_pairs: int, n_nodes: int, skin: float, out, x):
+    """How close a step comes to letting segments pass through each other: a ratio, < 1
+    when the step is provably crossing-free. ``pos``: the whole rod's positions (m, flat)
+    after the step, ``pos0``: the active nodes' (from ``frozen``) at its start; frozen nodes
+    move with the first active node. ``out`` (3,) receives the worst pair (i, j; -1 when the
+    skin set the ratio) and the largest node displacement relative to the common motion (m);
+    ``x`` (12,) is scratch.
+
+    - Candidate pairs: with d0 a pair's distance at the start and u = max_{a in A, b in B}
       |dx_a - dx_b|, the distance along the linear motion is d(tau) >= d0 - tau u (distance
       is 1-Lipschitz in the relative displacement of the nodes), so u / d0 < 1 means no
       crossing.
-    - Every other pair started farther than delta + skin apart (the list was built at pos0
-      with that search distance). With m = max_i |dx_i - c| for the centre c of the nodes'
-      displacement box, any two points moved by at most 2 m relative to each other, so such
-      a pair is still farther than delta if 2 m / skin < 1: the list missed no contact.
+    - Every other pair started farther than delta + skin apart (the list was built at the
+      start with that search distance). With m = max_i |dx_i - c| for the centre c of the
+      nodes' displacement box, any two points moved by at most 2 m relative to each other,
+      so such a pair is still farther than delta if 2 m / skin < 1: the list missed nothing.
     """
-    c_lo0 = c_lo1 = c_lo2 = np.inf
-    c_hi0 = c_hi1 = c_hi2 = -np.inf
-    for i in range(n_nodes):
-        d0 = pos1[3 * i] - pos0[3 * i]
-        d1 = pos1[3 * i + 1] - pos0[3 * i + 1]
-        d2 = pos1[3 * i + 2] - pos0[3 * i + 2]
-        c_lo0 = min(c_lo0, d0)
-        c_hi0 = max(c_hi0, d0)
-        c_lo1 = min(c_lo1, d1)
-        c_hi1 = max(c_hi1, d1)
-        c_lo2 = min(c_lo2, d2)
-        c_hi2 = max(c_hi2, d2)
-    c0 = 0.5 * (c_lo0 + c_hi0)
-    c1 = 0.5 * (c_lo1 + c_hi1)
-    c2 = 0.5 * (c_lo2 + c_hi2)
+    lo0 = lo1 = lo2 = np.inf
+    hi0 = hi1 = hi2 = -np.inf
+    for g in range(frozen, n_nodes):
+        d0 = _disp(pos0, pos, frozen, g, 0)
+        d1 = _disp(pos0, pos, frozen, g, 1)
+        d2 = _disp(pos0, pos, frozen, g, 2)
+        lo0, hi0 = min(lo0, d0), max(hi0, d0)
+        lo1, hi1 = min(lo1, d1), max(hi1, d1)
+        lo2, hi2 = min(lo2, d2), max(hi2, d2)
+    c0, c1, c2 = 0.5 * (lo0 + hi0), 0.5 * (lo1 + hi1), 0.5 * (lo2 + hi2)
     m2 = 0.0
-    for i in range(n_nodes):
-        d0 = pos1[3 * i] - pos0[3 * i] - c0
-        d1 = pos1[3 * i + 1] - pos0[3 * i + 1] - c1
-        d2 = pos1[3 * i + 2] - pos0[3 * i + 2] - c2
+    for g in range(frozen, n_nodes):
+        d0 = _disp(pos0, pos, frozen, g, 0) - c0
+        d1 = _disp(pos0, pos, frozen, g, 1) - c1
+        d2 = _disp(pos0, pos, frozen, g, 2) - c2
         m2 = max(m2, d0 * d0 + d1 * d1 + d2 * d2)
     m = math.sqrt(m2)
     worst = 2.0 * m / skin if skin > 0.0 else (np.inf if m > 0.0 else 0.0)
@@ -554,15 +570,27 @@ def step_bound(pos0, pos1, pairs, n_pairs: int, n_nodes: int, skin: float, out) 
             for b in (j, j + 1):
                 w2 = 0.0
                 for c in range(3):
-                    du = (pos1[3 * a + c] - pos0[3 * a + c]) - (pos1[3 * b + c] - pos0[3 * b + c])
+                    du = _disp(pos0, pos, frozen, a, c) - _disp(pos0, pos, frozen, b, c)
                     w2 += du * du
                 u2 = max(u2, w2)
         if u2 == 0.0:
             continue
-        d_start = segment_distance(pos0, i, i + 1, j, j + 1)
+        d_start = _start_distance(pos0, pos, frozen, i, j, x)
         ratio = math.sqrt(u2) / d_start if d_start > 0.0 else np.inf
         if ratio > worst:
             worst = ratio
             out[0] = i
             out[1] = j
     return worst
+
+
+@njit(cache=True)
+def _start_distance(pos0, pos, frozen: int, i: int, j: int, x) -> float:
+    """Distance of segments i, j at the start of the step (frozen nodes had not moved);
+    ``x`` (12,) scratch."""
+    nodes = (i, i + 1, j, j + 1)
+    for a in range(4):
+        g = nodes[a]
+        for c in range(3):
+            x[3 * a + c] = pos0[3 * (g - frozen) + c] if g >= frozen else pos[3 * g + c]
+    return segment_distance(x, 0, 1, 2, 3)
