@@ -185,7 +185,14 @@ def _unclamped(model):
 
 @pytest.mark.parametrize("integrator", ["implicit_euler", "explicit"])
 def test_other_integrators_run_with_a_frozen_tail(integrator: str) -> None:
-    ov = {"numerics.accuracy": "draft", "numerics.freeze_beyond_mm": 8.0}
+    # frozen just 8 mm behind the needle at 5 ml/min, the new turns land on the frozen coil
+    # itself; self-contact with a tail that short is out of this test's scope (the scene
+    # without contact: freezing with contact is tested at the lengths the presets use)
+    ov = {
+        "numerics.accuracy": "draft",
+        "numerics.freeze_beyond_mm": 8.0,
+        "effects": ["elasticity", "drag", "gravity", "gelation"],
+    }
     if integrator == "explicit":
         ov.update({"numerics.integrator": "explicit", "numerics.time_step_s": 2e-6})
         t_end = 0.02

@@ -97,6 +97,7 @@ PARAMS_FIELDS: tuple[tuple[str, str, str], ...] = (
     ("contact_friction", "f8", "-, Coulomb coefficient between touching segments"),
     ("contact_friction_velocity", "f8", "m/s, regularisation of that friction"),
     ("krylov_tolerance", "f8", "-, GMRES residual relative to the right-hand side"),
+    ("contact_exact_hessian", "?", "contact's Newton matrix: exact Hessian (else Gauss-Newton)"),
 )
 PARAMS_DTYPE = np.dtype([(name, kind) for name, kind, _ in PARAMS_FIELDS])
 

@@ -251,6 +251,7 @@ def compile_model(scene: Scene) -> Model:
     p.contact_width_fraction = c.width_fraction
     p.contact_friction = c.friction_coefficient
     p.contact_friction_velocity = c.friction_velocity_mm_s * MM
+    p.contact_exact_hessian = c.hessian == "exact"
     enabled = np.array([1 if e in scene.effects else 0 for e in L.EFFECT_NAMES], dtype=np.int64)
     flow = _flow_table(scene)
     return Model(
