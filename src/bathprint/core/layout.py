@@ -196,6 +196,7 @@ TAIL_FIELDS: tuple[tuple[str, str, str], ...] = (
     ("on", "?", "a tail is frozen"),
     ("force", "3f8", "N, its net weight and the drag of the bath's flow on it"),
     ("drag", "(3,3)f8", "N s/m, its drag tensor: force -drag (v - u_bath) at the active end"),
+    ("mass", "(3,3)f8", "kg, its mass with added mass (with inertia): force -mass a at the end"),
     ("normal", "f8", "N, the weight the floor carries (floor mode)"),
     ("on_floor", "?", "the tail rests on the floor and slides at its height"),
 )
