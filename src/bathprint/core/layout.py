@@ -213,5 +213,10 @@ CONTACT_FIELDS: tuple[tuple[str, str, str], ...] = (
     ("max_step_disp", "f8", "m, largest relative node displacement of the last accepted step"),
     ("last_ratio", "f8", "-, the no-pass-through ratio of the last accepted step"),
     ("last_step", "f8", "s, the last accepted step"),
+    ("built_nodes", "i8", "nodes of the rod when the pairs were found (-1: never)"),
+    ("built_frozen", "i8", "frozen nodes then"),
+    ("margin", "f8", "m, how much closer than delta + margin a pair is near (this step)"),
+    ("n_near", "i8", "pairs near enough to touch within the step"),
+    ("builds", "i8", "spatial-hash builds so far"),
 )
 CONTACT_DTYPE = np.dtype([(name, kind) for name, kind, _ in CONTACT_FIELDS])

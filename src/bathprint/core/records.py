@@ -101,6 +101,9 @@ class Contact(NamedTuple):
     seg_cell: np.ndarray  # (3 cap,) int64
     seen: np.ndarray  # (27,) int64: buckets already scanned around a segment
     memory: np.ndarray  # (1,) CONTACT_DTYPE: search distance, skin, the last violation
+    build_pos: np.ndarray  # (3 cap,) m: the whole rod's positions when the pairs were found
+    d_start: np.ndarray  # (P,) m: each pair's distance at the start of the step
+    near: np.ndarray  # (P,) int64: the pairs near enough to touch within the step
 
 
 class Workspace(NamedTuple):
@@ -219,6 +222,9 @@ def new_contact(capacity: int, pairs: int) -> Contact:
         seg_cell=np.zeros(3 * capacity, dtype=np.int64),
         seen=np.zeros(27, dtype=np.int64),
         memory=np.zeros(1, dtype=CONTACT_DTYPE),
+        build_pos=np.zeros(3 * capacity),
+        d_start=np.zeros(pairs),
+        near=np.zeros(pairs, dtype=np.int64),
     )
 
 

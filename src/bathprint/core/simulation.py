@@ -124,6 +124,7 @@ class Simulation:
             self.ws.solver[0]["lu_valid"] = False
             self.ws.tail[:] = old.tail
             self.ws.contact.memory[:] = old.contact.memory
+            self.ws.contact.memory[0]["built_nodes"] = -1  # its pairs are not carried over
         if not hasattr(self, "istate"):
             self.istate = np.zeros(3, dtype=np.int64)  # n_nodes, n_splits, n_frozen
             self.fstate = np.zeros(2)  # t, next step
@@ -254,6 +255,56 @@ class Simulation:
     def rest_lengths(self) -> np.ndarray:
         """Rest length of each filament segment (m)."""
         return self.seg_rest[: self.n_segments].copy()
+
+    @classmethod
+    def from_points(
+        cls,
+        points_m: np.ndarray,
+        scene: str | Path | Scene | dict = "paper_simulation",
+        overrides: dict[str, Any] | None = None,
+        relaxed: bool = False,
+    ) -> Simulation:
+        """A free filament (not attached to the needle, nothing extruded) through the given
+        node positions (m, shape (n, 3)), at rest, its rest lengths those drawn. ``relaxed``:
+        its natural curvature is the drawn one, so the shape carries no bending stress. The
+        scene gives the material, the bath and the effects (``flow`` is set to zero)."""
+        pts = np.asarray(points_m, dtype=float)
+        if pts.ndim != 2 or pts.shape[1] != 3 or len(pts) < 3 or not np.isfinite(pts).all():
+            raise ValueError(f"points_m: shape {pts.shape}; allowed: (n >= 3, 3) finite values")
+        seg = np.linalg.norm(np.diff(pts, axis=0), axis=1)
+        if seg.min() <= 0.0:
+            raise ValueError("points_m: two consecutive points coincide")
+        spacing_mm = float(np.median(seg) * 1e3)
+        over = {
+            **(overrides or {}),
+            "flow.q_outer_ml_min": 0.0,
+            "flow.q_inner_ml_min": 0.0,
+            "flow.schedule": [],
+            "initial.length_mm": (len(pts) + 1) * spacing_mm,
+            "numerics.node_spacing_mm": spacing_mm,
+        }
+        sim = cls(scene, over)
+        sim.release()
+        n = len(pts)
+        sim.istate[0] = n
+        sim.pos[:] = 0.0
+        sim.pos[: 3 * n] = pts.ravel()
+        sim.vel[:] = 0.0
+        sim.seg_rest[:] = 0.0
+        sim.seg_rest[: n - 1] = seg
+        sim.seg_mat[n - 1 :] = 0.0
+        if relaxed:
+            from bathprint.core.effects.gelation import node_curvature
+
+            kappa = np.zeros((n, 3))
+            for i in range(1, n - 1):
+                node_curvature(sim.pos, sim.seg_rest, i, kappa[i])
+            kappa[0], kappa[-1] = kappa[1], kappa[-2]
+            k0 = 0.5 * (kappa[:-1] + kappa[1:])
+            sim.seg_mat[: n - 1, L.MAT_KAPPA_X : L.MAT_KAPPA_X + 3] = k0
+        if not sim.model.p.inertial:
+            sim._consistent_velocity()
+        return sim
 
     def release(self) -> None:
         """Cut the filament from the needle: the ghost node goes, every node moves freely."""

@@ -43,14 +43,16 @@ from bathprint.core.effects._segment_geometry import (
     build_candidate_pairs,
     closest_params,
     penalty,
-    step_bound,
+    segment_distance,
 )
 from bathprint.core.layout import MAT_RADIUS
 from bathprint.core.topology import filament_segments, free_nodes
 
-SKIN_GROWTH = 2.5  # skin = SKIN_GROWTH x the last accepted step's relative node motion
-SKIN_MIN = 0.25  # ... at least this many largest contact distances
-SKIN_MAX = 4.0  # ... at most this many
+SKIN_STEPS = 8.0  # the hash's skin covers about this many steps of relative node motion
+SKIN_MIN = 0.25  # ... and at least this many largest contact distances
+SKIN_MAX = 2.0  # ... at most this many
+MARGIN_STEPS = 1.5  # near pairs: closer than delta + this many steps' relative motion
+MARGIN_MIN = 0.05  # ... at least this many largest contact distances
 TARGET_RATIO = 0.6  # steps are sized to keep the no-pass-through ratio near this (< 1)
 
 
@@ -77,64 +79,206 @@ def _delta_max(model, rod) -> float:
 
 
 @njit(cache=True)
-def prepare(model, whole, frozen: int, contact) -> bool:
-    """Candidate pairs at the start of a step (search distance delta_max + skin), over the
-    whole filament: active segments with each other and with the frozen tail (an obstacle),
-    in whole-filament segment numbers; False when they do not fit in ``contact.pairs``
-    (grow it and call again)."""
-    p = model.params[0]
-    mem = contact.memory[0]
-    n_seg = filament_segments(whole.n_nodes, p)
-    delta_max = _delta_max(model, whole)
-    if mem.skin <= 0.0 or mem.delta_max != delta_max:
-        mem.skin = delta_max  # the first step, or the rod's radius changed
-    mem.delta_max = delta_max
-    mem.min_separation = max(2, math.ceil(1.6 * delta_max / p.node_spacing))
-    n = build_candidate_pairs(
-        whole.pos,
-        whole.n_nodes,
-        0,
-        n_seg,
-        delta_max + mem.skin,
-        mem.min_separation,
-        contact.cell_start,
-        contact.seg_order,
-        contact.seg_cell,
-        contact.seen,
-        contact.pairs,
-        frozen,
-    )
-    contact.count[0] = n
-    return n <= contact.pairs.shape[0]
+def _motion(pos, ref, n_nodes: int, first: int, shift0, shift1, shift2) -> float:
+    """max_i |(pos_i + s_i) - ref_i - c| over nodes 0..n-1, c the centre of the displacement
+    box, s_i = (shift0, shift1, shift2) for nodes before ``first`` (the frozen tail's pending
+    translation) and 0 after: the largest node motion relative to the common motion (m)."""
+    lo0 = lo1 = lo2 = np.inf
+    hi0 = hi1 = hi2 = -np.inf
+    for g in range(n_nodes):
+        s0, s1, s2 = (shift0, shift1, shift2) if g < first else (0.0, 0.0, 0.0)
+        d0 = pos[3 * g] + s0 - ref[3 * g]
+        d1 = pos[3 * g + 1] + s1 - ref[3 * g + 1]
+        d2 = pos[3 * g + 2] + s2 - ref[3 * g + 2]
+        lo0, hi0 = min(lo0, d0), max(hi0, d0)
+        lo1, hi1 = min(lo1, d1), max(hi1, d1)
+        lo2, hi2 = min(lo2, d2), max(hi2, d2)
+    c0, c1, c2 = 0.5 * (lo0 + hi0), 0.5 * (lo1 + hi1), 0.5 * (lo2 + hi2)
+    m2 = 0.0
+    for g in range(n_nodes):
+        s0, s1, s2 = (shift0, shift1, shift2) if g < first else (0.0, 0.0, 0.0)
+        d0 = pos[3 * g] + s0 - ref[3 * g] - c0
+        d1 = pos[3 * g + 1] + s1 - ref[3 * g + 1] - c1
+        d2 = pos[3 * g + 2] + s2 - ref[3 * g + 2] - c2
+        m2 = max(m2, d0 * d0 + d1 * d1 + d2 * d2)
+    return math.sqrt(m2)
 
 
 @njit(cache=True)
-def check(whole, pos0, frozen: int, contact, work, x) -> float:
-    """The no-pass-through ratio of a step from ``pos0`` (the active nodes at its start) to
-    the whole rod's positions (< 1: no segments can have crossed and the candidate list
-    missed no contact); the worst pair and the nodes' relative motion go into
-    ``contact.memory``. ``work`` (3,), ``x`` (12,): scratch."""
+def prepare(model, whole, frozen: int, contact) -> bool:
+    """At the start of a step: the candidate pairs (rebuilt only when needed), each pair's
+    distance now, and the pairs near enough to touch within the step; False when the pairs
+    do not fit in ``contact.pairs`` (grow it and call again).
+
+    The candidate pairs, whole-filament segment numbers (active segments with each other
+    and with the frozen tail, an obstacle), are every pair within delta_max + skin when the
+    spatial hash was built; they stay valid while no node has moved more than skin / 2
+    relative to the common motion since (a Verlet list), and are rebuilt when that fails,
+    when nodes are born or freeze, or when the radius changes. Of them, the pairs closer
+    than their delta + margin are near: only those are evaluated in Newton's iterations."""
+    p = model.params[0]
     mem = contact.memory[0]
-    n_pairs = min(contact.count[0], contact.pairs.shape[0])
-    ratio = step_bound(
-        pos0, whole.pos, frozen, contact.pairs, n_pairs, whole.n_nodes, mem.skin, work, x
-    )
-    mem.ratio = ratio
-    mem.pair_i = int(work[0])
-    mem.pair_j = int(work[1])
-    mem.max_step_disp = work[2]
-    return ratio
+    n_nodes = whole.n_nodes
+    n_seg = filament_segments(n_nodes, p)
+    delta_max = _delta_max(model, whole)
+    rebuild = mem.built_nodes != n_nodes or mem.built_frozen != frozen or mem.delta_max != delta_max
+    if not rebuild:  # half the skin used up: rebuild now rather than retry the step
+        m = _motion(whole.pos, contact.build_pos, n_nodes, 0, 0.0, 0.0, 0.0)
+        rebuild = 2.0 * m >= 0.5 * mem.skin
+    if rebuild:
+        mem.built_nodes = -1
+        mem.delta_max = delta_max
+        mem.skin = min(
+            max(SKIN_STEPS * 2.0 * mem.max_step_disp, SKIN_MIN * delta_max),
+            SKIN_MAX * delta_max,
+        )
+        mem.min_separation = max(2, math.ceil(1.6 * delta_max / p.node_spacing))
+        n = build_candidate_pairs(
+            whole.pos,
+            n_nodes,
+            0,
+            n_seg,
+            delta_max + mem.skin,
+            mem.min_separation,
+            contact.cell_start,
+            contact.seg_order,
+            contact.seg_cell,
+            contact.seen,
+            contact.pairs,
+            frozen,
+        )
+        contact.count[0] = n
+        if n > contact.pairs.shape[0]:
+            return False
+        for k in range(3 * n_nodes):
+            contact.build_pos[k] = whole.pos[k]
+        mem.built_nodes = n_nodes
+        mem.built_frozen = frozen
+        mem.builds += 1
+    margin = mem.margin if mem.margin > 0.0 else mem.skin
+    factor = p.contact_distance_factor
+    seg_mat = whole.seg_mat
+    n_near = 0
+    for q in range(contact.count[0]):
+        i = contact.pairs[q, 0]
+        j = contact.pairs[q, 1]
+        d = segment_distance(whole.pos, i, i + 1, j, j + 1)
+        contact.d_start[q] = d
+        if d < factor * (seg_mat[i, MAT_RADIUS] + seg_mat[j, MAT_RADIUS]) + margin:
+            contact.near[n_near] = q
+            n_near += 1
+    mem.n_near = n_near
+    return True
+
+
+@njit(cache=True)
+def check(model, whole, pos0, frozen: int, contact) -> float:
+    """The no-pass-through ratio of a step from ``pos0`` (the active nodes at its start) to
+    the whole rod's positions now: < 1 when no segments can have crossed and no pair outside
+    the near list came within its contact distance. The worst pair and this step's relative
+    motion go into ``contact.memory``.
+
+    With u a pair's largest relative node displacement and d0 its start distance (the
+    distance is 1-Lipschitz in the relative displacement, so d >= d0 - u along the step):
+    a near pair must keep u < d0 (no crossing), any other u < d0 - delta (it was left out of
+    Newton's iterations); and no node may have moved skin / 2 relative to the common motion
+    since the pairs were found (so no pair missing from the list came within delta; if
+    that fails the pairs are found again before the step is retried). The frozen tail
+    moves with the first active node."""
+    p = model.params[0]
+    mem = contact.memory[0]
+    n_nodes = whole.n_nodes
+    pos = whole.pos
+    f = frozen
+    sh0 = pos[3 * f] - pos0[0]
+    sh1 = pos[3 * f + 1] - pos0[1]
+    sh2 = pos[3 * f + 2] - pos0[2]
+    # this step's motion (pos0 holds the active nodes, from f; the tail moves with node f)
+    m_step = _step_motion(pos, pos0, n_nodes, f, sh0, sh1, sh2)
+    m_build = _motion(pos, contact.build_pos, n_nodes, f, sh0, sh1, sh2)
+    worst = 2.0 * m_build / mem.skin
+    worst_i = -1
+    worst_j = -1
+    factor = p.contact_distance_factor
+    seg_mat = whole.seg_mat
+    margin = mem.margin if mem.margin > 0.0 else mem.skin
+    for q in range(contact.count[0]):
+        i = contact.pairs[q, 0]
+        j = contact.pairs[q, 1]
+        u2 = 0.0
+        for a in (i, i + 1):
+            for b in (j, j + 1):
+                w2 = 0.0
+                for c in range(3):
+                    sa = (sh0, sh1, sh2)[c] if a < f else 0.0
+                    sb = (sh0, sh1, sh2)[c] if b < f else 0.0
+                    da = (pos[3 * a + c] + sa) - (
+                        pos0[3 * (a - f) + c] if a >= f else pos[3 * a + c]
+                    )
+                    db = (pos[3 * b + c] + sb) - (
+                        pos0[3 * (b - f) + c] if b >= f else pos[3 * b + c]
+                    )
+                    w2 += (da - db) * (da - db)
+                u2 = max(u2, w2)
+        if u2 == 0.0:
+            continue
+        d0 = contact.d_start[q]
+        delta = factor * (seg_mat[i, MAT_RADIUS] + seg_mat[j, MAT_RADIUS])
+        gap = d0 if d0 < delta + margin else d0 - delta
+        ratio = math.sqrt(u2) / gap if gap > 0.0 else np.inf
+        if ratio > worst:
+            worst = ratio
+            worst_i = i
+            worst_j = j
+    mem.ratio = worst
+    mem.pair_i = worst_i
+    mem.pair_j = worst_j
+    mem.max_step_disp = m_step
+    if worst >= 1.0 and worst_i < 0:
+        mem.built_nodes = -1  # the list ran out of skin: find the pairs again for the retry
+    return worst
+
+
+@njit(cache=True)
+def _step_motion(pos, pos0, n_nodes: int, f: int, sh0, sh1, sh2) -> float:
+    """The largest node displacement of the step relative to the common motion (m): active
+    nodes from pos0 (from f) to pos, frozen nodes by the tail's pending translation."""
+    lo0 = lo1 = lo2 = np.inf
+    hi0 = hi1 = hi2 = -np.inf
+    for g in range(n_nodes):
+        if g < f:
+            d0, d1, d2 = sh0, sh1, sh2
+        else:
+            k = 3 * (g - f)
+            d0 = pos[3 * g] - pos0[k]
+            d1 = pos[3 * g + 1] - pos0[k + 1]
+            d2 = pos[3 * g + 2] - pos0[k + 2]
+        lo0, hi0 = min(lo0, d0), max(hi0, d0)
+        lo1, hi1 = min(lo1, d1), max(hi1, d1)
+        lo2, hi2 = min(lo2, d2), max(hi2, d2)
+    c0, c1, c2 = 0.5 * (lo0 + hi0), 0.5 * (lo1 + hi1), 0.5 * (lo2 + hi2)
+    m2 = 0.0
+    for g in range(n_nodes):
+        if g < f:
+            d0, d1, d2 = sh0 - c0, sh1 - c1, sh2 - c2
+        else:
+            k = 3 * (g - f)
+            d0 = pos[3 * g] - pos0[k] - c0
+            d1 = pos[3 * g + 1] - pos0[k + 1] - c1
+            d2 = pos[3 * g + 2] - pos0[k + 2] - c2
+        m2 = max(m2, d0 * d0 + d1 * d1 + d2 * d2)
+    return math.sqrt(m2)
 
 
 @njit(cache=True)
 def accepted(contact, h: float) -> None:
-    """After an accepted step of h (s): the next skin follows the motion of this one."""
+    """After an accepted step of h (s): remember its ratio and step for the next step's
+    size, and set the near margin from its motion."""
     mem = contact.memory[0]
     mem.last_ratio = mem.ratio
     mem.last_step = h
-    mem.skin = min(
-        max(SKIN_GROWTH * 2.0 * mem.max_step_disp, SKIN_MIN * mem.delta_max),
-        SKIN_MAX * mem.delta_max,
+    mem.margin = min(
+        max(MARGIN_STEPS * 2.0 * mem.max_step_disp, MARGIN_MIN * mem.delta_max), mem.skin
     )
 
 
@@ -178,7 +322,8 @@ def accumulate(model, rod, stage, out) -> float:
     exact = p.contact_exact_hessian
     energy = 0.0
     x = out.scratch.pair_x
-    for q in range(min(contact.count[0], contact.pairs.shape[0])):
+    for k in range(contact.memory[0].n_near):
+        q = contact.near[k]
         i = contact.pairs[q, 0]
         j = contact.pairs[q, 1]
         if i >= n_seg or j >= n_seg:

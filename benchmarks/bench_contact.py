@@ -1,0 +1,156 @@
+"""What self-contact costs: per step against N, and in the coiling scenes.
+
+(1) A stress-free coil stack of N nodes (22G filament, radius 3 mm, turns 1.02 contact
+distances apart, settling under its weight) at a fixed 1 ms step, N = 10^2 .. 10^4: wall
+time per step and per node with and without contact (the pair search included), Krylov
+iterations per Newton iteration. (2) drag_coiling_22G (4 s) and period_doubling_22G
+(0.5 s) with and without contact: wall time ratio, Krylov iterations per Newton iteration,
+steps, and the smallest distance between non-adjacent segments over the saved frames.
+Every ratio is measured within the same run.
+
+    python benchmarks/bench_contact.py [--quick]
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import time
+
+import numpy as np
+from _common import best_of, write_csv
+from numba import njit
+
+from bathprint import Simulation, simulate
+from bathprint.core.effects._segment_geometry import segment_distance
+from bathprint.core.effects.contact import min_separation_for
+
+MM = 1e-3
+R_FIL = 0.205 * MM  # 22G
+SPACING = 0.3 * MM
+
+
+def coil_stack(n: int, contact: bool) -> Simulation:
+    radius, pitch = 3 * MM, 1.02 * 2 * R_FIL
+    dphi = SPACING / math.hypot(radius, pitch / (2 * math.pi))
+    phi = dphi * np.arange(n)
+    pts = np.column_stack(
+        [radius * np.cos(phi), radius * np.sin(phi), -50 * MM + pitch * phi / (2 * math.pi)]
+    )
+    effects = ["elasticity", "drag", "gravity"] + (["contact"] if contact else [])
+    return Simulation.from_points(
+        pts,
+        "drag_coiling_22G",
+        {"effects": effects, "numerics.time_step_s": 1e-3, "duration_s": 1e3},
+        relaxed=True,
+    )
+
+
+def scaling(sizes: list[int], steps: int) -> list[dict]:
+    rows = []
+    for n in sizes:
+        out = {"nodes": n}
+        for contact in (False, True):
+            base = coil_stack(n, contact)
+            base.advance(2e-3)  # compile, and the first steps' transient
+
+            sims = iter([coil_stack(n, contact) for _ in range(3)])
+            last = {}
+
+            def run(sims=sims, last=last) -> None:
+                s = next(sims)
+                s.advance(steps * 1e-3)
+                last["sim"] = s
+
+            wall = best_of(run, 3) / steps
+            c = last["sim"].counts()
+            key = "contact" if contact else "none"
+            out[f"us_per_step_{key}"] = 1e6 * wall
+            out[f"ns_per_node_step_{key}"] = 1e9 * wall / n
+            out[f"newton_per_step_{key}"] = c["newton_iterations"] / max(c["steps"], 1)
+            out[f"us_per_newton_node_{key}"] = 1e6 * wall / out[f"newton_per_step_{key}"] / n
+            if contact:
+                mem = last["sim"].ws.contact.memory[0]
+                out["krylov_per_newton"] = c["krylov_iterations"] / max(c["newton_iterations"], 1)
+                out["pairs_per_segment"] = last["sim"].ws.contact.count[0] / n
+                out["near_per_segment"] = int(mem["n_near"]) / n
+                out["hash_builds_per_step"] = int(mem["builds"]) / max(c["steps"], 1)
+        out["ratio"] = out["us_per_step_contact"] / out["us_per_step_none"]
+        rows.append(out)
+        print(
+            f"N = {n:>6}: {out['us_per_step_none']:9.1f} us/step without, "
+            f"{out['us_per_step_contact']:9.1f} with contact (x{out['ratio']:.2f}; "
+            f"{out['ns_per_node_step_contact']:6.0f} ns per node-step; Newton per step "
+            f"{out['newton_per_step_none']:.1f} / {out['newton_per_step_contact']:.1f}; "
+            f"{out['krylov_per_newton']:.2f} Krylov per Newton; per segment "
+            f"{out['pairs_per_segment']:.1f} candidate, {out['near_per_segment']:.1f} near pairs; "
+            f"{out['hash_builds_per_step']:.2f} hash builds per step)"
+        )
+    return rows
+
+
+@njit(cache=True)
+def _min_gap(pos, n, radius, min_sep) -> float:
+    best = np.inf
+    for i in range(n - 1):
+        for j in range(i + min_sep + 1, n - 1):
+            best = min(best, segment_distance(pos, i, i + 1, j, j + 1) / (2 * radius))
+    return best
+
+
+def scenes(durations: dict[str, float]) -> list[dict]:
+    rows = []
+    for scene, duration in durations.items():
+        out = {"scene": scene, "duration_s": duration}
+        for contact in (False, True):
+            base = Simulation(scene).scene
+            effects = [e for e in base.effects if e != "contact"] + (["contact"] if contact else [])
+            over = {"duration_s": duration, "outputs.plot": False, "effects": effects}
+            simulate(scene, {**over, "duration_s": 0.01})  # compile this combination
+            t0 = time.perf_counter()
+            res = simulate(scene, over)
+            wall = time.perf_counter() - t0
+            s = res.summary
+            r = float(res.material[0, 2])
+            spacing = s["numerics"]["node_spacing_mm"] * MM
+            sep = min_separation_for(2 * r, spacing)
+            gap = min(
+                _min_gap(np.ascontiguousarray(f).ravel(), len(f), r, sep) for f in res.frames[1:]
+            )
+            key = "contact" if contact else "none"
+            out[f"wall_s_{key}"] = wall
+            out[f"steps_{key}"] = s["steps"]
+            out[f"newton_{key}"] = s["newton_iterations"]
+            out[f"min_gap_{key}"] = gap
+            if contact:
+                out["krylov_per_newton"] = s["krylov_iterations"] / max(s["newton_iterations"], 1)
+                out["contact_retries"] = s["contact_rejections"]
+        out["ratio"] = out["wall_s_contact"] / out["wall_s_none"]
+        rows.append(out)
+        print(
+            f"{scene:>22} {duration:g} s: {out['wall_s_none']:.2f} s without contact, "
+            f"{out['wall_s_contact']:.2f} s with (x{out['ratio']:.2f}); Krylov per Newton "
+            f"{out['krylov_per_newton']:.2f}; smallest gap / contact distance "
+            f"{out['min_gap_none']:.3f} without, {out['min_gap_contact']:.3f} with"
+        )
+    return rows
+
+
+def main() -> None:
+    p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    p.add_argument("--quick", action="store_true", help="smaller sizes and shorter runs")
+    args = p.parse_args()
+    sizes = [100, 300, 1000] if args.quick else [100, 300, 1000, 3000, 10000]
+    print("cost per step against N (a settling coil stack, fixed 1 ms steps):")
+    write_csv("contact_scaling", scaling(sizes, 10 if args.quick else 20))
+    durations = (
+        {"drag_coiling_22G": 1.0, "period_doubling_22G": 0.1}
+        if args.quick
+        else {"drag_coiling_22G": 4.0, "period_doubling_22G": 0.5}
+    )
+    print("the coiling scenes with and without contact (same process):")
+    print("wrote", write_csv("contact_scenes", scenes(durations)))
+
+
+if __name__ == "__main__":
+    main()
