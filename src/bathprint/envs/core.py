@@ -40,7 +40,7 @@ from bathprint.envs.targets import (
     TargetSampler,
     load_target_file,
 )
-from bathprint.errors import SimulationError
+from bathprint.errors import ConfigError, SimulationError
 
 ML_MIN = 1e-6 / 60.0  # m^3/s per ml/min
 MM = 1e-3  # m per mm
@@ -112,7 +112,7 @@ def obs_slices() -> dict[str, slice]:
 
 def _check_index_type(index: Any, name: str = "target_index") -> None:
     if isinstance(index, bool) or not isinstance(index, int | np.integer):
-        raise ValueError(f"{name} = {index!r}; allowed: an integer (an evaluation target)")
+        raise ConfigError(f"{name} = {index!r}; allowed: an integer (an evaluation target)")
 
 
 # Warm-up states are the same for every instance with the same scene: computed once per
@@ -140,32 +140,32 @@ class BathprintEnv(gym.Env[np.ndarray, np.ndarray]):
         spec_file: str | None = None,
     ) -> None:
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
-            raise ValueError(
+            raise ConfigError(
                 f"render_mode = {render_mode!r}; allowed: None, "
                 + ", ".join(repr(m) for m in self.metadata["render_modes"])
             )
         if target_set not in ("train", "eval"):
-            raise ValueError(f"target_set = {target_set!r}; allowed: 'train', 'eval'")
+            raise ConfigError(f"target_set = {target_set!r}; allowed: 'train', 'eval'")
         if not isinstance(accuracy, str) or accuracy not in ACCURACY_PRESETS:
-            raise ValueError(
+            raise ConfigError(
                 f"accuracy = {accuracy!r}; allowed: " + ", ".join(map(repr, ACCURACY_PRESETS))
             )
         if scene_overrides is not None and not (
             isinstance(scene_overrides, dict) and all(isinstance(k, str) for k in scene_overrides)
         ):
-            raise ValueError(
+            raise ConfigError(
                 f"scene_overrides = {scene_overrides!r}; allowed: None or a mapping of dotted "
                 "scene keys to values, e.g. {'bath.viscosity_pa_s': 1.0}"
             )
         if target_index is not None:
             _check_index_type(target_index)
             if target_set != "eval":
-                raise ValueError(
+                raise ConfigError(
                     f"target_index = {target_index!r} selects an evaluation target: use "
                     "target_set='eval'"
                 )
             if target_file is not None:
-                raise ValueError(
+                raise ConfigError(
                     f"target_index = {target_index!r} and target_file = {target_file!r}: a "
                     "target file is the only target; give one of them"
                 )
@@ -178,34 +178,7 @@ class BathprintEnv(gym.Env[np.ndarray, np.ndarray]):
         sd = self.spec_data
         ctl, ep = sd.control, sd.episode
 
-        # --- scene ---------------------------------------------------------------------
-        self.warmup_q_outer = float(ep.get("warmup_q_outer_ml_min", 0.5))
-        overrides: dict[str, Any] = dict(sd.scene.get("overrides", {}))
-        overrides.update(accuracy_overrides(accuracy))
-        overrides.update(scene_overrides or {})
-        overrides.update(
-            {
-                "flow.schedule": [],
-                "flow.q_outer_ml_min": self.warmup_q_outer,
-                "flow.q_inner_ml_min": 0.0,
-            }
-        )
-        self.scene_base = str(sd.scene.get("base", "gelation_coiling_22G"))
-        probe = Simulation(self.scene_base, overrides)  # validates the scene (SceneError)
-        self.scene_overrides = overrides
-        m = probe.model
-        self.needle_area = m.needle_area  # m^2
-        self.rho_gel = float(m.p.exit_density)
-        self.phi_max = float(probe.scene.inclusions.max_inner_fraction)
-        self.has_inclusions = bool(m.p.inclusions)
-        self.needle_start_mm = np.array(m.needle[0, 1:4] / MM)
-        self.needle_direction = np.array(m.needle[0, 4:7])
-        grad = float(m.p.bath_density_gradient)  # kg/m^3 per m of depth
-        rho_top = float(m.p.bath_density_top)
-        depth_m = -float(m.p.floor_z)
-        self.depth_mm = depth_m / MM
-        self.bath_range = (rho_top, rho_top + grad * depth_m) if grad > 0 else None
-        self.rho_bath_needle = rho_top + grad * max(-self.needle_start_mm[2] * MM, 0.0)
+        self._init_scene(accuracy, scene_overrides)
 
         # --- controls ------------------------------------------------------------------
         self.control_length_mm = float(ctl["length_mm"])
@@ -214,13 +187,13 @@ class BathprintEnv(gym.Env[np.ndarray, np.ndarray]):
         self.offset_range = tuple(float(x) for x in ctl.get("inclusion_offset", [0.0, 0.0]))
         self.action_names: list[str] = list(ctl["actions"])
         if self.q_inner_range[1] > 0 and "q_inner" in self.action_names and not self.has_inclusions:
-            raise ValueError(
+            raise ConfigError(
                 f"{self.env_id}: control.q_inner_ml_min > 0 needs the 'inclusions' effect"
             )
         if needle_velocity is True:
             needle_velocity = "xyz"
         if needle_velocity not in (False, None, "xy", "xyz"):
-            raise ValueError(f"needle_velocity = {needle_velocity!r}; allowed: False, True, 'xy'")
+            raise ConfigError(f"needle_velocity = {needle_velocity!r}; allowed: False, True, 'xy'")
         self.needle_axes = "" if not needle_velocity else str(needle_velocity)
         self.action_names += [f"needle_v{a}" for a in self.needle_axes]
         self._action_index = {name: k for k, name in enumerate(self.action_names)}
@@ -255,13 +228,47 @@ class BathprintEnv(gym.Env[np.ndarray, np.ndarray]):
         self._figure: Any = None
         self._diverged = False
 
+
     # ------------------------------------------------------------------ construction
+    def _init_scene(self, accuracy: str, scene_overrides: dict[str, Any] | None) -> None:
+        """The scene (spec overrides, accuracy preset, ``scene_overrides``; the flow set to
+        the warm-up's) and the constants read from it: needle, densities, bath."""
+        sd = self.spec_data
+        ep = sd.episode
+        self.warmup_q_outer = float(ep.get("warmup_q_outer_ml_min", 0.5))
+        overrides: dict[str, Any] = dict(sd.scene.get("overrides", {}))
+        overrides.update(accuracy_overrides(accuracy))
+        overrides.update(scene_overrides or {})
+        overrides.update(
+            {
+                "flow.schedule": [],
+                "flow.q_outer_ml_min": self.warmup_q_outer,
+                "flow.q_inner_ml_min": 0.0,
+            }
+        )
+        self.scene_base = str(sd.scene.get("base", "gelation_coiling_22G"))
+        probe = Simulation(self.scene_base, overrides)  # validates the scene (SceneError)
+        self.scene_overrides = overrides
+        m = probe.model
+        self.needle_area = m.needle_area  # m^2
+        self.rho_gel = float(m.p.exit_density)
+        self.phi_max = float(probe.scene.inclusions.max_inner_fraction)
+        self.has_inclusions = bool(m.p.inclusions)
+        self.needle_start_mm = np.array(m.needle[0, 1:4] / MM)
+        self.needle_direction = np.array(m.needle[0, 4:7])
+        grad = float(m.p.bath_density_gradient)  # kg/m^3 per m of depth
+        rho_top = float(m.p.bath_density_top)
+        depth_m = -float(m.p.floor_z)
+        self.depth_mm = depth_m / MM
+        self.bath_range = (rho_top, rho_top + grad * depth_m) if grad > 0 else None
+        self.rho_bath_needle = rho_top + grad * max(-self.needle_start_mm[2] * MM, 0.0)
+
     def _check_index(self, index: Any, name: str) -> None:
         """An evaluation target index: an integer in 0..eval_size-1 (never wrapped)."""
         _check_index_type(index, name)
         n = self.sampler.eval_size
         if not 0 <= index < n:
-            raise ValueError(
+            raise ConfigError(
                 f"{name} = {index!r}; the evaluation set of {self.env_id} has {n} targets: "
                 f"allowed 0..{n - 1}"
             )
@@ -276,10 +283,10 @@ class BathprintEnv(gym.Env[np.ndarray, np.ndarray]):
             return SectionsFamily(params, h, self.rho_bath_needle)
         if family == "layers":
             if self.bath_range is None:
-                raise ValueError(f"{self.env_id}: the layers family needs a density-gradient bath")
+                raise ConfigError(f"{self.env_id}: the layers family needs a density-gradient bath")
             grad_mm = (self.bath_range[1] - self.bath_range[0]) / self.depth_mm
             return LayersFamily(params, float(tg["length_mm"]), h, self.bath_range[0], grad_mm)
-        raise ValueError(f"target.family = {family!r}; allowed: coil_schedule, sections, layers")
+        raise ConfigError(f"target.family = {family!r}; allowed: coil_schedule, sections, layers")
 
     def _start_state(self, index: int) -> bytes:
         """Pickled warm-up state number ``index`` (needle imperfection seed + index)."""
@@ -368,7 +375,7 @@ class BathprintEnv(gym.Env[np.ndarray, np.ndarray]):
                 self._eval_cursor += 1
             return self.sampler.eval_target(int(index)), int(index)
         if options.get("target_index") is not None:
-            raise ValueError("target_index selects evaluation targets: use target_set='eval'")
+            raise ConfigError("target_index selects evaluation targets: use target_set='eval'")
         return self.sampler.train_target(self.np_random), -1
 
     def reset(

@@ -17,6 +17,7 @@ from pathlib import Path
 from typing import Any
 
 from bathprint._resources import shared_dir
+from bathprint.errors import ConfigError
 
 #: Environment id -> spec file name (in the specs directory).
 SPEC_FILES: dict[str, str] = {
@@ -85,8 +86,9 @@ _NUMBERS: dict[str, tuple[bool, float, bool]] = {
 }
 
 
-class SpecError(ValueError):
-    """A spec file is missing, unreadable, or has an unknown or invalid key."""
+class SpecError(ConfigError):
+    """A spec file is missing, unreadable, or has an unknown or invalid key (a
+    :class:`~bathprint.errors.ConfigError`, so a ``ValueError``)."""
 
 
 @dataclass(frozen=True)
