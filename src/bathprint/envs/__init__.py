@@ -31,6 +31,9 @@ ENV_ENTRY_POINTS: dict[str, str] = {
     "bathprint/CoilRadius-v0": "bathprint.envs.coil_radius:CoilRadiusEnv",
     "bathprint/WriteShape-v0": "bathprint.envs.write_shape:WriteShapeEnv",
     "bathprint/BuoyantLayers-v0": "bathprint.envs.buoyant_layers:BuoyantLayersEnv",
+    "bathprint/CoilRadius-v1": "bathprint.envs.coil_radius:CoilRadiusEnvV1",
+    "bathprint/WriteShape-v1": "bathprint.envs.write_shape:WriteShapeEnvV1",
+    "bathprint/BuoyantLayers-v1": "bathprint.envs.buoyant_layers:BuoyantLayersEnvV1",
 }
 ENV_IDS: tuple[str, ...] = tuple(ENV_ENTRY_POINTS)
 
