@@ -306,13 +306,19 @@ class PrintedTargets:
             )
         return _PRINTERS[self.generator_hash]
 
+    def draw(self, seed: int, attempt: int = 0) -> tuple[dict, np.ndarray]:
+        """The parameters (start state included) and the control sequence of a seed."""
+        env = self.printer()
+        rng = np.random.default_rng([int(seed), int(attempt)])
+        start = int(rng.integers(env.n_start_states))
+        return self.params(seed, attempt, start), control_sequence(env, rng)
+
     def print(self, seed: int) -> Target:
         """Print the target of ``seed`` (a control sequence that diverges is drawn again)."""
         env = self.printer()
         for attempt in range(MAX_ATTEMPTS):
-            rng = np.random.default_rng([int(seed), attempt])
-            start = int(rng.integers(env.n_start_states))
-            actions = control_sequence(env, rng)
+            params, actions = self.draw(seed, attempt)
+            start = params["start_state"]
             env.reset(seed=0, options={"target": env.blank_target(), "start_state": start})
             ok = True
             for a in actions:
@@ -322,7 +328,7 @@ class PrintedTargets:
                     break
             if ok and term:
                 pts, rho = env.recorded_samples()
-                return self.build(self.params(seed, attempt, start), pts, rho, actions)
+                return self.build(params, pts, rho, actions)
         raise RuntimeError(
             f"{self.env_id}: the target of seed {seed} diverged in {MAX_ATTEMPTS} attempts"
         )

@@ -43,7 +43,7 @@ import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 
-from bathprint.envs._kernels import metric_errors, printed_at
+from bathprint.envs._kernels import metric_errors, printed_at, read_state
 from bathprint.envs._kernels_v1 import observe_v1, record_samples, squared_sum
 from bathprint.envs.accuracy import ACCURACY_PRESETS
 from bathprint.envs.core import (
@@ -311,6 +311,8 @@ class BathprintEnvV1(BathprintEnv):
             ]
         )
         self._obs_tgt_off = np.array(TARGET_OFFSETS_MM)
+        # densities stand-in where they are neither observed nor scored (not read)
+        self._rho_unread = np.array([self.rho_gel])
         flat = spaces.Box(-OBS_CLIP, OBS_CLIP, (size,), np.float32)
         if not self.goal_conditioned:
             self.observation_space = flat
@@ -633,6 +635,22 @@ class BathprintEnvV1(BathprintEnv):
         return self._obs_out(obs), float(reward), bool(terminated), False, info
 
     # ------------------------------------------------------------------ scoring
+    def _snapshot(self) -> None:
+        """Read the simulation once per step (as version 0; the densities only where the
+        environment observes or scores them)."""
+        if self.observes_density:
+            super()._snapshot()
+            return
+        sim = self.sim
+        assert sim is not None
+        x, v = sim.centerline(), sim.velocities()
+        u, finite = read_state(x, v, sim.rest_lengths(), MM)  # x, v: m -> mm in place
+        if not finite:
+            raise SimulationError("non-finite state read by the environment", sim.t, -1)
+        self._x, self._u, self._v = x, u, v
+        self._rho = self._rho_unread
+        self._printed_mm = float(u[-1] - self._u0_mm)
+
     def _prepare_target(self) -> None:
         tgt = self.target
         assert tgt is not None
