@@ -74,6 +74,7 @@ from bathprint.envs.targets import FREE_DENSITY, Target, discrete_curvature, loa
 from bathprint.errors import ConfigError, SimulationError
 
 TARGET_SETS = ("train", "validation", "test")
+GOAL_POSITION_MM = 1000.0  # bound of the goals' positions (the bath is 125 mm deep)
 _INNER_LAG_ITERATIONS = 4  # fixed-point iterations for a step's duration under the lag
 
 
@@ -320,7 +321,14 @@ class BathprintEnvV1(BathprintEnv):
         n = self.n_target_samples
         self.goal_size = (3 * n if self.scores_shape else 0) + (2 * n if self.scores_density else 0)
         self.goal_size += 2
-        goal = spaces.Box(-np.inf, np.inf, (self.goal_size,), np.float64)
+        low, high = self._goal_vector(
+            np.full((n, 3), -GOAL_POSITION_MM), np.zeros(n), np.zeros(n), 0, 0
+        ), self._goal_vector(
+            np.full((n, 3), GOAL_POSITION_MM), np.full(n, FREE_DENSITY[1]),
+            np.full(n, FREE_DENSITY[1]), n, n,
+        )
+        goal = spaces.Box(low, high, dtype=np.float64)
+        self.compute_reward = self.goal_reward  # the goal-environment interface
         self.observation_space = spaces.Dict(
             {"observation": flat, "achieved_goal": goal, "desired_goal": goal}
         )
@@ -834,15 +842,17 @@ class BathprintEnvV1(BathprintEnv):
         )[0]
         return squared_sum(errors, j)
 
-    def compute_reward(self, achieved_goal: np.ndarray, desired_goal: np.ndarray,
-                       info: Any = None) -> np.ndarray | float:
+    def goal_reward(self, achieved_goal: np.ndarray, desired_goal: np.ndarray,
+                    info: Any = None) -> np.ndarray | float:
         """The reward of reaching ``achieved_goal`` (the step's) for ``desired_goal``: the
         decrease of the sum of squared errors of the scored samples (from the achieved
         goal's previous count to its count) over the desired goal's number of samples.
         Equal to the step reward (diverged steps aside); batches of goals give an array
-        (HER). ``info`` is not used."""
+        (HER). ``info`` is not used. With ``goal_conditioned=True`` this is also the
+        environment's ``compute_reward`` (only then: checkers take an environment with
+        ``compute_reward`` for a goal environment)."""
         if not self.goal_conditioned:
-            raise RuntimeError("compute_reward needs goal_conditioned=True")
+            raise RuntimeError("goal rewards need goal_conditioned=True")
         ag = np.asarray(achieved_goal, np.float64)
         dg = np.asarray(desired_goal, np.float64)
         single = ag.ndim == 1
