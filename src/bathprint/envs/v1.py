@@ -112,6 +112,14 @@ class BathprintEnvV1(BathprintEnv):
         self.goal_conditioned = bool(goal_conditioned)
         self.spec_file = spec_file
         self.spec_overrides_given = spec_overrides
+        #: what another instance with the same task needs (planners make one)
+        self.init_kwargs: dict[str, Any] = {
+            "accuracy": accuracy,
+            "needle_velocity": needle_velocity,
+            "scene_overrides": scene_overrides,
+            "spec_overrides": spec_overrides,
+            "spec_file": spec_file,
+        }
         self.spec_data = load_spec(None if spec_file else self.env_id, spec_file, spec_overrides)
         sd = self.spec_data
         if sd.version != 1:
