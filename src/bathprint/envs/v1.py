@@ -716,8 +716,14 @@ class BathprintEnvV1(BathprintEnv):
         return self._rec_pts[:j].copy(), self._rec_rho[:j].copy()
 
     def printed_samples(self) -> PrintedSamples:
-        """The scored samples as recorded (what the metric and the reward see)."""
-        return PrintedSamples(*self.recorded_samples())
+        """The scored part of the filament as it is now (version 0's meaning: drawing, coil
+        measurements), with the recorded densities; the metric and the reward use
+        :meth:`recorded_samples`."""
+        j = self._n_scored
+        pts, _ = printed_at(
+            self._u, self._x, self._rho, self._origin_mm, self.target.spacing_mm, j
+        )
+        return PrintedSamples(pts, self._rec_rho[:j].copy())
 
     def _evaluate(self) -> MetricValue:
         j = self._n_scored
