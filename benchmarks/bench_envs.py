@@ -1,8 +1,15 @@
-"""Environment steps per second: every environment and accuracy preset, in 1 process and in
-2 processes (``gymnasium.make_vec`` async, 2 environments), under random actions (episode
-resets included). Writes benchmarks/results/envs.csv.
+"""Environment steps per second: every environment (versions 0 and 1) and accuracy preset,
+in 1 process and in 2 processes (``gymnasium.make_vec`` async, 2 environments), under random
+actions (episode resets included). Writes benchmarks/results/envs.csv, and the ratio of
+version 1 to version 0 (steps per CPU second, one process, measured back to back in the
+same run) to benchmarks/results/envs_v1_ratio.csv.
 
     python benchmarks/bench_envs.py [--seconds 5] [--envs CoilRadius ...] [--presets draft ...]
+                                    [--versions v0 v1] [--processes 1 2] [--pool 64]
+
+Version 1 draws its training targets from a pool printed on first use (one episode each at
+the print preset); the benchmark prints the first ``--pool`` of them before it measures
+and draws from those (``target.train_pool``), so that the rates are those of stepping.
 
 Each measurement runs for at least ``--seconds`` of wall time after a warm-up episode (which
 also fills the per-process cache of warm-up states and loads the numba kernels). On a shared
@@ -25,11 +32,27 @@ import bathprint.envs as E
 PRESETS = ("draft", "balanced", "fine")
 
 
+def _kwargs(env_id: str, pool: int) -> dict:
+    """Version 1: draw training targets from the first ``pool`` (printed beforehand)."""
+    return {"spec_overrides": {"target": {"train_pool": pool}}} if env_id.endswith("-v1") else {}
+
+
+def _print_pool(env_id: str, pool: int) -> float:
+    """Print (or load) the first ``pool`` training targets of a v1 environment; seconds."""
+    if not env_id.endswith("-v1"):
+        return 0.0
+    t0 = time.perf_counter()
+    fam = E.make(env_id, accuracy="draft", **_kwargs(env_id, pool)).unwrapped.printed
+    for seed in range(pool):
+        fam.get(seed)
+    return time.perf_counter() - t0
+
+
 def _one_process(
-    env_id: str, accuracy: str, seconds: float, seed: int = 0
+    env_id: str, accuracy: str, seconds: float, seed: int = 0, pool: int = 64
 ) -> tuple[int, float, float]:
     """Steps, wall time and CPU time of this process (s)."""
-    env = E.make(env_id, accuracy=accuracy)
+    env = E.make(env_id, accuracy=accuracy, **_kwargs(env_id, pool))
     env.action_space.seed(seed)
     env.reset(seed=seed)
     done = False
@@ -49,16 +72,17 @@ def _one_process(
 
 
 def _two_processes(
-    env_id: str, accuracy: str, seconds: float, seed: int = 0
+    env_id: str, accuracy: str, seconds: float, seed: int = 0, pool: int = 64
 ) -> tuple[int, float, float]:
     """Steps (both environments), wall time, and NaN (the workers' CPU time is not read)."""
     E.register_envs()
     venv = gymnasium.make_vec(
-        env_id, num_envs=2, vectorization_mode="async", accuracy=accuracy
+        env_id, num_envs=2, vectorization_mode="async", accuracy=accuracy,
+        **_kwargs(env_id, pool),
     )  # autoreset: next step
     venv.action_space.seed(seed)
     venv.reset(seed=seed)
-    episode = E.make(env_id, accuracy=accuracy).unwrapped
+    episode = E.make(env_id, accuracy=accuracy, **_kwargs(env_id, pool)).unwrapped
     episode.reset(seed=seed)
     for _ in range(episode.episode_steps + 2):  # warm-up: imports, kernels, warm-up states
         venv.step(venv.action_space.sample())
@@ -72,52 +96,83 @@ def _two_processes(
 
 
 def main() -> None:
+    import warnings
+
+    warnings.filterwarnings("ignore", ".*is out of date", DeprecationWarning)
     ap = argparse.ArgumentParser(description=__doc__)
     ap.add_argument("--seconds", type=float, default=5.0, help="wall time per measurement")
-    ap.add_argument("--envs", nargs="*", default=list(E.ENV_IDS))
+    ap.add_argument("--envs", nargs="*", default=["CoilRadius", "WriteShape", "BuoyantLayers"])
     ap.add_argument("--presets", nargs="*", default=list(PRESETS))
+    ap.add_argument("--versions", nargs="*", default=["v0", "v1"])
     ap.add_argument("--processes", nargs="*", type=int, default=[1, 2])
+    ap.add_argument("--pool", type=int, default=64, help="v1 training targets to draw from")
     args = ap.parse_args()
-    rows = []
+    rows, ratios = [], []
     print(
         f"{'environment':<28} {'accuracy':<9} {'proc':>4} {'steps':>6} {'steps/s':>8} "
         f"{'per proc':>8} {'per CPU s':>9} {'load':>5}"
     )
     for name in args.envs:
-        env_id = E.resolve_id(name)
+        base = name.removeprefix("bathprint/").split("-v")[0]
+        ids = [E.resolve_id(f"{base}-{v}") for v in args.versions]
+        for env_id in ids:
+            took = _print_pool(env_id, args.pool)
+            if took > 0:
+                print(f"{env_id}: {args.pool} training targets ready in {took:.1f} s", flush=True)
         for accuracy in args.presets:
             seconds = args.seconds * (2.0 if accuracy == "fine" else 1.0)
+            per_cpu: dict[str, float] = {}
             for procs in args.processes:
-                fn = _one_process if procs == 1 else _two_processes
-                steps, wall, cpu = fn(env_id, accuracy, seconds)
-                rate = steps / wall
-                load = os.getloadavg()[0]
-                rows.append(
+                for env_id in ids:  # versions back to back: the same machine state
+                    fn = _one_process if procs == 1 else _two_processes
+                    steps, wall, cpu = fn(env_id, accuracy, seconds, pool=args.pool)
+                    rate = steps / wall
+                    load = os.getloadavg()[0]
+                    rows.append(
+                        {
+                            "env": env_id,
+                            "accuracy": accuracy,
+                            "processes": procs,
+                            "steps": steps,
+                            "wall_s": round(wall, 3),
+                            "steps_per_s": round(rate, 1),
+                            "steps_per_s_per_process": round(rate / procs, 1),
+                            "steps_per_cpu_s": round(steps / cpu, 1) if cpu == cpu else "",
+                            "load_avg_1min": round(load, 2),
+                            "cpus": os.cpu_count(),
+                        }
+                    )
+                    if procs == 1:
+                        per_cpu[env_id[-2:]] = steps / cpu
+                    shown = f"{steps / cpu:9.1f}" if cpu == cpu else f"{'-':>9}"
+                    print(
+                        f"{env_id:<28} {accuracy:<9} {procs:>4} {steps:>6} {rate:>8.1f} "
+                        f"{rate / procs:>8.1f} {shown} {load:>5.2f}",
+                        flush=True,
+                    )
+            if "v0" in per_cpu and "v1" in per_cpu:
+                ratio = per_cpu["v1"] / per_cpu["v0"]
+                ratios.append(
                     {
-                        "env": env_id,
+                        "env": base,
                         "accuracy": accuracy,
-                        "processes": procs,
-                        "steps": steps,
-                        "wall_s": round(wall, 3),
-                        "steps_per_s": round(rate, 1),
-                        "steps_per_s_per_process": round(rate / procs, 1),
-                        "steps_per_cpu_s": round(steps / cpu, 1) if cpu == cpu else "",
-                        "load_avg_1min": round(load, 2),
-                        "cpus": os.cpu_count(),
+                        "v0_steps_per_cpu_s": round(per_cpu["v0"], 1),
+                        "v1_steps_per_cpu_s": round(per_cpu["v1"], 1),
+                        "v1_over_v0": round(ratio, 3),
                     }
                 )
-                per_cpu = f"{steps / cpu:9.1f}" if cpu == cpu else f"{'-':>9}"
-                print(
-                    f"{env_id:<28} {accuracy:<9} {procs:>4} {steps:>6} {rate:>8.1f} "
-                    f"{rate / procs:>8.1f} {per_cpu} {load:>5.2f}",
-                    flush=True,
-                )
+                print(f"  {base} {accuracy}: v1 / v0 = {ratio:.2f} (steps per CPU second)")
     path = write_csv("envs", rows)
     print(f"wrote {path}")
+    if ratios:
+        print(f"wrote {write_csv('envs_v1_ratio', ratios)}")
+        for r in ratios:
+            print(f"{r['env']:<14} {r['accuracy']:<9} v0 {r['v0_steps_per_cpu_s']:>7.0f}  "
+                  f"v1 {r['v1_steps_per_cpu_s']:>7.0f}  ratio {r['v1_over_v0']:.2f}")
     best = max((r for r in rows if r["processes"] == 1), key=lambda r: r["steps_per_s"])
     print(
         f"fastest single process: {best['env']} {best['accuracy']}: "
-        f"{best['steps_per_s']:.0f} steps/s (issue target: 2000 per core)"
+        f"{best['steps_per_s']:.0f} steps/s"
     )
 
 
