@@ -40,7 +40,7 @@ from bathprint.envs.targets import (
     TargetSampler,
     load_target_file,
 )
-from bathprint.errors import ConfigError, SimulationError
+from bathprint.errors import ConfigError, SceneError, SimulationError
 
 ML_MIN = 1e-6 / 60.0  # m^3/s per ml/min
 MM = 1e-3  # m per mm
@@ -108,6 +108,11 @@ def obs_slices() -> dict[str, slice]:
         out[name] = slice(k, k + n)
         k += n
     return out
+
+
+class SceneConfigError(ConfigError, SceneError):
+    """A scene an environment's arguments (or spec) make is invalid: a ConfigError naming
+    ``scene_overrides``, and still a SceneError."""
 
 
 def _check_index_type(index: Any, name: str = "target_index") -> None:
@@ -247,7 +252,13 @@ class BathprintEnv(gym.Env[np.ndarray, np.ndarray]):
             }
         )
         self.scene_base = str(sd.scene.get("base", "gelation_coiling_22G"))
-        probe = Simulation(self.scene_base, overrides)  # validates the scene (SceneError)
+        try:
+            probe = Simulation(self.scene_base, overrides)  # validates the scene
+        except SceneError as exc:
+            raise SceneConfigError(
+                f"scene {self.scene_base!r} with the spec's overrides and scene_overrides = "
+                f"{scene_overrides!r}: {exc}"
+            ) from exc
         self.scene_overrides = overrides
         m = probe.model
         self.needle_area = m.needle_area  # m^2
