@@ -98,9 +98,10 @@ class BuoyantLayersEnvV1(BathprintEnvV1):
 
     ## Observation Space
 
-    ``Box(-10, 10, (97,), float32)``: filament near the tip, printed density, target density
+    ``Box(-10, 10, (83,), float32)``: filament near the tip, printed density, target density
     band (both bounds) from 30 mm behind to 20 mm ahead, the action, the oil fraction now,
-    progress; densities as (rho - 1030) / 10 kg/m^3.
+    progress; densities as (rho - 1030) / 10 kg/m^3. Goal form: observation (65), goals
+    (244: the density band of 121 samples, counts).
 
     ## Rewards, Episode End, Arguments
 

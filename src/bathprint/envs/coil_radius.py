@@ -121,11 +121,11 @@ class CoilRadiusEnvV1(BathprintEnvV1):
 
     ## Observation Space
 
-    ``Box(-10, 10, (69,), float32)`` (``obs_layout``): filament near the tip (36), velocities
+    ``Box(-10, 10, (75,), float32)`` (``obs_layout``): filament near the tip (36), velocities
     (12), printed curvature (6), target curvature and torsion from 30 mm behind to 20 mm
     ahead (16), the current action (1), progress (4: printed fraction, scored fraction, RMS
     error of the scored samples and of the last 10, / missing_error). With
-    ``goal_conditioned=True``: a Dict of observation (51), achieved_goal and desired_goal
+    ``goal_conditioned=True``: a Dict of observation (57), achieved_goal and desired_goal
     (365: 121 sample positions, counts).
 
     ## Rewards

@@ -81,8 +81,8 @@ class WriteShapeEnvV1(BathprintEnvV1):
     ## Description
 
     Writing with the needle, as the fluid-rope-trick work of Chaudhary, Christ, Hart &
-    Mahadevan (2023) writes with the nozzle: the needle moves horizontally (up to 30 mm/s,
-    comparable with the extrusion speed of 12.6-126 mm/s) and the flow rate sets how fast
+    Mahadevan (2023) writes with the nozzle: the needle moves horizontally (up to 60 mm/s,
+    comparable with the extrusion speed of 32-250 mm/s) and the flow rate sets how fast
     filament comes out, so the filament is laid out straight (needle speed near the
     extrusion speed), in translated loops (slower) or coiled (still). Every target is a
     filament this environment printed from a random smooth sequence of flows (1-3 sections)
@@ -91,13 +91,13 @@ class WriteShapeEnvV1(BathprintEnvV1):
 
     ## Action Space
 
-    ``Box(-1, 1, (3,), float32)``: log Q_o (0.1-1.0 ml/min), needle velocity x and y
-    (+-30 mm/s), the tip kept in [-40, 40] x [-40, 40] mm; ``needle_velocity="xyz"`` adds z.
+    ``Box(-1, 1, (3,), float32)``: log Q_o (0.25-2.0 ml/min), needle velocity x and y
+    (+-60 mm/s), the tip kept in [-40, 40] x [-40, 40] mm; ``needle_velocity="xyz"`` adds z.
 
     ## Observation Space
 
-    ``Box(-10, 10, (73,), float32)``: as ``CoilRadiusEnvV1`` plus the needle position in
-    its box (2) and 3 action entries.
+    ``Box(-10, 10, (79,), float32)``: as ``CoilRadiusEnvV1`` plus the needle position in
+    its box (2) and 3 action entries; goal form: observation (61), goals (365).
 
     ## Rewards, Episode End, Arguments
 
