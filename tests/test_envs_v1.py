@@ -341,3 +341,22 @@ def test_a_cloned_state_continues_identically_in_another_instance() -> None:
         rb = b_env.step(a)
         np.testing.assert_array_equal(ra[0], rb[0])
         assert ra[1] == rb[1]
+
+
+def test_hindsight_experience_replay_trains_on_the_goal_form() -> None:
+    from stable_baselines3 import SAC, HerReplayBuffer
+
+    env = make("bathprint/BuoyantLayers-v1", goal_conditioned=True)
+    model = SAC(
+        "MultiInputPolicy",
+        env,
+        replay_buffer_class=HerReplayBuffer,
+        replay_buffer_kwargs={"n_sampled_goal": 2, "goal_selection_strategy": "future"},
+        learning_starts=70,
+        batch_size=16,
+        policy_kwargs={"net_arch": [16]},
+        seed=0,
+        device="cpu",
+    )
+    model.learn(80)  # relabelled batches go through compute_reward
+    assert model.replay_buffer.size() == 80
