@@ -317,6 +317,44 @@ def run_oracle(
     return data
 
 
+def run_oracle_files(
+    env_id: str,
+    files: Sequence[str],
+    accuracy: str = "draft",
+    settings: CEMSettings | None = None,
+    seed: int = 0,
+    directory: Path | None = None,
+    progress: bool = True,
+) -> dict[str, Any]:
+    """The oracle for target files (``target_file=``, e.g. the showcase polylines), into the
+    same cache (keyed by the file's target key); resumable."""
+    from tqdm import tqdm
+
+    from bathprint.envs import make, resolve_id
+
+    env_id = resolve_id(env_id)
+    settings = settings or CEMSettings()
+    want = dataclasses.asdict(settings)
+    path = oracle_path(env_id, accuracy, directory)
+    data = load_oracle(env_id, accuracy, directory) or {
+        "env_id": env_id, "accuracy": accuracy, "settings": want, "targets": {},
+    }
+    bar = tqdm(list(files), desc=f"oracle {env_id} files", disable=not progress)
+    for f in bar:
+        env = make(env_id, accuracy=accuracy, target_file=str(f))
+        env.reset(seed=seed)
+        target = env.unwrapped.target
+        rec = data["targets"].get(target.key)
+        if rec is None or rec.get("settings") != want or rec.get("seed") != seed:
+            rec = optimise_target(env, env_id, seed, {}, settings, bar)
+            rec.update({"target_set": "file", "file": Path(f).name, "index": -1, "seed": seed,
+                        "settings": want})
+            data["targets"][target.key] = rec
+            _save_oracle(path, data)
+        env.close()
+    return data
+
+
 class OraclePolicy:
     """Replays the oracle's cached action sequence of the episode's target (computing and
     caching it first if it is missing: minutes)."""
@@ -498,13 +536,62 @@ def normalised_score(metrics: dict[str, float], env_id: str, accuracy: str,
     }
 
 
+# ------------------------------------------------------------------------------ tables
+def reference_table(env_id: str, eval_dir: str | Path, accuracy: str = "draft",
+                    directory: Path | None = None) -> str:
+    """Markdown table of the reference scores: the policies of a ``bathprint evaluate``
+    output directory (its table.json) and the oracle's CEM search from its cache."""
+    rows = json.loads((Path(eval_dir) / "table.json").read_text())
+    data = load_oracle(env_id, accuracy, directory)
+    recs = [r for r in data.get("targets", {}).values() if r.get("target_set") == "test"]
+    lines = [
+        "| policy | M (mean ± std) | normalised | success | compute |",
+        "|---|---|---|---|---|",
+    ]
+    thr = next((r["success_threshold"] for r in rows if "success_threshold" in r), None)
+    for r in rows:
+        name = r["policy"]
+        if name == "oracle":
+            name = "oracle (the better of CEM and the printing controls' replay)"
+            compute = "replays its cached actions"
+        elif name.startswith("mpc"):
+            compute = f"{r['wall_time_s'] / r['episodes']:.1f} s per episode"
+        else:
+            compute = f"{r['wall_time_s']:.1f} s for {r['episodes']} episodes"
+        norm = r.get("normalised_score", float("nan"))
+        lines.append(
+            f"| {name} | {r['mean_metric']:.3f} ± {r['std_metric']:.3f} | "
+            + (f"{norm:.3f}" if norm == norm else "-")
+            + f" | {r.get('success_rate', float('nan')):.2f} | {compute} |"
+        )
+    if recs and thr is not None:
+        cem_m = np.array([r["metric_cem"] for r in recs])
+        mc = float(np.mean([r["metric_constant"] for r in recs]))
+        mo = float(np.mean([r["metric"] for r in recs]))
+        norm = (mc - cem_m.mean()) / (mc - mo) if mc > mo else float("nan")
+        cpu = float(np.mean([r["cpu_s"] for r in recs]))
+        rollouts = int(np.mean([r["rollouts"] for r in recs]))
+        s = data.get("settings", {})
+        lines.append(
+            f"| CEM alone (open loop, from the better of constant and feedforward) | "
+            f"{cem_m.mean():.3f} ± {cem_m.std():.3f} | {norm:.3f} | "
+            f"{float(np.mean(cem_m <= thr)):.2f} | {cpu:.0f} CPU s per target "
+            f"({rollouts} episodes: {s.get('samples')} x {s.get('iterations')}, "
+            f"{s.get('block_mm')} mm blocks) |"
+        )
+    return "\n".join(lines) + "\n"
+
+
 # ------------------------------------------------------------------------------ command
 def main(argv: Sequence[str] | None = None) -> int:
     """``python -m bathprint.agents.planning oracle --env ENV [--target-set test]
-    [--accuracy draft] [--samples 32 --iterations 20 --block-mm 4] [--indices 0 1 ...]``"""
+    [--accuracy draft] [--samples 32 --iterations 20 --block-mm 4] [--indices 0 1 ...]
+    [--target-files F ...]``; ``... table --env ENV --eval-dir DIR`` prints the reference
+    table of a ``bathprint evaluate`` output and the oracle cache."""
     ap = argparse.ArgumentParser(prog="python -m bathprint.agents.planning",
                                  description="Fill the oracle cache of a version-1 environment.")
-    ap.add_argument("action", choices=("oracle",))
+    ap.add_argument("action", choices=("oracle", "table"))
+    ap.add_argument("--eval-dir", default=None, help="table: a bathprint evaluate output")
     ap.add_argument("--env", required=True)
     ap.add_argument("--target-set", default="test", choices=("validation", "test"))
     ap.add_argument("--accuracy", default="draft", choices=("draft", "balanced", "fine"))
@@ -513,12 +600,34 @@ def main(argv: Sequence[str] | None = None) -> int:
     ap.add_argument("--elites", type=int, default=CEMSettings.elites)
     ap.add_argument("--block-mm", type=float, default=CEMSettings.block_mm)
     ap.add_argument("--indices", type=int, nargs="*", default=None)
+    ap.add_argument("--target-files", nargs="*", default=None,
+                    help="target files (e.g. envs/targets/showcase/*.csv) instead of a set")
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--out", default=None, help="cache directory (default agents/results/oracle)")
     ap.add_argument("--quiet", action="store_true")
     args = ap.parse_args(argv)
+    if args.action == "table":
+        if not args.eval_dir:
+            print("bathprint planning: table needs --eval-dir", file=sys.stderr)
+            return 2
+        from bathprint.envs import resolve_id
+
+        print(reference_table(resolve_id(args.env), args.eval_dir, args.accuracy,
+                              Path(args.out) if args.out else None), end="")
+        return 0
     try:
         settings = CEMSettings(args.samples, args.iterations, args.elites, args.block_mm)
+        if args.target_files:
+            data = run_oracle_files(
+                args.env, args.target_files, args.accuracy, settings, args.seed,
+                Path(args.out) if args.out else None, progress=not args.quiet,
+            )
+            for rec in data["targets"].values():
+                if rec.get("target_set") == "file":
+                    print(f"{rec['file']}: constant {rec['metric_constant']:.4f}, feedforward "
+                          f"{rec['metric_feedforward']:.4f}, CEM {rec['metric_cem']:.4f} "
+                          f"({rec['cpu_s']:.0f} CPU s)")
+            return 0
         data = run_oracle(
             args.env, args.target_set, args.accuracy, settings, args.indices, args.seed,
             Path(args.out) if args.out else None, progress=not args.quiet,

@@ -7,8 +7,9 @@ changes results (hence the new ids):
   (:mod:`bathprint.envs.printed`): reachable by construction; three fixed, disjoint target
   sets ``train``, ``validation``, ``test``;
 - target sample 0 lies ``episode.lead_in_mm`` of material after the first action's: nothing
-  printed before the first action is scored (the inlet segment holds at most 1.5 node
-  spacings of material, 1.2 mm at the coarsest preset);
+  printed before the first action is scored (a segment split off the inlet is at most 1.5
+  node spacings long, 1.2 mm at the coarsest preset, so the segments holding scored samples
+  hold only material printed under the agent's control);
 - a sample is recorded when it becomes scored (``settle_length_mm`` behind the tip: the
   shape has set, see below) and never changes after; the metric M is computed on the
   recorded samples, and the reward is the decrease of the sum of squared errors of the
