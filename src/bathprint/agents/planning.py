@@ -252,8 +252,13 @@ def optimise_target(
         "rollouts": count[0],
     }
     best_m, best_a = m_cem, a_cem
+    replay = None
     if getattr(target, "actions", None) is not None:
-        replay = u.actions_for(target)
+        try:
+            replay = u.actions_for(target)
+        except ValueError:  # printed with needle axes this environment lacks
+            replay = None
+    if replay is not None:
         m_rep = rollout(env, replay, seed, options)["metric"]
         rec["metric_replay"] = m_rep
         if m_rep < best_m:
