@@ -166,6 +166,8 @@ def test_target_set_arguments_are_refused_with_the_argument_named() -> None:
         ({"scene_overrides": {"bath.viscosity_pa_s": -1.0}}, "scene_overrides = {"),
         ({"scene_overrides": [("bath.viscosity_pa_s", 1.0)]}, "scene_overrides = [("),
         ({"target_file": "/nonexistent.csv"}, "target_file = '/nonexistent.csv'"),
+        ({"spec_file": 5}, "spec_file = 5"),
+        ({"needle_velocity": np.array([1, 0])}, "needle_velocity = array"),
         ({"spec_overrides": {"target": {"eval_size": 4}}}, "target.eval_size"),
         ({"spec_overrides": {"control": {"q_outer_scale": "cubic"}}}, "q_outer_scale"),
         ({"spec_overrides": {"target": {"params": {"q_outer": {"kind": "walk"}}}}},

@@ -37,6 +37,7 @@ filament, as version 0 computes it.
 from __future__ import annotations
 
 import math
+import os
 import pickle
 from typing import Any, ClassVar
 
@@ -107,6 +108,8 @@ class BathprintEnvV1(BathprintEnv):
             render_mode, accuracy, needle_velocity, target_set, target_index, target_file,
             goal_conditioned, scene_overrides,
         )
+        if spec_file is not None and not isinstance(spec_file, str | os.PathLike):
+            raise ConfigError(f"spec_file = {spec_file!r}; allowed: None or a path to a spec")
         self.render_mode = render_mode
         self.accuracy = accuracy
         self.target_set = target_set
@@ -178,7 +181,7 @@ class BathprintEnvV1(BathprintEnv):
         target_index: Any, target_file: Any, goal_conditioned: Any, scene_overrides: Any,
     ) -> None:
         modes = BathprintEnv.metadata["render_modes"]
-        if render_mode is not None and render_mode not in modes:
+        if render_mode is not None and not (isinstance(render_mode, str) and render_mode in modes):
             raise ConfigError(
                 f"render_mode = {render_mode!r}; allowed: None, " + ", ".join(map(repr, modes))
             )
@@ -186,7 +189,7 @@ class BathprintEnvV1(BathprintEnv):
             raise ConfigError(
                 f"accuracy = {accuracy!r}; allowed: " + ", ".join(map(repr, ACCURACY_PRESETS))
             )
-        if target_set == "eval":
+        if isinstance(target_set, str) and target_set == "eval":
             raise ConfigError(
                 "target_set = 'eval' is version 0's held-out set; version 1 has 'train', "
                 "'validation' (model selection, early stopping) and 'test' (reported numbers)"
@@ -195,8 +198,10 @@ class BathprintEnvV1(BathprintEnv):
             raise ConfigError(
                 f"target_set = {target_set!r}; allowed: " + ", ".join(map(repr, TARGET_SETS))
             )
-        if needle_velocity not in (None, False, True, "xy", "xyz") or (
-            needle_velocity is not None and not isinstance(needle_velocity, bool | str)
+        if not (
+            needle_velocity is None
+            or isinstance(needle_velocity, bool)
+            or (isinstance(needle_velocity, str) and needle_velocity in ("xy", "xyz"))
         ):
             raise ConfigError(
                 f"needle_velocity = {needle_velocity!r}; allowed: None (the spec's default), "
