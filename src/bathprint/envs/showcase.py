@@ -3,7 +3,8 @@
 Unlike the printed families these are not reachable by construction: they are drawn, not
 printed, and what a filament in the bath can write is measured (``docs/envs/WriteShape-v1.md``
 gives the oracle's error on each). Every curve is 40-60 mm long (a goal-conditioned
-environment takes at most its spec's 60 mm) and sampled every 0.25 mm; the files are
+environment takes at most its spec's 60 mm), sampled every 0.25 mm or finer (the
+environment resamples it at its own spacing); the files are
 ``envs/targets/showcase/<name>.csv`` (columns x_mm, y_mm, z_mm), written by
 ``python -m bathprint.envs.showcase``.
 """
