@@ -6,17 +6,26 @@ net weight (as bench_scaling.py), and the default scene (paper_simulation) at t 
 
 (1) the whole step: a fixed-step ``advance`` over a window of steps on identical copies
     of the state, divided by the steps (and by the Newton iterations, from the counters);
-(2) the kernels, called directly on copies of the simulation's own arrays from a numba
-    loop (no Python call overhead, best of several repeats, per call): each effect's
-    ``accumulate`` alone with the Jacobian, ``assemble``'s own clearing of force and band,
-    ``assemble`` without the Jacobian, ``assemble`` as the filtered error norm calls it
-    (Jacobian with cx = 0, which elasticity skips), ``band_lu``, ``band_solve``,
-    ``band_matvec`` and ``set_boundary``; (1) and (2) alternate over 5 rounds and keep their best;
-(3) how often each kernel runs per step. The counters record Newton iterations but not
-    factorisations (modified Newton factorises once per step unless the iteration stops
-    contracting), so a fresh copy replays the same window through the integrator's own
-    Python source (numba's ``py_func``) with counting wrappers around the kernels; its
-    Newton iterations are checked against the timed run's counters.
+(2) the kernels, called directly on the records of a copy of the simulation (the ``Rod``,
+    ``Stage`` and ``Out`` the integrator builds) from a numba loop (no Python call
+    overhead, best of several repeats, per call): each effect's ``accumulate`` alone with
+    the Jacobian, ``assemble``'s own clearing of force and band, ``assemble`` without the
+    Jacobian, ``assemble`` as the filtered error norm calls it (Jacobian with cx = 0, which
+    elasticity skips, into the second band), and the linear algebra of
+    :mod:`bathprint.core.solver`: ``factor`` (banded LU), ``solve`` (one banded
+    back-substitution: no couplings off the band in these scenes), ``damping_times`` (the
+    filter's banded product), and ``set_boundary``; (1) and (2) alternate over 5 rounds
+    and keep their best;
+(3) how often each kernel runs per step. A fresh copy replays the same window through the
+    integrator's own Python source (numba's ``py_func`` of ``advance``, ``_attempt``,
+    ``_implicit_step``, ``_stage_solve``, ``_filtered_norm``, ``explicit_step`` and
+    ``_accept``) with counting wrappers around ``assemble``, ``set_boundary`` and
+    ``solver.factor`` / ``solve`` / ``damping_times``; the structured records (parameters,
+    solver memory, frozen tail, contact memory) are passed as ``np.recarray`` views, which
+    numba types as the plain arrays, so the Python source reads their fields by name. Its
+    Newton iterations and factorisations are checked against the timed run's counters, and
+    its GMRES (Krylov) iterations per step are reported (zero without couplings off the
+    band; their cost would fall under "other").
 
 Per step, component = (calls per step) x (cost per call); "other" (vector updates, error
 norms, checks, extrusion and gelation bookkeeping) is the whole step minus the parts.
@@ -30,7 +39,7 @@ from __future__ import annotations
 import copy
 import time
 from collections.abc import Callable
-from types import ModuleType
+from types import ModuleType, SimpleNamespace
 
 import matplotlib
 import numpy as np
@@ -40,10 +49,12 @@ from numba import njit
 import bathprint.core.integrators as integ
 from bathprint import Simulation
 from bathprint.core import layout as L
+from bathprint.core import solver
 from bathprint.core.assemble import assemble
-from bathprint.core.banded import band_lu, band_matvec, band_solve
-from bathprint.core.effects import drag, elasticity, end_load, floor, gravity, inertia
+from bathprint.core.effects import contact, drag, elasticity, end_load, floor, gravity, inertia
 from bathprint.core.extrusion import set_boundary
+from bathprint.core.freezing import accumulate_tail
+from bathprint.core.records import Stage
 from bathprint.core.topology import free_nodes
 
 matplotlib.use("Agg")
@@ -58,11 +69,28 @@ EFFECTS: dict[int, ModuleType] = {
     L.E_FLOOR: floor,
     L.E_INERTIA: inertia,
     L.E_END_LOAD: end_load,
+    L.E_CONTACT: contact,
 }
-# kernels the replay counts: the names under which bathprint.core.integrators calls them
-COUNTED = ("assemble", "band_lu", "band_solve", "band_matvec", "set_boundary")
+# what the replay counts: calls of assemble (split by stage), the solver and set_boundary
+COUNTED = (
+    "assemble+J",
+    "assemble, no J",
+    "filter",
+    "factor",
+    "solve",
+    "damping_times",
+    "set_boundary",
+)
 # integrator functions replayed from their Python source so the counted kernels are seen
-REPLAYED = ("_stage_solve", "_filtered_norm", "_implicit_step", "_explicit_step")
+REPLAYED = (
+    "_attempt",
+    "_implicit_step",
+    "_stage_solve",
+    "_filtered_norm",
+    "explicit_step",
+    "_accept",
+)
+KRYLOV = "krylov iterations"  # a line of the breakdown: counted, not timed
 
 
 # ------------------------------------------------------------------ states
@@ -80,55 +108,58 @@ def _default_scene() -> Simulation:
 
 # ------------------------------------------------------------------ kernel loops (numba)
 def _effect_loop(fn: Callable) -> Callable:
-    """A numba loop calling one effect's ``accumulate(*args)`` ``reps`` times."""
+    """A numba loop calling one effect's ``accumulate(model, rod, stage, out)`` ``reps``
+    times."""
 
     @njit
-    def run(reps, *args):
+    def run(reps, model, rod, stage, out):
         e = 0.0
         for _ in range(reps):
-            e += fn(*args)
+            e += fn(model, rod, stage, out)
         return e
 
     return run
 
 
 @njit
-def _assemble_loop(reps, *args):
+def _assemble_loop(reps, model, rod, stage, out, calls, energies):
     for _ in range(reps):
-        assemble(*args)
+        assemble(model, rod, stage, out, calls, energies)
 
 
 @njit
-def _lu_loop(reps, band, saved, nd, piv, factor):
+def _lu_loop(reps, ws, saved, nd, factor):
     """Restore the band from ``saved`` and (if ``factor``) factorise it, ``reps`` times."""
+    band = ws.band
     for _ in range(reps):
         band[:nd] = saved[:nd]
         if factor:
-            band_lu(band, nd, L.KL, L.KU, piv)
+            solver.factor(ws, nd)
 
 
 @njit
-def _solve_loop(reps, band, nd, piv, b, saved, solve):
+def _solve_loop(reps, ws, nd, b, saved, counters, rtol, solve):
     """Restore the right-hand side and (if ``solve``) solve with the factors, ``reps`` times."""
     for _ in range(reps):
         b[:nd] = saved[:nd]
         if solve:
-            band_solve(band, nd, L.KL, L.KU, piv, b)
+            solver.solve(ws, nd, b, counters, rtol)
 
 
 @njit
-def _matvec_loop(reps, band, nd, x, y):
+def _damping_loop(reps, ws, nd, x, y):
     for _ in range(reps):
-        band_matvec(band, nd, L.KL, L.KU, x, y)
+        solver.damping_times(ws, nd, x, y)
 
 
 @njit
-def _boundary_loop(reps, *args):
+def _boundary_loop(reps, model, rod, t, scratch):
     for _ in range(reps):
-        set_boundary(*args)
+        set_boundary(model, rod, t, scratch)
 
 
 _LOOPS = {k: _effect_loop(mod.accumulate) for k, mod in EFFECTS.items()}
+_TAIL_LOOP = _effect_loop(accumulate_tail)
 
 
 def _per_call(loop: Callable, reps: int, *args: object, repeats: int = 3) -> float:
@@ -137,71 +168,76 @@ def _per_call(loop: Callable, reps: int, *args: object, repeats: int = 3) -> flo
     return best_of(lambda: loop(reps, *args), repeats) / reps
 
 
+def _gamma(integrator: int) -> float:
+    """The SDIRK diagonal coefficient: h gamma is the stage's implicit step."""
+    if integrator == L.INTEGRATOR_IMPLICIT_EULER:
+        return 1.0
+    if integrator == L.INTEGRATOR_SDIRK4:
+        return float(integ.SDIRK4_A[0, 0])
+    return integ.GAMMA
+
+
 def kernel_costs(sim: Simulation) -> dict[str, float]:
-    """Seconds per call of every kernel of a step, on copies of ``sim``'s arrays."""
-    m = sim.model
-    n = sim.n_nodes
-    nd = 3 * free_nodes(n, m.params)
+    """Seconds per call of every kernel of a step, on the records of a copy of ``sim``."""
+    s = copy.deepcopy(sim)
+    m = s.model
+    model, p = m.record, m.p
+    state, ws = s.state, s.ws
+    rod = integ.active_rod(state, ws, s.n_frozen)  # views of the copy's arrays
+    n = rod.n_nodes
+    nd = 3 * free_nodes(n, p)
     reps = max(5, 100_000 // n)
-    gamma = 1.0 if m.integrator == L.INTEGRATOR_IMPLICIT_EULER else integ.GAMMA
-    hg = STEP_S * gamma
-    ca = 1.0 / hg**2 if m.params[L.P_INERTIA] > 0.0 else 0.0
-    pos, vel = sim.pos.copy(), sim.vel.copy()
-    acc = np.zeros_like(vel)
-    force = np.zeros_like(pos)
-    band = np.zeros_like(sim.band)
-    work = sim.work.copy()
-    calls = np.zeros_like(sim.calls)
-    energies = np.zeros_like(sim.energies)
-    state = (pos, vel, acc, n, sim.seg_rest, sim.seg_mat, m.params, sim.t, 1.0, 1.0 / hg, ca)
-    out: dict[str, float] = {}
-    for k in np.flatnonzero(m.enabled[: len(EFFECTS)]):
-        out[f"assemble+J: {L.EFFECT_NAMES[k]}"] = _per_call(
-            _LOOPS[int(k)], reps, *state, force, band, work, True
-        )
-    no_effects = np.zeros_like(m.enabled)
-    out["assemble+J: clear"] = _per_call(
-        _assemble_loop, reps, *state, force, band, work, True, no_effects, calls, energies
-    )
-    out["assemble+J (whole)"] = _per_call(
-        _assemble_loop, reps, *state, force, band, work, True, m.enabled, calls, energies
-    )
-    out["assemble, no J"] = _per_call(
-        _assemble_loop, reps, *state, force, band, work, False, m.enabled, calls, energies
-    )
+    hg = STEP_S * _gamma(m.integrator)
+    ca = 1.0 / hg**2 if p.inertial else 0.0
+    jac = Stage(s.t, 1.0, 1.0 / hg, ca, True)
+    no_jac = jac._replace(jac=False)
     # the filtered error norm assembles with cx = 0 (no stiffness: elasticity skips its
-    # Jacobian there) into the second band
-    filt = (*state[:8], 0.0, *state[9:], force, band, work, True, m.enabled, calls, energies)
-    out["filter: assemble (cx=0)"] = _per_call(_assemble_loop, reps, *filt)
+    # Jacobian there) into the second band, dropping couplings off the band
+    filt = jac._replace(cx=0.0)
+    out = integ._out(state, ws, ws.band, ws.cpl)
+    out_filter = integ._out(state, ws, ws.band2, ws.cpl_drop)
+    calls = np.zeros_like(s.calls)
+    energies = np.zeros_like(s.energies)
+    res: dict[str, float] = {}
+    for k in np.flatnonzero(m.enabled):
+        if int(k) in _LOOPS:
+            res[f"assemble+J: {L.EFFECT_NAMES[k]}"] = _per_call(
+                _LOOPS[int(k)], reps, model, rod, jac, out
+            )
+    if ws.tail[0]["on"]:
+        res["assemble+J: frozen tail"] = _per_call(_TAIL_LOOP, reps, model, rod, jac, out)
+    tail_off = ws.tail.copy()
+    tail_off[0]["on"] = False
+    no_effects = model._replace(enabled=np.zeros_like(m.enabled))
+    res["assemble+J: clear"] = _per_call(
+        _assemble_loop, reps, no_effects, rod, jac, out._replace(tail=tail_off), calls, energies
+    )
+    res["assemble+J (whole)"] = _per_call(
+        _assemble_loop, reps, model, rod, jac, out, calls, energies
+    )
+    res["assemble, no J"] = _per_call(
+        _assemble_loop, reps, model, rod, no_jac, out, calls, energies
+    )
+    res["filter: assemble (cx=0)"] = _per_call(
+        _assemble_loop, reps, model, rod, filt, out_filter, calls, energies
+    )
     # the stage matrix of a Newton iteration, its factors, and a right-hand side
-    assemble(*state, force, band, work, True, m.enabled, calls, energies)
-    saved_band = band.copy()
-    piv = np.zeros_like(sim.piv)
-    lu_and_copy = _per_call(_lu_loop, reps, band, saved_band, nd, piv, True)
-    out["band_lu"] = lu_and_copy - _per_call(_lu_loop, reps, band, saved_band, nd, piv, False)
-    _lu_loop(1, band, saved_band, nd, piv, True)
-    rhs, saved_rhs = force.copy(), force.copy()
-    solve_and_copy = _per_call(_solve_loop, reps, band, nd, piv, rhs, saved_rhs, True)
-    out["band_solve"] = solve_and_copy - _per_call(
-        _solve_loop, reps, band, nd, piv, rhs, saved_rhs, False
+    assemble(model, rod, jac, out, calls, energies)
+    saved_band = ws.band.copy()
+    lu_and_copy = _per_call(_lu_loop, reps, ws, saved_band, nd, True)
+    res["factor"] = lu_and_copy - _per_call(_lu_loop, reps, ws, saved_band, nd, False)
+    _lu_loop(1, ws, saved_band, nd, True)
+    rhs, saved_rhs = out.force.copy(), out.force.copy()
+    counters = np.zeros_like(s.counters)
+    rtol = float(p.krylov_tolerance)
+    solve_and_copy = _per_call(_solve_loop, reps, ws, nd, rhs, saved_rhs, counters, rtol, True)
+    res["solve"] = solve_and_copy - _per_call(
+        _solve_loop, reps, ws, nd, rhs, saved_rhs, counters, rtol, False
     )
-    out["band_matvec"] = _per_call(_matvec_loop, reps, saved_band, nd, vel.copy(), rhs)
-    out["set_boundary"] = _per_call(
-        _boundary_loop,
-        reps,
-        pos,
-        vel,
-        sim.node_s.copy(),
-        sim.seg_rest.copy(),
-        n,
-        sim.t,
-        m.flow,
-        m.flow_cum,
-        m.needle,
-        m.params,
-        work,
-    )
-    return out
+    # band2 holds the filter's damping matrix (assembled above)
+    res["damping_times"] = _per_call(_damping_loop, reps, ws, nd, rod.vel.copy(), rhs)
+    res["set_boundary"] = _per_call(_boundary_loop, reps, model, rod, s.t, ws.scratch)
+    return res
 
 
 # ------------------------------------------------------------------ whole step and counts
@@ -218,63 +254,60 @@ def step_time(base: Simulation, steps: int, copies: int) -> tuple[float, Simulat
     return best_of(run, copies) / steps, sims[0]
 
 
+def _named(records: np.ndarray) -> np.ndarray:
+    """A structured record array as ``np.recarray`` (fields as attributes, same memory);
+    numba types it as the plain array, so compiled kernels take it unchanged."""
+    return records.view(np.recarray)
+
+
 def replay_counts(sim: Simulation, steps: int) -> tuple[dict[str, float], dict[str, int]]:
     """Kernel calls per step over ``steps`` steps, replaying ``advance`` from its Python source.
 
     Returns the calls per step (assemble split into Newton with and without the Jacobian
     and the filtered error norm's) and the simulation's counter deltas over the replay."""
-    calls = dict.fromkeys(("assemble+J", "assemble, no J", "filter", *COUNTED[1:]), 0)
-    real = {name: getattr(integ, name) for name in COUNTED + REPLAYED}
+    calls = dict.fromkeys(COUNTED, 0)
+    real_assemble, real_boundary, real_solver = integ.assemble, integ.set_boundary, integ.solver
+    real_replayed = {name: getattr(integ, name) for name in REPLAYED}
 
-    def counting(name: str) -> Callable:
-        fn = real[name]
+    def counting_assemble(model, rod, stage, out, c, e) -> None:
+        # do_jac, and cx = 0 for the filtered error norm
+        key = ("filter" if stage.cx == 0.0 else "assemble+J") if stage.jac else "assemble, no J"
+        calls[key] += 1
+        real_assemble(model, rod, stage, out, c, e)
 
+    def counting(name: str, fn: Callable) -> Callable:
         def wrapper(*args: object) -> object:
-            key = name
-            if name == "assemble":  # do_jac, and cx = 0 for the filtered error norm
-                key = (
-                    ("filter" if args[8] == 0.0 else "assemble+J") if args[14] else "assemble, no J"
-                )
-            calls[key] += 1
+            calls[name] += 1
             return fn(*args)
 
         return wrapper
 
+    counting_solver = SimpleNamespace(
+        **{name: counting(name, getattr(solver, name)) for name in COUNTED[3:6]}
+    )
     m = sim.model
+    model = m.record._replace(params=_named(m.params))
+    ws = sim.ws
+    ws = ws._replace(
+        solver=_named(ws.solver),
+        tail=_named(ws.tail),
+        contact=ws.contact._replace(memory=_named(ws.contact.memory)),
+    )
     before = sim.counts()
     try:
-        for name in COUNTED:
-            setattr(integ, name, counting(name))
-        for name in REPLAYED:
-            setattr(integ, name, real[name].py_func)
-        status = integ.advance.py_func(
-            sim.t + steps * STEP_S,
-            10**9,
-            m.integrator,
-            sim.pos,
-            sim.vel,
-            sim.node_s,
-            sim.seg_rest,
-            sim.seg_mat,
-            sim.istate,
-            sim.fstate,
-            m.params,
-            m.enabled,
-            m.flow,
-            m.flow_cum,
-            m.needle,
-            sim.vecs,
-            sim.band,
-            sim.band2,
-            sim.piv,
-            sim.work,
-            sim.calls,
-            sim.counters,
-            sim.energies,
-            sim.info,
-        )
+        integ.assemble = counting_assemble
+        integ.set_boundary = counting("set_boundary", real_boundary)
+        integ.solver = counting_solver
+        for name, fn in real_replayed.items():
+            setattr(integ, name, fn.py_func)
+        status = integ.advance.py_func(model, sim.state, ws, sim.t + steps * STEP_S, 10**9)
     finally:
-        for name, fn in real.items():
+        integ.assemble, integ.set_boundary, integ.solver = (
+            real_assemble,
+            real_boundary,
+            real_solver,
+        )
+        for name, fn in real_replayed.items():
             setattr(integ, name, fn)
     if status != L.STATUS_OK:
         raise RuntimeError(f"replay stopped with status {status} (capacity or divergence)")
@@ -296,40 +329,49 @@ def profile(label: str, base: Simulation, steps: int) -> list[dict]:
         for k, v in kernel_costs(sim).items():
             cost[k] = min(cost.get(k, v), v)
     per_call, counted = replay_counts(copy.deepcopy(base), steps)
-    timed_newton = sim.counts()["newton_iterations"] - base.counts()["newton_iterations"]
-    if timed_newton != counted["newton_iterations"]:
-        print(
-            f"  note: replay {counted['newton_iterations']} Newton iterations, timed {timed_newton}"
-        )
+    timed = {k: sim.counts()[k] - base.counts()[k] for k in counted}
+    for key in ("newton_iterations", "jacobians", "krylov_iterations"):
+        if timed[key] != counted[key]:
+            print(f"  note: replay {counted[key]} {key}, timed {timed[key]}")
+    if counted["jacobians"] != round(per_call["factor"] * counted["steps"]):
+        print(f"  note: {counted['jacobians']} jacobians counted, factor called otherwise")
     newton = counted["newton_iterations"] / counted["steps"]
+    krylov = counted["krylov_iterations"] / counted["steps"]
     n = base.n_nodes
     print(
         f"{label}: N={n}, {1e6 * per_step:.0f} us/step, {newton:.2f} Newton iterations/step "
-        f"({1e6 * per_step / newton:.0f} us each); per step: {per_call['band_lu']:.2f} LU, "
+        f"({1e6 * per_step / newton:.0f} us each); per step: {per_call['factor']:.2f} LU, "
         f"{per_call['filter']:.2f} filtered norm, "
         f"{per_call['assemble+J']:.2f} assemble+J, {per_call['assemble, no J']:.2f} assemble "
-        f"no J, {per_call['band_solve']:.2f} solves, {per_call['band_matvec']:.2f} matvec, "
-        f"{per_call['set_boundary']:.2f} set_boundary, "
-        f"{counted['nodes_born'] / counted['steps']:.2f} splits"
+        f"no J, {per_call['solve']:.2f} solves, {per_call['damping_times']:.2f} "
+        f"damping_times, {per_call['set_boundary']:.2f} set_boundary, "
+        f"{counted['nodes_born'] / counted['steps']:.2f} splits, {krylov:.2f} Krylov iterations"
     )
+    if krylov > 0:
+        print("  note: GMRES iterations are not timed apart: their cost is in 'other'")
     parts_sum = sum(v for k, v in cost.items() if k.startswith("assemble+J:"))
     print(
         f"  check: assemble+J whole {1e6 * cost['assemble+J (whole)']:.1f} us/call, "
         f"effects + clear {1e6 * parts_sum:.1f} us/call"
     )
     # component: (calls per step, seconds per call)
-    newton_solves = per_call["band_solve"] - per_call["filter"]  # the filter solves once
+    newton_solves = per_call["solve"] - per_call["filter"]  # the filter solves once
     parts = {k: (per_call["assemble+J"], v) for k, v in cost.items() if k.startswith("assemble+J:")}
     parts |= {
         "assemble, no J": (per_call["assemble, no J"], cost["assemble, no J"]),
-        "band_lu": (per_call["band_lu"], cost["band_lu"]),
-        "band_solve (Newton)": (newton_solves, cost["band_solve"]),
+        "factor (band LU)": (per_call["factor"], cost["factor"]),
+        "solve (Newton)": (newton_solves, cost["solve"]),
         "set_boundary": (per_call["set_boundary"], cost["set_boundary"]),
         "filter: assemble (cx=0)": (per_call["filter"], cost["filter: assemble (cx=0)"]),
-        "filter: matvec + solve": (per_call["filter"], cost["band_matvec"] + cost["band_solve"]),
+        "filter: damping_times + solve": (
+            per_call["damping_times"],
+            cost["damping_times"] + cost["solve"],
+        ),
     }
     rows = [(comp, k, c, k * c) for comp, (k, c) in parts.items()]
     used = sum(r[3] for r in rows)
+    # GMRES iterations: counted, not timed apart (zero on the banded path)
+    rows.append((KRYLOV, krylov, float("nan"), 0.0 if krylov == 0 else float("nan")))
     rows.append(("other", float("nan"), float("nan"), per_step - used))
     rows.append(("whole step", 1.0, per_step, per_step))
     return [
@@ -354,7 +396,9 @@ def plot(rows: list[dict]) -> None:
     A negative "other" (kernels timed slower alone than within the step: noise) is drawn
     as zero and the bar then passes 100 %; the label gives its value."""
     cases = list(dict.fromkeys(r["case"] for r in rows))
-    comps = list(dict.fromkeys(r["component"] for r in rows if r["component"] != "whole step"))
+    comps = list(
+        dict.fromkeys(r["component"] for r in rows if r["component"] not in ("whole step", KRYLOV))
+    )
     colors = plt.get_cmap("tab20").colors
     fig, ax = plt.subplots(figsize=(10, 1.0 * len(cases) + 2.4))
     labels = []

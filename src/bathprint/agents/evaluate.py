@@ -1,18 +1,23 @@
-"""``bathprint evaluate``: deterministic rollouts of policies on the held-out target set.
+"""``bathprint evaluate``: deterministic rollouts of policies on a fixed target set.
 
-Episode k uses evaluation target k and seed ``seed + k`` (which picks the warm-up start
-state), so the same policy and seeds give the same numbers; more episodes than the set has
-targets are refused (they would repeat targets). For each
-policy (a baseline name, a run directory or a model ``.zip``) it writes into
-``OUT/<label>/``::
+The set is version 0's held-out ``eval`` set, or version 1's ``test`` set (reported numbers;
+``target_set="validation"`` through the API for model selection). Episode k uses target k and
+seed ``seed + k`` (which picks the warm-up start state where the target does not fix it), so
+the same policy and seeds give the same numbers; more episodes than the set has targets are
+refused (they would repeat targets). For each policy (a baseline or planner name, a run
+directory or a model ``.zip``) it writes into ``OUT/<label>/``::
 
     episodes.csv, episodes.json   per episode: metric (the shape metric, see
                                   bathprint.envs.metric), shape_rms_mm, curvature_rms_1_mm,
                                   density_rms_kg_m3 (intrinsic errors), reward, episode
                                   length, wall time, mean flows, divergence message
-    summary.json                  means and standard deviations; for a trained policy,
-                                  where its observation statistics came from
-                                  (``obs_normalization``)
+    summary.json                  means and standard deviations; version 1: the success
+                                  rate (final metric <= the spec's success.metric_max)
+                                  and the normalised score (M_constant - M) /
+                                  (M_constant - M_oracle) over the episodes whose target
+                                  the oracle cache holds (bathprint.agents.planning);
+                                  for a trained policy, where its observation statistics
+                                  came from (``obs_normalization``)
     episode_K.png                 the printed filament over its target (first --images)
     episode_0.gif                 one episode being written (--animate)
 
@@ -76,6 +81,11 @@ def _safe_label(label: str) -> str:
     return "".join(ch if ch.isalnum() or ch in "-_." else "_" for ch in label)
 
 
+def default_target_set(env_id: str) -> str:
+    """``eval`` for version-0 environments, ``test`` for version 1."""
+    return "test" if env_id.endswith("-v1") else "eval"
+
+
 def summarize(episodes: list[Episode]) -> dict[str, Any]:
     """Means and standard deviations of the per-episode numbers."""
     out: dict[str, Any] = {"episodes": len(episodes)}
@@ -100,6 +110,7 @@ def evaluate_policy_spec(
     images: int = 3,
     animate: bool = True,
     progress: bool = True,
+    target_set: str | None = None,
 ) -> tuple[str, dict[str, Any], list[Episode]]:
     """Evaluate one policy; returns (label, summary, episodes) and writes the files if
     ``out`` is given."""
@@ -109,16 +120,23 @@ def evaluate_policy_spec(
 
     _check_episodes(episodes)
     env_id = resolve_id(env_id)
+    target_set = target_set or default_target_set(env_id)
+    allowed = ("validation", "test") if env_id.endswith("-v1") else ("eval",)
+    if target_set not in allowed:
+        raise ConfigError(
+            f"target_set = {target_set!r}; allowed for {env_id}: " + ", ".join(map(repr, allowed))
+        )
     kwargs, wrapper = _run_settings(spec, accuracy, env_id)
-    env = make(env_id, render_mode="rgb_array", target_set="eval", **kwargs)
+    env = make(env_id, render_mode="rgb_array", target_set=target_set, **kwargs)
     if wrapper:
         env = wrapper_factory(wrapper)(env)
-    n_eval = env.unwrapped.sampler.eval_size
+    u = env.unwrapped
+    n_eval = u.printed.sizes[target_set] if target_set != "eval" else u.sampler.eval_size
     if episodes > n_eval:
         env.close()
         raise ConfigError(
-            f"episodes = {episodes}; the held-out set of {env_id} has {n_eval} targets and "
-            f"episode k plays target k: allowed 1..{n_eval}"
+            f"episodes = {episodes}; the {target_set} set of {env_id} has {n_eval} targets "
+            f"and episode k plays target k: allowed 1..{n_eval}"
         )
     policy, label = load_policy(spec, env, env_id, seed=seed)
     note = getattr(policy, "normalization", None)
@@ -141,18 +159,40 @@ def evaluate_policy_spec(
         {
             "policy": label,
             "env_id": env_id,
+            "target_set": target_set,
             "env_kwargs": kwargs,
             "wrapper": wrapper,
             "seed": seed,
             "spec": spec,
         }
     )
+    if getattr(u, "version", 0) >= 1:
+        summary.update(_v1_scores(u, eps))
     if note is not None:
         summary["obs_normalization"] = note
     if out is not None:
         _write(Path(out) / _safe_label(label), env, eps, summary, images)
     env.close()
     return label, summary, eps
+
+
+def _v1_scores(u: Any, eps: list[Episode]) -> dict[str, Any]:
+    """Success rate and normalised score of version-1 episodes (set per episode too)."""
+    from bathprint.agents.planning import normalised_score
+
+    thr = float(u.success_metric_max)
+    for e in eps:
+        e.metrics["is_success"] = float(not e.truncated and e.metrics["metric"] <= thr)
+    metrics = {e.target_key: e.metrics["metric"] for e in eps}
+    norm = normalised_score(metrics, u.env_id, u.accuracy)
+    for e in eps:
+        e.metrics["normalised_score"] = norm["per_target"].get(e.target_key, float("nan"))
+    out = {
+        "success_threshold": thr,
+        "success_rate": float(np.mean([e.metrics["is_success"] for e in eps])),
+    }
+    out.update({k: v for k, v in norm.items() if k != "per_target"})
+    return out
 
 
 def _write(d: Path, env: Any, eps: list[Episode], summary: dict[str, Any], images: int) -> None:
@@ -176,16 +216,28 @@ def _write(d: Path, env: Any, eps: list[Episode], summary: dict[str, Any], image
 
 
 def format_table(summaries: Sequence[dict[str, Any]]) -> str:
-    """Markdown table of several policies' summaries (mean +- std over episodes)."""
+    """Markdown table of several policies' summaries (mean +- std over episodes); with the
+    success rate and the normalised score where the summaries have them (version 1)."""
+    v1 = any("success_rate" in s for s in summaries)
+    head = "| policy | metric |"
+    rule = "|---|---|"
+    if v1:
+        head += " normalised | success |"
+        rule += "---|---|"
     lines = [
-        "| policy | metric | shape RMS (mm) | curvature RMS (1/mm) | density RMS (kg/m^3) "
-        "| truncated | wall s |",
-        "|---|---|---|---|---|---|---|",
+        head
+        + " shape RMS (mm) | curvature RMS (1/mm) | density RMS (kg/m^3) | truncated | wall s |",
+        rule + "---|---|---|---|---|",
     ]
     for s in summaries:
+        row = f"| {s['policy']} | {s['mean_metric']:.3f} +- {s['std_metric']:.3f} |"
+        if v1:
+            norm = s.get("normalised_score", float("nan"))
+            row += f" {norm:.3f} |" if norm == norm else " - |"
+            rate = s.get("success_rate")
+            row += f" {rate:.2f} |" if rate is not None else " - |"
         lines.append(
-            f"| {s['policy']} | {s['mean_metric']:.3f} +- {s['std_metric']:.3f} "
-            f"| {s['mean_shape_rms_mm']:.3f} | {s['mean_curvature_rms_1_mm']:.4f} "
+            row + f" {s['mean_shape_rms_mm']:.3f} | {s['mean_curvature_rms_1_mm']:.4f} "
             f"| {s['mean_density_rms_kg_m3']:.2f} | {s['truncated_episodes']}/{s['episodes']} "
             f"| {s['wall_time_s']:.1f} |"
         )
@@ -194,10 +246,10 @@ def format_table(summaries: Sequence[dict[str, Any]]) -> str:
 
 def collect_summaries(out: str | Path) -> list[dict[str, Any]]:
     """Every ``OUT/*/summary.json``: baselines first (in their usual order), then agents."""
-    from bathprint.agents.policies import BASELINES
+    from bathprint.agents.policies import BASELINES, PLANNERS
 
     found = [json.loads(p.read_text()) for p in sorted(Path(out).glob("*/summary.json"))]
-    order = {name: k for k, name in enumerate(BASELINES)}
+    order = {name: k for k, name in enumerate(BASELINES + PLANNERS)}
     return sorted(found, key=lambda s: (order.get(s["policy"], len(order)), s["policy"]))
 
 
@@ -211,39 +263,51 @@ def evaluate_many(
     images: int = 3,
     animate: bool = True,
     progress: bool = True,
+    target_set: str | None = None,
 ) -> list[dict[str, Any]]:
     """Evaluate each policy; returns their summaries. ``OUT/table.md`` and ``table.json``
     are rebuilt from every policy evaluated into ``OUT`` so far with the same environment,
     episodes and seed, so evaluations made one at a time add up to one table."""
-    from bathprint.agents.policies import BASELINES
+    from bathprint.agents import planning
+    from bathprint.agents.policies import BASELINES, PLANNERS, baseline_name
     from bathprint.envs import resolve_id
 
     out = Path(out)
     _check_episodes(episodes)
     for spec in specs:  # every policy checked before the first is evaluated
-        if spec in BASELINES:
+        name = baseline_name(spec)
+        if name in PLANNERS:
+            cls = planning.CEMSettings if name == "oracle" else planning.MPCSettings
+            planning.parse_options(spec, cls)
+            if name == "mpc" and not resolve_id(env_id).endswith("-v1"):
+                raise ConfigError(f"policy 'mpc' needs a version-1 environment, not {env_id}")
+            continue
+        if name is not None:
             continue
         if not Path(spec).exists():
             raise FileNotFoundError(
-                f"policy {spec!r}: neither a baseline ({', '.join(BASELINES)}) nor an existing "
-                "run directory or model .zip"
+                f"policy {spec!r}: neither a baseline ({', '.join(BASELINES + PLANNERS)}) nor "
+                "an existing run directory or model .zip"
             )
         trained_files(spec)
         _run_settings(spec, accuracy, resolve_id(env_id))
     summaries = []
     for spec in specs:
         _, summary, _ = evaluate_policy_spec(
-            spec, env_id, episodes, seed, out, accuracy, images, animate, progress
+            spec, env_id, episodes, seed, out, accuracy, images, animate, progress, target_set
         )
         summaries.append(summary)
     first = summaries[0]
+    where = first.get("target_set", "eval")
     same = [
         s
         for s in collect_summaries(out)
-        if (s["env_id"], s["episodes"], s["seed"]) == (first["env_id"], episodes, seed)
+        if (s["env_id"], s["episodes"], s["seed"], s.get("target_set", "eval"))
+        == (first["env_id"], episodes, seed, where)
     ]
+    label = "held-out" if where == "eval" else where
     (out / "table.md").write_text(
-        f"{first['env_id']}: {episodes} held-out episodes, seed {seed}\n\n" + format_table(same)
+        f"{first['env_id']}: {episodes} {label} episodes, seed {seed}\n\n" + format_table(same)
     )
     (out / "table.json").write_text(json.dumps(same, indent=2, default=str))
     return summaries

@@ -47,6 +47,17 @@ from bathprint.envs.core import (
 
 PAPER_PREFACTOR = 0.4  # R = 0.4 (B / (mu v))^(1/3), the paper's Fig. 2B fit
 BASELINES = ("random", "constant", "feedforward", "feedforward_calibrated")
+#: planners on the simulator itself (bathprint.agents.planning): minutes per episode or target
+PLANNERS = ("oracle", "mpc")
+
+
+def baseline_name(spec: str) -> str | None:
+    """The baseline or planner a policy spec names (``"mpc:samples=8"`` -> ``"mpc"``; only
+    planners take options), or None."""
+    name, colon, _ = spec.partition(":")
+    if name in PLANNERS or (name in BASELINES and not colon):
+        return name
+    return None
 
 
 class Policy(Protocol):
@@ -176,7 +187,13 @@ class FeedforwardPolicy(BatchPolicy):
         if lead_mm not in TARGET_OFFSETS_MM:
             raise ValueError(f"lead_mm = {lead_mm!r}; allowed: {TARGET_OFFSETS_MM}")
         u = env.unwrapped
+        if getattr(u, "goal_conditioned", False):
+            raise ValueError(
+                "the feedforward reads the target from the flat observation: make the "
+                "environment with goal_conditioned=False"
+            )
         self.env = u
+        self.lead_mm = float(lead_mm)
         self.prefactor = float(prefactor)
         self.constants = LawConstants.from_env(env)
         self._col = TARGET_OFFSETS_MM.index(lead_mm)
@@ -187,14 +204,21 @@ class FeedforwardPolicy(BatchPolicy):
         """Physical controls for one observation: q_outer_ml_min, q_inner_ml_min, offset
         (Delta) and the radius aimed at (mm; inf for straight pieces and arcs)."""
         u, c = self.env, self.constants
-        feats = np.asarray(obs, np.float64)[self._slice].reshape(-1, 3)[self._col]
-        kappa = feats[0] / OBS_CURVATURE_MM  # 1/mm
-        tau = feats[1] / OBS_CURVATURE_MM
-        rho_aim = feats[2] * OBS_DENSITY_SCALE_KG_M3 + OBS_DENSITY_REF_KG_M3
+        if getattr(u, "version", 0) >= 1:  # version 1: the layout of the environment
+            ahead = u.target_ahead(obs, self.lead_mm)
+            kappa, tau = ahead["curvature_1_mm"], ahead["torsion_1_mm"]
+            rho_aim = min(max(c.rho_gel, ahead["density_lo_kg_m3"]), ahead["density_hi_kg_m3"])
+            resolution = 1e-5 * u.obs_density_scale
+        else:
+            feats = np.asarray(obs, np.float64)[self._slice].reshape(-1, 3)[self._col]
+            kappa = feats[0] / OBS_CURVATURE_MM  # 1/mm
+            tau = feats[1] / OBS_CURVATURE_MM
+            rho_aim = feats[2] * OBS_DENSITY_SCALE_KG_M3 + OBS_DENSITY_REF_KG_M3
+            resolution = 1e-5 * OBS_DENSITY_SCALE_KG_M3
         phi = 0.0
         # the aim comes through a float32 feature, which resolves ~3e-6 kg/m^3: below the gel
         # by less than 1e-5 of the density scale is the gel itself
-        if c.rho_gel - c.rho_inner > 0 and rho_aim < c.rho_gel - 1e-5 * OBS_DENSITY_SCALE_KG_M3:
+        if c.rho_gel - c.rho_inner > 0 and rho_aim < c.rho_gel - resolution:
             phi = (c.rho_gel - rho_aim) / (c.rho_gel - c.rho_inner)
         offset = 0.0
         is_arc = kappa > 1e-6 and abs(tau) < 1e-6 and "inclusion_offset" in u.action_names
@@ -260,7 +284,16 @@ def load_policy(spec: str, env: Any, env_id: str, seed: int = 0) -> tuple[Policy
     """A policy from a baseline name, a run directory or a model ``.zip``; returns it and a
     label. Baselines ``constant`` and ``feedforward_calibrated`` read ``agents/baselines.yml``.
     """
-    if spec in BASELINES:
+    name = baseline_name(spec)
+    if name in ("oracle", "mpc"):
+        from bathprint.agents import planning
+
+        if name == "oracle":
+            settings = planning.parse_options(spec, planning.CEMSettings)
+            return planning.OraclePolicy(env, env_id, settings), spec
+        settings = planning.parse_options(spec, planning.MPCSettings)
+        return planning.MPCPolicy(env, env_id, settings), spec
+    if name is not None:
         from bathprint.agents.hyperparams import load_baselines
 
         if spec == "random":
@@ -276,8 +309,8 @@ def load_policy(spec: str, env: Any, env_id: str, seed: int = 0) -> tuple[Policy
     path = Path(spec)
     if not path.exists():
         raise FileNotFoundError(
-            f"policy {spec!r}: neither a baseline ({', '.join(BASELINES)}) nor an existing "
-            "run directory or model .zip"
+            f"policy {spec!r}: neither a baseline ({', '.join(BASELINES + PLANNERS)}) nor an "
+            "existing run directory or model .zip"
         )
     model, normalizer, label, note = load_trained(path)
     return SB3Policy(model, normalizer, note), label

@@ -28,7 +28,7 @@ from numba import njit
 from bathprint.core.banded import band_lu, band_matvec, band_solve
 from bathprint.core.layout import C_KRYLOV_FAILURES, C_KRYLOV_ITERATIONS, KL, KU
 
-KRYLOV_MAX_RESTARTS = 4  # restarts of KRYLOV_RESTART iterations each before a solve stalls
+KRYLOV_MAX_RESTARTS = 10  # restarts of KRYLOV_RESTART iterations each before a solve stalls
 
 
 @njit(cache=True, inline="always")

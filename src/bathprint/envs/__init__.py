@@ -9,13 +9,18 @@
 =============================  ===========================================================
 id                             task
 =============================  ===========================================================
+``bathprint/CoilRadius-v1``    track a coil-radius schedule with the flow (printed targets)
+``bathprint/WriteShape-v1``    write a 3D curve with the needle and the flow
+``bathprint/BuoyantLayers-v1`` parts that settle at target heights, the oil pump lagging
 ``bathprint/CoilRadius-v0``    track a schedule of coil radius (and pitch) along the length
 ``bathprint/WriteShape-v0``    write a 3D curve: helices, straight pieces, arcs, float/sink
 ``bathprint/BuoyantLayers-v0`` parts that settle at target heights in a gradient bath
 =============================  ===========================================================
 
-Specs (scene, ranges, targets, metric) live in ``envs/*.toml``; the metric is in
-:mod:`bathprint.envs.metric`. ``bathprint play`` is :func:`play_main`.
+Version 1 (:mod:`bathprint.envs.v1`, ``docs/envs/``) is the suite to use; version 0 stays as
+it was for reproducing older results. Specs (scene, ranges, targets, metric) live in
+``envs/*.toml``; the metric is in :mod:`bathprint.envs.metric`. ``bathprint play`` is
+:func:`play_main`.
 """
 
 from __future__ import annotations
@@ -31,6 +36,9 @@ ENV_ENTRY_POINTS: dict[str, str] = {
     "bathprint/CoilRadius-v0": "bathprint.envs.coil_radius:CoilRadiusEnv",
     "bathprint/WriteShape-v0": "bathprint.envs.write_shape:WriteShapeEnv",
     "bathprint/BuoyantLayers-v0": "bathprint.envs.buoyant_layers:BuoyantLayersEnv",
+    "bathprint/CoilRadius-v1": "bathprint.envs.coil_radius:CoilRadiusEnvV1",
+    "bathprint/WriteShape-v1": "bathprint.envs.write_shape:WriteShapeEnvV1",
+    "bathprint/BuoyantLayers-v1": "bathprint.envs.buoyant_layers:BuoyantLayersEnvV1",
 }
 ENV_IDS: tuple[str, ...] = tuple(ENV_ENTRY_POINTS)
 
@@ -49,8 +57,8 @@ def register_envs() -> list[str]:
 
 
 def resolve_id(name: str) -> str:
-    """Full id of an environment given as ``bathprint/CoilRadius-v0``, ``CoilRadius-v0`` or
-    ``CoilRadius`` (case-insensitive)."""
+    """Full id of an environment given as ``bathprint/CoilRadius-v1``, ``CoilRadius-v1`` or
+    ``CoilRadius`` (case-insensitive; the bare name is version 0, as it always was)."""
     key = name.lower().removeprefix(f"{NAMESPACE}/")
     for env_id in ENV_IDS:
         short = env_id.removeprefix(f"{NAMESPACE}/").lower()

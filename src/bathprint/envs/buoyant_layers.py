@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from bathprint.envs.core import BathprintEnv
+from bathprint.envs.v1 import BathprintEnvV1
 
 
 class BuoyantLayersEnv(BathprintEnv):
@@ -74,3 +75,38 @@ class BuoyantLayersEnv(BathprintEnv):
     """
 
     env_id = "bathprint/BuoyantLayers-v0"
+
+
+class BuoyantLayersEnvV1(BathprintEnvV1):
+    """
+    ## Description
+
+    ``BuoyantLayers-v0`` is a static inverse map (phi from the density the target asks for).
+    Here the oil pump responds with a first-order lag (tau = 0.1 s, ``control.inner_lag_s``:
+    tubing compliance), so the density follows the command late and smoothly: to print
+    layers that settle where the target says, the agent must switch early and by the right
+    amount, and the flow rate Q_o sets how much material a lag time spans (4-13 mm). The
+    state (the oil flow now) is observed. Targets are printed by this environment from
+    random sequences of 2-4 commanded oil fractions (and 1-3 flow sections) through the same
+    lag: reachable by construction. ``docs/envs/BuoyantLayers-v1.md``; spec
+    ``envs/buoyant_layers_v1.toml``.
+
+    ## Action Space
+
+    ``Box(-1, 1, (2,), float32)``: log Q_o (0.3-1.0 ml/min) and the commanded inner fraction
+    phi (0-0.32; density (1 - phi) 1054 + phi 910 kg/m^3).
+
+    ## Observation Space
+
+    ``Box(-10, 10, (83,), float32)``: filament near the tip, printed density, target density
+    band (both bounds) from 30 mm behind to 20 mm ahead, the action, the oil fraction now,
+    progress; densities as (rho - 1030) / 10 kg/m^3. Goal form: observation (65), goals
+    (244: the density band of 121 samples, counts).
+
+    ## Rewards, Episode End, Arguments
+
+    As ``CoilRadiusEnvV1``, with the density-only metric of v0 (settling height error / 25 mm);
+    2 + 60 + 3 mm (65 steps); success: M <= 0.25.
+    """
+
+    env_id = "bathprint/BuoyantLayers-v1"

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from bathprint.envs.core import BathprintEnv
+from bathprint.envs.v1 import BathprintEnvV1
 
 
 class CoilRadiusEnv(BathprintEnv):
@@ -98,3 +99,51 @@ class CoilRadiusEnv(BathprintEnv):
     """
 
     env_id = "bathprint/CoilRadius-v0"
+
+
+class CoilRadiusEnvV1(BathprintEnvV1):
+    """
+    ## Description
+
+    ``CoilRadius-v0``'s task made well-posed: print coils whose radius follows a target
+    schedule along the printed length, with the alginate flow rate Q_o (R falls from ~5.6 mm
+    at 0.25 ml/min to ~2.3 mm at 2 ml/min, draft preset). Every target is a filament this
+    environment printed from a random schedule of 1-3 flow sections (4 mm ramps) and one of
+    its warm-up states, so that replaying the schedule reaches it exactly at the print
+    preset (``draft``). Full description, spaces, reward, success and reference scores:
+    ``docs/envs/CoilRadius-v1.md``; spec ``envs/coil_radius_v1.toml``.
+
+    ## Action Space
+
+    ``Box(-1, 1, (1,), float32)``: log Q_o, -1 -> 0.25 ml/min, +1 -> 2.0 ml/min (equal
+    steps, equal ratios of flow). ``needle_velocity=True`` / ``"xy"`` adds needle velocity
+    components (+-10 mm/s; the targets do not need them).
+
+    ## Observation Space
+
+    ``Box(-10, 10, (75,), float32)`` (``obs_layout``): filament near the tip (36), velocities
+    (12), printed curvature (6), target curvature and torsion from 30 mm behind to 20 mm
+    ahead (16), the current action (1), progress (4: printed fraction, scored fraction, RMS
+    error of the scored samples and of the last 10, / missing_error). With
+    ``goal_conditioned=True``: a Dict of observation (57), achieved_goal and desired_goal
+    (365: 121 sample positions, counts).
+
+    ## Rewards
+
+    The decrease of sum_j e_j^2 / N over the scored samples (e_j: the metric's per-sample
+    error, ``bathprint.envs.metric``); the return is -M_final^2. ``info["metric"]`` is M.
+
+    ## Episode End
+
+    Terminated after 2 + 60 + 20 mm (82 steps); truncated if the simulation diverges (the
+    unscored samples then count as missing in the last reward). ``info["is_success"]``: the
+    finished print has M <= 0.1.
+
+    ## Arguments
+
+    ``render_mode``, ``accuracy``, ``needle_velocity`` (None: the spec's), ``target_set``
+    (``"train" | "validation" | "test"``), ``target_index``, ``target_file``,
+    ``goal_conditioned``, ``scene_overrides``, ``spec_overrides``, ``spec_file``.
+    """
+
+    env_id = "bathprint/CoilRadius-v1"

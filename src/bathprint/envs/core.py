@@ -41,7 +41,7 @@ from bathprint.envs.targets import (
     TargetSampler,
     load_target_file,
 )
-from bathprint.errors import ConfigError, SimulationError
+from bathprint.errors import ConfigError, SceneError, SimulationError
 
 ML_MIN = 1e-6 / 60.0  # m^3/s per ml/min
 MM = 1e-3  # m per mm
@@ -109,6 +109,11 @@ def obs_slices() -> dict[str, slice]:
         out[name] = slice(k, k + n)
         k += n
     return out
+
+
+class SceneConfigError(ConfigError, SceneError):
+    """A scene an environment's arguments (or spec) make is invalid: a ConfigError naming
+    ``scene_overrides``, and still a SceneError."""
 
 
 def _check_index_type(index: Any, name: str = "target_index") -> None:
@@ -193,34 +198,7 @@ class BathprintEnv(gym.Env[np.ndarray, np.ndarray]):
         sd = self.spec_data
         ctl, ep = sd.control, sd.episode
 
-        # --- scene ---------------------------------------------------------------------
-        self.warmup_q_outer = float(ep.get("warmup_q_outer_ml_min", 0.5))
-        overrides: dict[str, Any] = dict(sd.scene.get("overrides", {}))
-        overrides.update(accuracy_overrides(accuracy))
-        overrides.update(scene_overrides or {})
-        overrides.update(
-            {
-                "flow.schedule": [],
-                "flow.q_outer_ml_min": self.warmup_q_outer,
-                "flow.q_inner_ml_min": 0.0,
-            }
-        )
-        self.scene_base = str(sd.scene.get("base", "gelation_coiling_22G"))
-        probe = Simulation(self.scene_base, overrides)  # validates the scene (SceneError)
-        self.scene_overrides = overrides
-        m = probe.model
-        self.needle_area = m.needle_area  # m^2
-        self.rho_gel = float(m.p.exit_density)
-        self.phi_max = float(probe.scene.inclusions.max_inner_fraction)
-        self.has_inclusions = bool(m.p.inclusions)
-        self.needle_start_mm = np.array(m.needle[0, 1:4] / MM)
-        self.needle_direction = np.array(m.needle[0, 4:7])
-        grad = float(m.p.bath_density_gradient)  # kg/m^3 per m of depth
-        rho_top = float(m.p.bath_density_top)
-        depth_m = -float(m.p.floor_z)
-        self.depth_mm = depth_m / MM
-        self.bath_range = (rho_top, rho_top + grad * depth_m) if grad > 0 else None
-        self.rho_bath_needle = rho_top + grad * max(-self.needle_start_mm[2] * MM, 0.0)
+        self._init_scene(accuracy, scene_overrides)
 
         # --- controls ------------------------------------------------------------------
         self.control_length_mm = float(ctl["length_mm"])
@@ -229,7 +207,7 @@ class BathprintEnv(gym.Env[np.ndarray, np.ndarray]):
         self.offset_range = tuple(float(x) for x in ctl.get("inclusion_offset", [0.0, 0.0]))
         self.action_names: list[str] = list(ctl["actions"])
         if self.q_inner_range[1] > 0 and "q_inner" in self.action_names and not self.has_inclusions:
-            raise ValueError(
+            raise ConfigError(
                 f"{self.env_id}: control.q_inner_ml_min > 0 needs the 'inclusions' effect"
             )
         if needle_velocity is True:
@@ -272,7 +250,47 @@ class BathprintEnv(gym.Env[np.ndarray, np.ndarray]):
         self._figure: Any = None
         self._diverged = False
 
+
     # ------------------------------------------------------------------ construction
+    def _init_scene(self, accuracy: str, scene_overrides: dict[str, Any] | None) -> None:
+        """The scene (spec overrides, accuracy preset, ``scene_overrides``; the flow set to
+        the warm-up's) and the constants read from it: needle, densities, bath."""
+        sd = self.spec_data
+        ep = sd.episode
+        self.warmup_q_outer = float(ep.get("warmup_q_outer_ml_min", 0.5))
+        overrides: dict[str, Any] = dict(sd.scene.get("overrides", {}))
+        overrides.update(accuracy_overrides(accuracy))
+        overrides.update(scene_overrides or {})
+        overrides.update(
+            {
+                "flow.schedule": [],
+                "flow.q_outer_ml_min": self.warmup_q_outer,
+                "flow.q_inner_ml_min": 0.0,
+            }
+        )
+        self.scene_base = str(sd.scene.get("base", "gelation_coiling_22G"))
+        try:
+            probe = Simulation(self.scene_base, overrides)  # validates the scene
+        except SceneError as exc:
+            raise SceneConfigError(
+                f"scene {self.scene_base!r} with the spec's overrides and scene_overrides = "
+                f"{scene_overrides!r}: {exc}"
+            ) from exc
+        self.scene_overrides = overrides
+        m = probe.model
+        self.needle_area = m.needle_area  # m^2
+        self.rho_gel = float(m.p.exit_density)
+        self.phi_max = float(probe.scene.inclusions.max_inner_fraction)
+        self.has_inclusions = bool(m.p.inclusions)
+        self.needle_start_mm = np.array(m.needle[0, 1:4] / MM)
+        self.needle_direction = np.array(m.needle[0, 4:7])
+        grad = float(m.p.bath_density_gradient)  # kg/m^3 per m of depth
+        rho_top = float(m.p.bath_density_top)
+        depth_m = -float(m.p.floor_z)
+        self.depth_mm = depth_m / MM
+        self.bath_range = (rho_top, rho_top + grad * depth_m) if grad > 0 else None
+        self.rho_bath_needle = rho_top + grad * max(-self.needle_start_mm[2] * MM, 0.0)
+
     def _check_index(self, index: Any, name: str) -> None:
         """An evaluation target index: an integer in 0..eval_size-1 (never wrapped)."""
         _check_index_type(index, name)
@@ -293,10 +311,10 @@ class BathprintEnv(gym.Env[np.ndarray, np.ndarray]):
             return SectionsFamily(params, h, self.rho_bath_needle)
         if family == "layers":
             if self.bath_range is None:
-                raise ValueError(f"{self.env_id}: the layers family needs a density-gradient bath")
+                raise ConfigError(f"{self.env_id}: the layers family needs a density-gradient bath")
             grad_mm = (self.bath_range[1] - self.bath_range[0]) / self.depth_mm
             return LayersFamily(params, float(tg["length_mm"]), h, self.bath_range[0], grad_mm)
-        raise ValueError(f"target.family = {family!r}; allowed: coil_schedule, sections, layers")
+        raise ConfigError(f"target.family = {family!r}; allowed: coil_schedule, sections, layers")
 
     def _start_state(self, index: int) -> bytes:
         """Pickled warm-up state number ``index`` (needle imperfection seed + index)."""

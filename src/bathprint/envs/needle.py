@@ -30,7 +30,16 @@ def move_needle(sim: Simulation, velocity_m_s: np.ndarray, t_end: float) -> None
         raise ValueError(f"t_end = {t_end!r} must be after the current time {t!r}")
     p, d = needle_at(sim, t)
     table = sim.model.needle
-    past = table[table[:, 0] < t][-KEEP_ROWS:]
-    arrive = p + np.asarray(velocity_m_s, float) * (t_end - t)
-    rows = np.vstack([past, np.r_[t, p, d], np.r_[t_end, arrive, d]])
-    sim.model.needle = np.ascontiguousarray(rows)
+    # rows before now (times strictly rising: the first k), the last KEEP_ROWS of them
+    k = int(np.searchsorted(table[:, 0], t, side="left"))
+    past = table[max(0, k - KEEP_ROWS) : k]
+    m = len(past)
+    rows = np.empty((m + 2, 7))
+    rows[:m] = past
+    rows[m, 0] = t
+    rows[m, 1:4] = p
+    rows[m, 4:7] = d
+    rows[m + 1, 0] = t_end
+    rows[m + 1, 1:4] = p + np.asarray(velocity_m_s, float) * (t_end - t)
+    rows[m + 1, 4:7] = d
+    sim.model.needle = rows

@@ -10,9 +10,12 @@ the return, the steps and the target.
 Policies: ``random`` (uniform actions, seeded), ``zero`` (action 0: mid-range flows),
 ``constant`` (the flows of the warm-up, held: Q_o = warm-up value, Q_i = 0, offset 0).
 
-On the evaluation set, episode K plays target K unless ``--target-index`` fixes one; an
-index outside the set, or more episodes than it has targets, is refused (exit code 2), as
-is any other bad value. SIGINT and SIGTERM end it with exit code 130 / 143 and a message.
+On a fixed set (version 0's ``eval``, the default there; version 1's ``validation`` or
+``test``, the default there), episode K plays target K unless ``--target-index`` fixes one;
+an index outside the set, or more episodes than it has targets, is refused (exit code 2), as
+is any other bad value. ``--needle-velocity default`` keeps the environment's own needle
+axes (none in version 0 and in CoilRadius-v1 / BuoyantLayers-v1, x and y in WriteShape-v1).
+SIGINT and SIGTERM end it with exit code 130 / 143 and a message.
 """
 
 from __future__ import annotations
@@ -42,10 +45,17 @@ def _parser() -> argparse.ArgumentParser:
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--out", required=True, help="output directory")
     ap.add_argument("--accuracy", default="draft", choices=("draft", "balanced", "fine"))
-    ap.add_argument("--target-set", default="eval", choices=("train", "eval"))
+    ap.add_argument(
+        "--target-set",
+        default=None,
+        choices=("train", "eval", "validation", "test"),
+        help="default: eval (version 0), test (version 1)",
+    )
     ap.add_argument("--target-index", type=int, default=None)
     ap.add_argument("--target-file", default=None)
-    ap.add_argument("--needle-velocity", default="no", choices=("no", "xy", "xyz"))
+    ap.add_argument(
+        "--needle-velocity", default="default", choices=("default", "no", "xy", "xyz")
+    )
     ap.add_argument("--frame-every", type=int, default=2, help="render every Nth step")
     ap.add_argument("--format", default="gif", choices=("gif", "mp4"))
     ap.add_argument("--fps", type=float, default=None)
@@ -85,56 +95,77 @@ def write_animation(frames: list[np.ndarray], path: Path, fps: float) -> Path:
     return path
 
 
+FIXED_SETS = ("eval", "validation", "test")
+
+
 def check_args(args: argparse.Namespace, eval_size: int | None = None) -> None:
     """Refuse values that would be changed or ignored silently (ConfigError). With
-    ``eval_size`` (the environment's evaluation set), also the target index and episodes."""
+    ``eval_size`` (the size of the fixed target set in use), also the target index and
+    episodes."""
     if args.episodes < 1:
         raise ConfigError(f"--episodes = {args.episodes}; allowed: an integer >= 1")
     if args.frame_every < 1:
         raise ConfigError(f"--frame-every = {args.frame_every}; allowed: an integer >= 1")
     if args.fps is not None and not (math.isfinite(args.fps) and args.fps > 0):
         raise ConfigError(f"--fps = {args.fps}; allowed: a number > 0")
+    v1 = args.env_version >= 1
     if args.target_index is not None:
         if args.target_file:
             raise ConfigError(
                 f"--target-index = {args.target_index} with --target-file: the file is the "
                 "target; give one of them"
             )
-        if args.target_set != "eval":
+        if args.target_set not in FIXED_SETS:
+            needs = "validation or test" if v1 else "eval"
             raise ConfigError(
-                f"--target-index = {args.target_index} selects an evaluation target; it "
-                "needs --target-set eval"
+                f"--target-index = {args.target_index} selects a fixed target; it "
+                f"needs --target-set {needs}"
             )
-    if eval_size is None or args.target_set != "eval" or args.target_file:
+    if eval_size is None or args.target_set not in FIXED_SETS or args.target_file:
         return
+    name = f"the {args.target_set} set" if v1 else "the evaluation set"
     if args.target_index is not None and not 0 <= args.target_index < eval_size:
         raise ConfigError(
-            f"--target-index = {args.target_index}; the evaluation set has {eval_size} "
+            f"--target-index = {args.target_index}; {name} has {eval_size} "
             f"targets: allowed 0..{eval_size - 1}"
         )
     if args.target_index is None and args.episodes > eval_size:
         raise ConfigError(
-            f"--episodes = {args.episodes}; the evaluation set has {eval_size} targets and "
+            f"--episodes = {args.episodes}; {name} has {eval_size} targets and "
             f"episode K plays target K: allowed 1..{eval_size} (or fix one with --target-index)"
         )
 
 
-def run(args: argparse.Namespace) -> dict[str, Any]:
-    from bathprint.envs import make
+def _set_size(env: Any, target_set: str) -> int | None:
+    u = env.unwrapped
+    if target_set == "eval":
+        return u.sampler.eval_size
+    if target_set in ("validation", "test"):
+        return u.printed.sizes[target_set]
+    return None
 
+
+def run(args: argparse.Namespace) -> dict[str, Any]:
+    from bathprint.envs import make, resolve_id
+
+    args.env_version = 1 if resolve_id(args.env).endswith("-v1") else 0
+    if args.target_set is None:
+        args.target_set = "test" if args.env_version else "eval"
     check_args(args)
     kwargs: dict[str, Any] = {
         "render_mode": "rgb_array",
         "accuracy": args.accuracy,
         "target_set": args.target_set,
     }
-    if args.needle_velocity != "no":
+    if args.needle_velocity == "no":
+        kwargs["needle_velocity"] = False
+    elif args.needle_velocity != "default":
         kwargs["needle_velocity"] = args.needle_velocity
     if args.target_file:
         kwargs["target_file"] = args.target_file
     env = make(args.env, **kwargs)
     try:
-        check_args(args, env.unwrapped.sampler.eval_size)
+        check_args(args, _set_size(env, args.target_set))
     except ConfigError:
         env.close()
         raise
@@ -145,7 +176,7 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
     episodes = []
     for ep in range(args.episodes):
         options = {}
-        if args.target_set == "eval" and not args.target_file:
+        if args.target_set in FIXED_SETS and not args.target_file:
             options["target_index"] = args.target_index if args.target_index is not None else ep
         obs, info = env.reset(seed=args.seed + ep, options=options)
         frames = [env.render()]

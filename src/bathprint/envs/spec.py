@@ -24,11 +24,26 @@ SPEC_FILES: dict[str, str] = {
     "bathprint/CoilRadius-v0": "coil_radius.toml",
     "bathprint/WriteShape-v0": "write_shape.toml",
     "bathprint/BuoyantLayers-v0": "buoyant_layers.toml",
+    "bathprint/CoilRadius-v1": "coil_radius_v1.toml",
+    "bathprint/WriteShape-v1": "write_shape_v1.toml",
+    "bathprint/BuoyantLayers-v1": "buoyant_layers_v1.toml",
 }
 
 #: Allowed keys of each table (anything else is an error naming the key).
 _SCHEMA: dict[str, set[str]] = {
-    "": {"id", "entry_point", "summary", "scene", "control", "episode", "target", "metric"},
+    "": {
+        "id",
+        "version",
+        "entry_point",
+        "summary",
+        "scene",
+        "control",
+        "episode",
+        "target",
+        "metric",
+        "observation",
+        "success",
+    },
     "scene": {"base", "overrides"},
     "control": {
         "actions",
@@ -38,6 +53,11 @@ _SCHEMA: dict[str, set[str]] = {
         "inclusion_offset",
         "needle_speed_mm_s",
         "needle_box_mm",
+        "q_outer_scale",
+        "q_inner_as",
+        "inner_fraction",
+        "inner_lag_s",
+        "needle",
     },
     "episode": {
         "warmup_length_mm",
@@ -45,8 +65,22 @@ _SCHEMA: dict[str, set[str]] = {
         "settle_length_mm",
         "start_states",
         "max_substeps",
+        "lead_in_mm",
     },
-    "target": {"family", "length_mm", "spacing_mm", "eval_size", "eval_seed", "params"},
+    "target": {
+        "family",
+        "length_mm",
+        "spacing_mm",
+        "eval_size",
+        "eval_seed",
+        "params",
+        "print_accuracy",
+        "train_pool",
+        "validation_size",
+        "test_size",
+        "sets_file",
+        "band_kg_m3",
+    },
     "metric": {
         "window_mm",
         "length_scale_mm",
@@ -58,7 +92,31 @@ _SCHEMA: dict[str, set[str]] = {
         "missing_error",
         "allow_reflection",
     },
+    "observation": {"density_ref_kg_m3", "density_scale_kg_m3"},
+    "success": {"metric_max"},
 }
+
+#: keys of version-1 specs only (a version-0 spec with one of them is refused), and of
+#: version 0 only
+V1_ONLY: frozenset[str] = frozenset(
+    {
+        "observation",
+        "success",
+        "control.q_outer_scale",
+        "control.q_inner_as",
+        "control.inner_fraction",
+        "control.inner_lag_s",
+        "control.needle",
+        "episode.lead_in_mm",
+        "target.print_accuracy",
+        "target.train_pool",
+        "target.validation_size",
+        "target.test_size",
+        "target.sets_file",
+        "target.band_kg_m3",
+    }
+)
+V0_ONLY: frozenset[str] = frozenset({"target.eval_size", "target.eval_seed"})
 
 ACTION_NAMES = ("q_outer", "q_inner", "inclusion_offset")
 
@@ -83,11 +141,21 @@ _NUMBERS: dict[str, tuple[bool, float, bool]] = {
     "metric.w_curvature": (False, 0.0, True),
     "metric.w_density": (False, 0.0, True),
     "metric.missing_error": (False, 0.0, True),
+    "control.inner_lag_s": (False, 0.0, True),
+    "episode.lead_in_mm": (False, 0.0, True),
+    "target.train_pool": (True, 1, True),
+    "target.validation_size": (True, 1, True),
+    "target.test_size": (True, 1, True),
+    "target.band_kg_m3": (False, 0.0, True),
+    "observation.density_ref_kg_m3": (False, 0.0, True),
+    "observation.density_scale_kg_m3": (False, 0.0, False),
+    "success.metric_max": (False, 0.0, False),
 }
 
 
 class SpecError(ConfigError):
-    """A spec file is missing, unreadable, or has an unknown or invalid key."""
+    """A spec file is missing, unreadable, or has an unknown or invalid key (a
+    :class:`~bathprint.errors.ConfigError`, so a ``ValueError``)."""
 
 
 @dataclass(frozen=True)
@@ -103,6 +171,9 @@ class EnvSpecData:
     target: dict[str, Any]
     metric: dict[str, Any]
     path: str
+    version: int = 0
+    observation: dict[str, Any] = dataclasses.field(default_factory=dict)
+    success: dict[str, Any] = dataclasses.field(default_factory=dict)
 
     def to_dict(self) -> dict[str, Any]:
         """The spec as a nested dict (a deep copy)."""
@@ -116,6 +187,9 @@ class EnvSpecData:
                 "episode": self.episode,
                 "target": self.target,
                 "metric": self.metric,
+                **({"version": self.version} if self.version else {}),
+                **({"observation": self.observation} if self.observation else {}),
+                **({"success": self.success} if self.success else {}),
             }
         )
 
@@ -181,7 +255,7 @@ def _check_numbers(data: dict[str, Any], where: str) -> None:
     """Every number of :data:`_NUMBERS` that is present: its type and lower bound."""
     for name, (integer, lo, inclusive) in _NUMBERS.items():
         table, key = name.split(".")
-        if key not in data[table]:
+        if key not in data.get(table, {}):
             continue
         value = data[table][key]
         kind = "an integer" if integer else "a number"
@@ -258,6 +332,7 @@ def validate(data: dict[str, Any], where: str) -> EnvSpecData:
         if key not in data[table]:
             raise SpecError(f"{where}: {name} is missing (a number > 0)")
     _check_numbers(data, where)
+    version = _check_version(data, where)
     return EnvSpecData(
         id=str(data.get("id", "")),
         entry_point=str(data.get("entry_point", "")),
@@ -268,7 +343,65 @@ def validate(data: dict[str, Any], where: str) -> EnvSpecData:
         target=data["target"],
         metric=data["metric"],
         path=where,
+        version=version,
+        observation=dict(data.get("observation", {})),
+        success=dict(data.get("success", {})),
     )
+
+
+def _present(data: dict[str, Any], name: str) -> bool:
+    if "." not in name:
+        return name in data
+    table, key = name.split(".")
+    return isinstance(data.get(table), dict) and key in data[table]
+
+
+def _check_version(data: dict[str, Any], where: str) -> int:
+    """The spec's ``version`` (0 when absent) and the keys only one version knows."""
+    version = data.get("version", 0)
+    if isinstance(version, bool) or version not in (0, 1):
+        raise SpecError(f"{where}: version = {version!r}; allowed: 0, 1")
+    wrong = V1_ONLY if version == 0 else V0_ONLY
+    for name in sorted(wrong):
+        if _present(data, name):
+            raise SpecError(
+                f"{where}: {name} is a key of version-{1 - version} specs; this spec has "
+                f"version = {version}"
+            )
+    if version == 0:
+        return 0
+    control, target = data["control"], data["target"]
+    choices = {
+        "control.q_outer_scale": (control.get("q_outer_scale", "linear"), ("linear", "log")),
+        "control.q_inner_as": (control.get("q_inner_as", "flow"), ("flow", "fraction")),
+        "control.needle": (control.get("needle", ""), ("", "xy", "xyz")),
+        "target.print_accuracy": (
+            target.get("print_accuracy", "draft"),
+            ("draft", "balanced", "fine"),
+        ),
+    }
+    for name, (value, allowed) in choices.items():
+        if value not in allowed:
+            raise SpecError(
+                f"{where}: {name} = {value!r}; allowed: " + ", ".join(map(repr, allowed))
+            )
+    lo, hi = _range(control, "inner_fraction", where)
+    if lo < 0 or hi >= 1:
+        raise SpecError(
+            f"{where}: control.inner_fraction = {control.get('inner_fraction')!r} must lie in "
+            "[0, 1)"
+        )
+    if control.get("q_inner_as") == "fraction" and "q_inner_ml_min" in control:
+        raise SpecError(
+            f"{where}: control.q_inner_ml_min with q_inner_as = 'fraction': the q_inner action "
+            "sets control.inner_fraction; give that instead"
+        )
+    sets_file = target.get("sets_file", "")
+    if not isinstance(sets_file, str):
+        raise SpecError(f"{where}: target.sets_file = {sets_file!r}; allowed: a relative path")
+    if "length_mm" not in target:
+        raise SpecError(f"{where}: target.length_mm is missing (a number > 0)")
+    return 1
 
 
 def read_spec_dict(env_id: str | None = None, path: str | Path | None = None) -> dict[str, Any]:

@@ -48,6 +48,8 @@ class Target:
     torsion_1_mm: np.ndarray
     density_lo_kg_m3: np.ndarray
     density_hi_kg_m3: np.ndarray
+    #: the actions (steps, action components) that printed it, for printed targets
+    actions: np.ndarray | None = field(default=None, repr=False)
     _cache: dict[str, Any] = field(default_factory=dict, repr=False)
 
     @property

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from bathprint.envs.core import BathprintEnv
+from bathprint.envs.v1 import BathprintEnvV1
 
 
 class WriteShapeEnv(BathprintEnv):
@@ -73,3 +74,34 @@ class WriteShapeEnv(BathprintEnv):
     """
 
     env_id = "bathprint/WriteShape-v0"
+
+
+class WriteShapeEnvV1(BathprintEnvV1):
+    """
+    ## Description
+
+    Writing with the needle, as the fluid-rope-trick work of Chaudhary, Christ, Hart &
+    Mahadevan (2023) writes with the nozzle: the needle moves horizontally (up to 60 mm/s,
+    comparable with the extrusion speed of 32-250 mm/s) and the flow rate sets how fast
+    filament comes out, so the filament is laid out straight (needle speed near the
+    extrusion speed), in translated loops (slower) or coiled (still). Every target is a
+    filament this environment printed from a random smooth sequence of flows (1-3 sections)
+    and needle velocities (knots every 10 mm), so it is reachable by construction.
+    ``docs/envs/WriteShape-v1.md``; spec ``envs/write_shape_v1.toml``.
+
+    ## Action Space
+
+    ``Box(-1, 1, (3,), float32)``: log Q_o (0.25-2.0 ml/min), needle velocity x and y
+    (+-60 mm/s), the tip kept in [-40, 40] x [-40, 40] mm; ``needle_velocity="xyz"`` adds z.
+
+    ## Observation Space
+
+    ``Box(-10, 10, (79,), float32)``: as ``CoilRadiusEnvV1`` plus the needle position in
+    its box (2) and 3 action entries; goal form: observation (61), goals (365).
+
+    ## Rewards, Episode End, Arguments
+
+    As ``CoilRadiusEnvV1`` (window 15 mm); success: M <= 0.15.
+    """
+
+    env_id = "bathprint/WriteShape-v1"

@@ -1,0 +1,977 @@
+"""Version 1 of the bathprint environments: :class:`BathprintEnvV1`.
+
+What changes from version 0 (``bathprint.envs.core.BathprintEnv``), every change one that
+changes results (hence the new ids):
+
+- targets are printed by the environment itself from random smooth control sequences
+  (:mod:`bathprint.envs.printed`): reachable by construction; three fixed, disjoint target
+  sets ``train``, ``validation``, ``test``;
+- target sample 0 lies ``episode.lead_in_mm`` of material after the first action's: nothing
+  printed before the first action is scored (a segment split off the inlet is at most 1.5
+  node spacings long, 1.2 mm at the coarsest preset, so the segments holding scored samples
+  hold only material printed under the agent's control);
+- a sample is recorded when it becomes scored (``settle_length_mm`` behind the tip: the
+  shape has set, see below) and never changes after; the metric M is computed on the
+  recorded samples, and the reward is the decrease of the sum of squared errors of the
+  scored samples over the number of target samples, so that an episode's return is
+  ``-M_final^2`` with no constant progress term;
+- actions in physical terms: ``q_outer`` on a log scale (``control.q_outer_scale``), the
+  ``q_inner`` action as the inner fraction phi (``control.q_inner_as = "fraction"``); the
+  needle's velocity in the action by default where the targets need it (``control.needle``);
+- an optional first-order lag of the oil flow (``control.inner_lag_s``);
+- the observation holds only what varies in the environment, shows the target's density
+  band (both bounds) and the scored error (not the missing samples'); it is built per
+  environment (:attr:`BathprintEnvV1.obs_layout`);
+- ``goal_conditioned=True``: a Dict observation (observation, achieved_goal,
+  desired_goal) and :meth:`BathprintEnvV1.compute_reward`, for hindsight experience replay;
+- ``info["is_success"]``: the print is finished and M <= ``success.metric_max``.
+
+Recording at the settling length: measured on 80-220 mm episodes (constant, smooth-random
+and moving-needle actions, draft), the windowed Kabsch distance between the filament as
+recorded 20 mm behind the tip and as it is at the end is 0.05-0.16 mm on average (0.5 mm at
+most) and the curvature differs by 0.001-0.012 1/mm RMS: small against the 3 mm length scale
+of the metric. ``info["metric_final_shape"]`` at the end of an episode gives M of the final
+filament, as version 0 computes it.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import pickle
+from typing import Any, ClassVar
+
+import gymnasium as gym
+import numpy as np
+from gymnasium import spaces
+
+from bathprint.envs._kernels import metric_errors, printed_at, read_state
+from bathprint.envs._kernels_v1 import observe_v1, record_samples, squared_sum
+from bathprint.envs.accuracy import ACCURACY_PRESETS
+from bathprint.envs.core import (
+    _OBS_CURV_INDEX,
+    _OBS_QUERY_MM,
+    CURV_OFFSETS_MM,
+    DENS_OFFSETS_MM,
+    ML_MIN,
+    MM,
+    OBS_CLIP,
+    OBS_CURVATURE_MM,
+    OBS_DENSITY_REF_KG_M3,
+    OBS_DENSITY_SCALE_KG_M3,
+    OBS_LENGTH_MM,
+    OBS_SPEED_MM_S,
+    RAMP_S,
+    RECENT_SAMPLES,
+    TARGET_OFFSETS_MM,
+    TIP_OFFSETS_MM,
+    VEL_OFFSETS_MM,
+    BathprintEnv,
+)
+from bathprint.envs.metric import MetricParams, MetricValue, PrintedSamples, prepare
+from bathprint.envs.needle import move_needle
+from bathprint.envs.printed import PrintedTargets
+from bathprint.envs.spec import load_spec
+from bathprint.envs.targets import FREE_DENSITY, Target, discrete_curvature, load_target_file
+from bathprint.errors import ConfigError, SimulationError
+
+TARGET_SETS = ("train", "validation", "test")
+GOAL_POSITION_MM = 1000.0  # bound of the goals' positions (the bath is 125 mm deep)
+_INNER_LAG_ITERATIONS = 4  # fixed-point iterations for a step's duration under the lag
+
+
+def _is_int(x: Any) -> bool:
+    return isinstance(x, int | np.integer) and not isinstance(x, bool)
+
+
+class BathprintEnvV1(BathprintEnv):
+    """Base class of the version-1 environments; see the module doc and the subclasses."""
+
+    version: ClassVar[int] = 1
+
+    def __init__(
+        self,
+        render_mode: str | None = None,
+        *,
+        accuracy: str = "balanced",
+        needle_velocity: bool | str | None = None,
+        target_set: str = "train",
+        target_index: int | None = None,
+        target_file: str | None = None,
+        goal_conditioned: bool = False,
+        scene_overrides: dict[str, Any] | None = None,
+        spec_overrides: dict[str, Any] | None = None,
+        spec_file: str | None = None,
+        _printer: bool = False,
+    ) -> None:
+        self._check_kwargs(
+            render_mode, accuracy, needle_velocity, target_set, target_index, target_file,
+            goal_conditioned, scene_overrides,
+        )
+        if spec_file is not None and not isinstance(spec_file, str | os.PathLike):
+            raise ConfigError(f"spec_file = {spec_file!r}; allowed: None or a path to a spec")
+        self.render_mode = render_mode
+        self.accuracy = accuracy
+        self.target_set = target_set
+        self.goal_conditioned = bool(goal_conditioned)
+        self.spec_file = spec_file
+        self.spec_overrides_given = spec_overrides
+        #: what another instance with the same task needs (planners make one)
+        self.init_kwargs: dict[str, Any] = {
+            "accuracy": accuracy,
+            "needle_velocity": needle_velocity,
+            "scene_overrides": scene_overrides,
+            "spec_overrides": spec_overrides,
+            "spec_file": spec_file,
+        }
+        self.spec_data = load_spec(None if spec_file else self.env_id, spec_file, spec_overrides)
+        sd = self.spec_data
+        if sd.version != 1:
+            raise ConfigError(
+                f"spec_file = {spec_file!r} is a version-{sd.version} spec; {self.env_id} "
+                "needs version = 1"
+            )
+        self._init_scene(accuracy, scene_overrides)
+        self._init_controls(needle_velocity)
+        ep = sd.episode
+        self.lead_in_mm = float(ep.get("lead_in_mm", 0.0))
+        self.settle_length_mm = float(ep.get("settle_length_mm", 20.0))
+        self.warmup_length_mm = float(ep.get("warmup_length_mm", 30.0))
+        self.n_start_states = int(ep.get("start_states", 1))
+        self.max_substeps = int(ep.get("max_substeps", 2000))
+        self.metric_params = MetricParams.from_dict(sd.metric)
+        self.success_metric_max = float(sd.success.get("metric_max", 0.1))
+        tg = sd.target
+        self.target_spacing_mm = float(tg["spacing_mm"])
+        self.target_length_mm = float(tg["length_mm"])
+        self.n_target_samples = int(round(self.target_length_mm / self.target_spacing_mm)) + 1
+        if tg.get("family") != "printed":
+            raise ConfigError(
+                f"{sd.path}: target.family = {tg.get('family')!r}; version 1 has 'printed'"
+            )
+        self.printed: PrintedTargets | None = None if _printer else PrintedTargets(self)
+        self.fixed_target: Target | None = None
+        if target_file is not None:
+            try:
+                self.fixed_target = load_target_file(target_file, self.target_spacing_mm)
+            except (ValueError, FileNotFoundError) as exc:
+                raise ConfigError(f"target_file = {target_file!r}: {exc}") from None
+            if self.goal_conditioned and self.fixed_target.n_samples > self.n_target_samples:
+                raise ConfigError(
+                    f"target_file = {target_file!r}: {self.fixed_target.n_samples} samples; "
+                    f"goal_conditioned=True allows at most {self.n_target_samples} "
+                    f"({self.target_length_mm:g} mm)"
+                )
+        if target_index is not None:
+            self._check_index(target_index, "target_index")
+        self.target_index = target_index
+        self._eval_cursor = 0
+        self._init_observation()
+
+        self.sim = None
+        self.target: Target | None = None
+        self._prepared_target: Target | None = None
+        self._figure: Any = None
+        self._diverged = False
+
+    # ------------------------------------------------------------------ construction
+    @staticmethod
+    def _check_kwargs(
+        render_mode: Any, accuracy: Any, needle_velocity: Any, target_set: Any,
+        target_index: Any, target_file: Any, goal_conditioned: Any, scene_overrides: Any,
+    ) -> None:
+        modes = BathprintEnv.metadata["render_modes"]
+        if render_mode is not None and not (isinstance(render_mode, str) and render_mode in modes):
+            raise ConfigError(
+                f"render_mode = {render_mode!r}; allowed: None, " + ", ".join(map(repr, modes))
+            )
+        if not isinstance(accuracy, str) or accuracy not in ACCURACY_PRESETS:
+            raise ConfigError(
+                f"accuracy = {accuracy!r}; allowed: " + ", ".join(map(repr, ACCURACY_PRESETS))
+            )
+        if isinstance(target_set, str) and target_set == "eval":
+            raise ConfigError(
+                "target_set = 'eval' is version 0's held-out set; version 1 has 'train', "
+                "'validation' (model selection, early stopping) and 'test' (reported numbers)"
+            )
+        if not isinstance(target_set, str) or target_set not in TARGET_SETS:
+            raise ConfigError(
+                f"target_set = {target_set!r}; allowed: " + ", ".join(map(repr, TARGET_SETS))
+            )
+        if not (
+            needle_velocity is None
+            or isinstance(needle_velocity, bool)
+            or (isinstance(needle_velocity, str) and needle_velocity in ("xy", "xyz"))
+        ):
+            raise ConfigError(
+                f"needle_velocity = {needle_velocity!r}; allowed: None (the spec's default), "
+                "False, True (= 'xyz'), 'xy', 'xyz'"
+            )
+        if not isinstance(goal_conditioned, bool):
+            raise ConfigError(f"goal_conditioned = {goal_conditioned!r}; allowed: True, False")
+        if scene_overrides is not None and not (
+            isinstance(scene_overrides, dict) and all(isinstance(k, str) for k in scene_overrides)
+        ):
+            raise ConfigError(
+                f"scene_overrides = {scene_overrides!r}; allowed: None or a mapping of dotted "
+                "scene keys to values, e.g. {'bath.viscosity_pa_s': 1.0}"
+            )
+        if target_file is not None and not isinstance(target_file, str):
+            raise ConfigError(f"target_file = {target_file!r}; allowed: None or a path")
+        if target_index is not None:
+            if not _is_int(target_index):
+                raise ConfigError(
+                    f"target_index = {target_index!r}; allowed: an integer (a validation or "
+                    "test target)"
+                )
+            if target_set not in ("validation", "test"):
+                raise ConfigError(
+                    f"target_index = {target_index!r} selects a fixed target: use "
+                    "target_set='validation' or 'test'"
+                )
+            if target_file is not None:
+                raise ConfigError(
+                    f"target_index = {target_index!r} and target_file = {target_file!r}: a "
+                    "target file is the only target; give one of them"
+                )
+
+    def _check_index(self, index: Any, name: str) -> None:
+        """A target index of the fixed set in use: an integer in 0..size-1 (never wrapped)."""
+        if not _is_int(index):
+            raise ConfigError(f"{name} = {index!r}; allowed: an integer")
+        if self.target_set not in ("validation", "test") or self.printed is None:
+            raise ConfigError(
+                f"{name} = {index!r} selects a fixed target: use target_set='validation' or "
+                "'test'"
+            )
+        n = self.printed.sizes[self.target_set]
+        if not 0 <= index < n:
+            raise ConfigError(
+                f"{name} = {index!r}; the {self.target_set} set of {self.env_id} has {n} "
+                f"targets: allowed 0..{n - 1}"
+            )
+
+    def _init_controls(self, needle_velocity: bool | str | None) -> None:
+        ctl = self.spec_data.control
+        self.control_length_mm = float(ctl["length_mm"])
+        self.q_outer_range = tuple(float(x) for x in ctl["q_outer_ml_min"])
+        self.q_outer_log = ctl.get("q_outer_scale", "linear") == "log"
+        self.inner_as_fraction = ctl.get("q_inner_as", "flow") == "fraction"
+        self.q_inner_range = tuple(float(x) for x in ctl.get("q_inner_ml_min", [0.0, 0.0]))
+        self.inner_fraction_range = tuple(
+            float(x) for x in ctl.get("inner_fraction", [0.0, 0.0])
+        )
+        self.inner_lag_s = float(ctl.get("inner_lag_s", 0.0))
+        self.offset_range = tuple(float(x) for x in ctl.get("inclusion_offset", [0.0, 0.0]))
+        base = list(ctl["actions"])
+        inner_hi = self.inner_fraction_range[1] if self.inner_as_fraction else self.q_inner_range[1]
+        if "q_inner" in base and inner_hi > 0 and not self.has_inclusions:
+            raise ConfigError(f"{self.env_id}: the q_inner action needs the 'inclusions' effect")
+        default_axes = str(ctl.get("needle", ""))
+        if needle_velocity is None:
+            axes = default_axes
+        elif needle_velocity is True:
+            axes = "xyz"
+        else:
+            axes = str(needle_velocity) if needle_velocity else ""
+        self.needle_axes = axes
+        self.default_action_names = base + [f"needle_v{a}" for a in default_axes]
+        self.action_names = base + [f"needle_v{a}" for a in axes]
+        self._action_index = {name: k for k, name in enumerate(self.action_names)}
+        self.needle_speed_mm_s = float(ctl.get("needle_speed_mm_s", 10.0))
+        box = np.array(ctl.get("needle_box_mm", [[-20, 20], [-20, 20], [-40, -2]]), float)
+        self.needle_box_mm = box.reshape(3, 2)
+        self.action_space = spaces.Box(-1.0, 1.0, (len(self.action_names),), np.float32)
+
+    def _init_observation(self) -> None:
+        """The observation layout of this environment (only what varies in it)."""
+        mp = self.metric_params
+        ob = self.spec_data.observation
+        self.obs_density_ref = float(ob.get("density_ref_kg_m3", OBS_DENSITY_REF_KG_M3))
+        self.obs_density_scale = float(ob.get("density_scale_kg_m3", OBS_DENSITY_SCALE_KG_M3))
+        self.scores_shape = mp.w_shape > 0 or mp.w_curvature > 0
+        self.scores_density = mp.w_density > 0
+        self.observes_density = self.scores_density or "q_inner" in self.action_names
+        feats = (["curvature", "torsion"] if self.scores_shape else []) + (
+            ["density_lo", "density_hi"] if self.scores_density else []
+        )
+        self.target_feature_names: list[str] = feats
+        layout: list[tuple[str, int]] = [
+            ("tip_relative_positions", 3 * len(TIP_OFFSETS_MM)),
+            ("velocities", 3 * len(VEL_OFFSETS_MM)),
+            ("printed_curvature", len(CURV_OFFSETS_MM)),
+        ]
+        if self.observes_density:
+            layout.append(("printed_density", len(DENS_OFFSETS_MM)))
+        if not self.goal_conditioned:
+            layout.append(("target", len(feats) * len(TARGET_OFFSETS_MM)))
+        layout.append(("controls", len(self.action_names)))
+        if self.inner_lag_s > 0:
+            layout.append(("inner_fraction_now", 1))
+        if self.needle_axes:
+            layout.append(("needle_position", len(self.needle_axes)))
+        layout.append(("progress", 2 if self.goal_conditioned else 4))
+        self.obs_layout: tuple[tuple[str, int], ...] = tuple(layout)
+        size = sum(n for _, n in layout)
+        self._obs_dens_off = (
+            np.array(DENS_OFFSETS_MM) if self.observes_density else np.zeros(0)
+        )
+        self._obs_scales = np.array(
+            [
+                OBS_LENGTH_MM,
+                OBS_SPEED_MM_S,
+                OBS_CURVATURE_MM,
+                self.obs_density_ref,
+                self.obs_density_scale,
+            ]
+        )
+        self._obs_tgt_off = np.array(TARGET_OFFSETS_MM)
+        # densities stand-in where they are neither observed nor scored (not read)
+        self._rho_unread = np.array([self.rho_gel])
+        flat = spaces.Box(-OBS_CLIP, OBS_CLIP, (size,), np.float32)
+        if not self.goal_conditioned:
+            self.observation_space = flat
+            return
+        n = self.n_target_samples
+        self.goal_size = (3 * n if self.scores_shape else 0) + (2 * n if self.scores_density else 0)
+        self.goal_size += 2
+        low, high = self._goal_vector(
+            np.full((n, 3), -GOAL_POSITION_MM), np.zeros(n), np.zeros(n), 0, 0
+        ), self._goal_vector(
+            np.full((n, 3), GOAL_POSITION_MM), np.full(n, FREE_DENSITY[1]),
+            np.full(n, FREE_DENSITY[1]), n, n,
+        )
+        goal = spaces.Box(low, high, dtype=np.float64)
+        self.compute_reward = self.goal_reward  # the goal-environment interface
+        self.observation_space = spaces.Dict(
+            {"observation": flat, "achieved_goal": goal, "desired_goal": goal}
+        )
+
+    def obs_slices(self) -> dict[str, slice]:
+        """Name -> slice of the (flat) observation vector."""
+        out, k = {}, 0
+        for name, n in self.obs_layout:
+            out[name] = slice(k, k + n)
+            k += n
+        return out
+
+    # ------------------------------------------------------------------ actions
+    def action_to_controls(self, action: np.ndarray) -> dict[str, Any]:
+        """Physical controls of an action (validated and clipped): flows in ml/min (the
+        commanded inner flow), inner fraction, offset, needle velocity in mm/s (3 components),
+        and the clipped action itself."""
+        a = np.asarray(action, dtype=np.float64)
+        if a.shape != self.action_space.shape:
+            raise ValueError(f"action shape {a.shape}; expected {self.action_space.shape}")
+        values = a.tolist()
+        if not all(map(math.isfinite, values)):
+            raise ValueError(f"action {a!r} holds NaN or inf")
+        values = [min(max(x, -1.0), 1.0) for x in values]
+        index = self._action_index
+
+        def unit(name: str) -> float:
+            return 0.5 * (values[index[name]] + 1.0)
+
+        lo, hi = self.q_outer_range
+        f = unit("q_outer")
+        qo = math.exp(math.log(lo) + f * (math.log(hi) - math.log(lo))) if self.q_outer_log else (
+            lo + f * (hi - lo)
+        )
+        qi = 0.0
+        if "q_inner" in index:
+            if self.inner_as_fraction:
+                p_lo, p_hi = self.inner_fraction_range
+                phi = p_lo + unit("q_inner") * (p_hi - p_lo)
+                qi = phi / (1.0 - phi) * qo
+            else:
+                qi = self.q_inner_range[0] + unit("q_inner") * (
+                    self.q_inner_range[1] - self.q_inner_range[0]
+                )
+        qi = min(qi, self.phi_max / (1.0 - self.phi_max) * qo * (1.0 - 1e-9))
+        off = None
+        if "inclusion_offset" in index:
+            o_lo, o_hi = self.offset_range
+            off = o_lo + unit("inclusion_offset") * (o_hi - o_lo)
+        vel = np.zeros(3)
+        for axis in self.needle_axes:
+            vel["xyz".index(axis)] = values[index[f"needle_v{axis}"]] * self.needle_speed_mm_s
+        return {
+            "q_outer_ml_min": qo,
+            "q_inner_ml_min": qi,
+            "inner_fraction": qi / (qo + qi),
+            "inclusion_offset": off,
+            "vel": vel,
+            "action": values,
+        }
+
+    def controls_to_action(self, q_outer_ml_min: float, q_inner_ml_min: float = 0.0) -> np.ndarray:
+        """The action that sets these flows (other components 0: offset mid-range, needle
+        still); the inverse of :meth:`action_to_controls`."""
+
+        def inv(x: float, lo: float, hi: float) -> float:
+            return 0.0 if hi <= lo else 2.0 * (x - lo) / (hi - lo) - 1.0
+
+        a = np.zeros(self.action_space.shape, np.float32)
+        lo, hi = self.q_outer_range
+        if self.q_outer_log:
+            a[0] = inv(math.log(max(q_outer_ml_min, 1e-300)), math.log(lo), math.log(hi))
+        else:
+            a[0] = inv(q_outer_ml_min, lo, hi)
+        if "q_inner" in self.action_names:
+            k = self.action_names.index("q_inner")
+            if self.inner_as_fraction:
+                phi = q_inner_ml_min / (q_outer_ml_min + q_inner_ml_min)
+                a[k] = inv(phi, *self.inner_fraction_range)
+            else:
+                a[k] = inv(q_inner_ml_min, *self.q_inner_range)
+        return np.clip(a, -1, 1)
+
+    def step_duration_s(self, action: np.ndarray) -> float:
+        """Time (s) a step with this action takes (commanded flows; no ramp, no lag)."""
+        c = self.action_to_controls(action)
+        q = (c["q_outer_ml_min"] + c["q_inner_ml_min"]) * ML_MIN
+        return self.control_length_mm * MM * self.needle_area / q
+
+    def actions_for(self, target: Target) -> np.ndarray:
+        """The actions that printed ``target`` in this environment's action layout (needle
+        components this layout adds stay 0)."""
+        if target.actions is None:
+            raise ValueError(f"target {target.name!r} was not printed: it has no actions")
+        src = {name: k for k, name in enumerate(self.default_action_names)}
+        out = np.zeros((len(target.actions), len(self.action_names)), np.float32)
+        for k, name in enumerate(self.action_names):
+            if name in src:
+                out[:, k] = target.actions[:, src[name]]
+        missing = [n for n in self.default_action_names if n not in self._action_index]
+        if missing and np.any(target.actions[:, [src[n] for n in missing]] != 0):
+            raise ValueError(
+                f"target {target.name!r} was printed with {', '.join(missing)}, which this "
+                "environment's actions lack (needle_velocity)"
+            )
+        return out
+
+    # ------------------------------------------------------------------ episode
+    @property
+    def episode_length_mm(self) -> float:
+        """Printed length of a full episode: lead-in, target and settling length (mm)."""
+        assert self.target is not None
+        return self.lead_in_mm + self.target.length_mm + self.settle_length_mm
+
+    def steps_for_length(self, target_length_mm: float) -> int:
+        """Steps of an episode whose target is this long."""
+        total = self.lead_in_mm + target_length_mm + self.settle_length_mm
+        return int(math.ceil(total / self.control_length_mm - 1e-9))
+
+    def blank_target(self) -> Target:
+        """A straight target of the spec's length (for printing targets)."""
+        n, h = self.n_target_samples, self.target_spacing_mm
+        pts = np.zeros((n, 3))
+        pts[:, 2] = -np.arange(n) * h
+        zeros = np.zeros(n)
+        return Target(
+            name="blank",
+            params={"family": "blank", "length_mm": self.target_length_mm},
+            spacing_mm=h,
+            points_mm=pts,
+            curvature_1_mm=zeros,
+            torsion_1_mm=zeros.copy(),
+            density_lo_kg_m3=np.full(n, FREE_DENSITY[0]),
+            density_hi_kg_m3=np.full(n, FREE_DENSITY[1]),
+        )
+
+    def fixed_set_target(self, target_set: str, index: int) -> Target:
+        """Target ``index`` of the validation or test set."""
+        assert self.printed is not None
+        seeds = self.printed.seeds(target_set)
+        if not 0 <= index < len(seeds):
+            raise IndexError(
+                f"target_index = {index!r}; the {target_set} set has {len(seeds)} targets"
+            )
+        return self.printed.get(seeds[index])
+
+    def _choose_target(self, options: dict[str, Any]) -> tuple[Target, int]:
+        if "target" in options:
+            t = options["target"]
+            if not isinstance(t, Target):
+                raise TypeError("options['target'] must be a bathprint.envs.targets.Target")
+            return t, -1
+        if self.fixed_target is not None:
+            return self.fixed_target, -1
+        if self.printed is None:
+            raise RuntimeError("this environment prints targets: reset it with a target")
+        if self.target_set in ("validation", "test"):
+            index = options.get("target_index", self.target_index)
+            if index is not None:
+                self._check_index(index, "options['target_index']")
+            else:
+                index = self._eval_cursor % self.printed.sizes[self.target_set]
+                self._eval_cursor += 1
+            return self.fixed_set_target(self.target_set, int(index)), int(index)
+        if options.get("target_index") is not None:
+            raise ConfigError(
+                "options['target_index'] selects a fixed target: use target_set='validation' "
+                "or 'test'"
+            )
+        return self.printed.get(self.printed.train_seed(self.np_random)), -1
+
+    def reset(
+        self, *, seed: int | None = None, options: dict[str, Any] | None = None
+    ) -> tuple[Any, dict[str, Any]]:
+        gym.Env.reset(self, seed=seed)
+        options = dict(options or {})
+        if seed is not None:
+            self._eval_cursor = 0
+        drawn = int(self.np_random.integers(self.n_start_states))
+        self.target, self._target_index = self._choose_target(options)
+        if "target" in options:
+            self._target_source = "option"
+        elif self.fixed_target is not None:
+            self._target_source = "file"
+        else:
+            self._target_source = self.target_set
+        start = self.target.params.get("start_state", drawn)
+        if "start_state" in options:
+            start = options["start_state"]
+            if not (_is_int(start) and 0 <= start < self.n_start_states):
+                raise ConfigError(
+                    f"options['start_state'] = {start!r}; allowed 0..{self.n_start_states - 1}"
+                )
+        self._start_index = int(start)
+        self.sim = pickle.loads(self._start_state(self._start_index))
+        self._u0_mm = float(np.sum(self.sim.rest_lengths())) / MM
+        self._origin_mm = self._u0_mm + self.lead_in_mm
+        warm = {"q_outer_ml_min": self.warmup_q_outer, "q_inner_ml_min": 0.0}
+        self._controls = {
+            **warm,
+            "inner_fraction": 0.0,
+            "inclusion_offset": float(self.sim.model.p.inclusion_offset),
+            "vel": np.zeros(3),
+            "action": self.controls_to_action(self.warmup_q_outer, 0.0).tolist(),
+        }
+        self._inner_now_ml_min = 0.0
+        self._needle_mm = self.needle_start_mm.copy()
+        self._steps = 0
+        self._diverged = False
+        n = self.target.n_samples
+        self._rec_pts = np.zeros((n, 3))
+        self._rec_rho = np.zeros(n)
+        self._n_scored = 0
+        self._n_scored_prev = 0
+        self._sse = 0.0
+        self._snapshot()
+        if self._prepared_target is not self.target:
+            self._prepare_target()
+        self._metric = self._evaluate()
+        obs = self._observe()
+        self._last_obs = obs
+        if self.render_mode == "human":
+            self.render()
+        return self._obs_out(obs), self._info()
+
+    def step(self, action: np.ndarray) -> tuple[Any, float, bool, bool, dict[str, Any]]:
+        if self.sim is None:
+            raise RuntimeError("call reset() before step()")
+        c = self.action_to_controls(action)
+        if self._diverged:  # stepping a diverged episode: nothing changes
+            info = self._info()
+            info["sim_error"] = self._error_message
+            return self._obs_out(self._last_obs), 0.0, False, True, info
+        sim = self.sim
+        old = self._controls
+        qo = c["q_outer_ml_min"]
+        ds = self.control_length_mm * MM * self.needle_area  # volume to extrude (m^3)
+        cap = self.phi_max / (1.0 - self.phi_max) * qo * (1.0 - 1e-9)
+        qi = c["q_inner_ml_min"]
+        tau = self.inner_lag_s
+        if tau > 0:  # the oil flow follows its command: its mean over the step
+            q0, q_cmd = self._inner_now_ml_min, c["q_inner_ml_min"]
+            for _ in range(_INNER_LAG_ITERATIONS):
+                dt_est = ds / ((qo + qi) * ML_MIN)
+                qi = q_cmd + (q0 - q_cmd) * tau / dt_est * (1.0 - math.exp(-dt_est / tau))
+            qi = min(max(qi, 0.0), cap)
+        q_new = (qo + qi) * ML_MIN
+        t0 = sim.t
+        if qo != old["q_outer_ml_min"] or qi != old["q_inner_ml_min"]:
+            q_old = (old["q_outer_ml_min"] + old["q_inner_ml_min"]) * ML_MIN
+            sim.set_flow(qo * ML_MIN, qi * ML_MIN)
+            dt = RAMP_S + (ds - 0.5 * (q_old + q_new) * RAMP_S) / q_new
+        else:
+            dt = ds / q_new
+        if tau > 0:
+            q_cmd = c["q_inner_ml_min"]
+            q_end = q_cmd + (self._inner_now_ml_min - q_cmd) * math.exp(-dt / tau)
+            self._inner_now_ml_min = min(max(q_end, 0.0), cap)
+        c["q_inner_command_ml_min"] = c["q_inner_ml_min"]
+        c["q_inner_ml_min"] = qi
+        c["inner_fraction"] = qi / (qo + qi)
+        if c["inclusion_offset"] is not None and c["inclusion_offset"] != old["inclusion_offset"]:
+            sim.set_inclusion_offset(c["inclusion_offset"])
+        t1 = t0 + dt
+        if self.needle_axes:
+            goal = np.clip(
+                self._needle_mm + c["vel"] * dt, self.needle_box_mm[:, 0], self.needle_box_mm[:, 1]
+            )
+            c["vel"] = (goal - self._needle_mm) / dt
+            move_needle(sim, c["vel"] * MM, t1)
+            self._needle_mm = goal
+        self._controls = c
+        self._steps += 1
+        error: str | None = None
+        try:
+            sim.advance(t1, max_steps=self.max_substeps)
+            if sim.t < t1 - 1e-12 * max(1.0, t1):
+                raise SimulationError(
+                    f"step budget used up ({self.max_substeps} integrator steps for one "
+                    "environment step; episode.max_substeps)",
+                    sim.t,
+                    -1,
+                )
+            self._snapshot()
+        except SimulationError as exc:
+            error = str(exc)
+            cause = exc.cause
+        if error is not None:
+            self._diverged = True
+            self._error_message = error
+            # unscored samples count as missing: the return is -M^2 of the diverged print
+            n = self.target.n_samples
+            miss2 = self.metric_params.missing_error**2
+            reward = -(n - self._n_scored) * miss2 / n
+            info = self._info()
+            info["sim_error"] = error
+            info["sim_error_cause"] = cause
+            return self._obs_out(self._last_obs), float(reward), False, True, info
+        sse_before = self._sse
+        self._record()
+        self._metric = self._evaluate()
+        reward = (sse_before - self._sse) / self.target.n_samples
+        terminated = self._printed_mm >= self._episode_length_mm - 1e-6
+        obs = self._observe()
+        self._last_obs = obs
+        if self.render_mode == "human":
+            self.render()
+        info = self._info()
+        if terminated:
+            info["metric_final_shape"] = self._final_shape_metric()
+            info["is_success"] = bool(self._metric.value <= self.success_metric_max)
+        return self._obs_out(obs), float(reward), bool(terminated), False, info
+
+    # ------------------------------------------------------------------ scoring
+    def _snapshot(self) -> None:
+        """Read the simulation once per step (as version 0; the densities only where the
+        environment observes or scores them)."""
+        if self.observes_density:
+            super()._snapshot()
+            return
+        sim = self.sim
+        assert sim is not None
+        x, v = sim.centerline(), sim.velocities()
+        u, finite = read_state(x, v, sim.rest_lengths(), MM)  # x, v: m -> mm in place
+        if not finite:
+            raise SimulationError("non-finite state read by the environment", sim.t, -1)
+        self._x, self._u, self._v = x, u, v
+        self._rho = self._rho_unread
+        self._printed_mm = float(u[-1] - self._u0_mm)
+
+    def _prepare_target(self) -> None:
+        tgt = self.target
+        assert tgt is not None
+        cols = []
+        if self.scores_shape:
+            cols += [tgt.curvature_1_mm * OBS_CURVATURE_MM, tgt.torsion_1_mm * OBS_CURVATURE_MM]
+        if self.scores_density:
+            ref, scale = self.obs_density_ref, self.obs_density_scale
+            cols += [
+                np.clip((tgt.density_lo_kg_m3 - ref) / scale, -OBS_CLIP, OBS_CLIP),
+                np.clip((tgt.density_hi_kg_m3 - ref) / scale, -OBS_CLIP, OBS_CLIP),
+            ]
+        n = tgt.n_samples
+        tfeat = np.stack(cols, axis=1) if cols else np.zeros((n, 0))
+        self._target_features = np.ascontiguousarray(tfeat if not self.goal_conditioned
+                                                     else np.zeros((n, 0)), np.float64)
+        self._prepared_metric = prepare(tgt, self.metric_params, self.bath_range)
+        self._episode_length_mm = self.episode_length_mm
+        self._target_key = tgt.key
+        self._prepared_target = tgt
+        if self.goal_conditioned:
+            self._desired_goal = self._goal_vector(
+                tgt.points_mm, tgt.density_lo_kg_m3, tgt.density_hi_kg_m3, n, n
+            )
+
+    def _scored(self) -> int:
+        """Number of target samples printed and settled (scored)."""
+        assert self.target is not None
+        s_f = self._printed_mm - self.lead_in_mm - self.settle_length_mm
+        n = int(math.floor(s_f / self.target.spacing_mm + 1e-9)) + 1
+        return max(0, min(n, self.target.n_samples))
+
+    def _record(self) -> None:
+        """Record the samples scored in this step (they keep these values)."""
+        j = self._scored()
+        self._n_scored_prev = self._n_scored
+        if j > self._n_scored:
+            record_samples(
+                self._u, self._x, self._rho, self._origin_mm, self.target.spacing_mm,
+                self._n_scored, j, self._rec_pts, self._rec_rho,
+            )
+            self._n_scored = j
+
+    def recorded_samples(self) -> tuple[np.ndarray, np.ndarray]:
+        """Positions (J, 3) mm and densities (J,) kg/m^3 of the scored samples (copies)."""
+        j = self._n_scored
+        return self._rec_pts[:j].copy(), self._rec_rho[:j].copy()
+
+    def printed_samples(self) -> PrintedSamples:
+        """The scored part of the filament as it is now (version 0's meaning: drawing, coil
+        measurements), with the recorded densities; the metric and the reward use
+        :meth:`recorded_samples`."""
+        j = self._n_scored
+        pts, _ = printed_at(
+            self._u, self._x, self._rho, self._origin_mm, self.target.spacing_mm, j
+        )
+        return PrintedSamples(pts, self._rec_rho[:j].copy())
+
+    def _evaluate(self) -> MetricValue:
+        j = self._n_scored
+        args = self._prepared_metric.args
+        errors, value, shape, curv, dens = metric_errors(
+            self._rec_pts[:j], self._rec_rho[:j], *args
+        )
+        self._sse = squared_sum(errors, j)
+        self._errors = errors
+        n = self._prepared_metric.n_samples
+        return MetricValue(value, shape, curv, dens, j / n, errors)
+
+    def _final_shape_metric(self) -> float:
+        """M of the filament as it is now, sampled at the target's arclengths (version 0's
+        way: positions now, not as recorded)."""
+        n = self.target.n_samples
+        pts, rho = printed_at(
+            self._u, self._x, self._rho, self._origin_mm, self.target.spacing_mm, n
+        )
+        return float(metric_errors(pts, rho, *self._prepared_metric.args)[1])
+
+    # ------------------------------------------------------------------ observation
+    def _observe(self) -> np.ndarray:
+        tgt = self.target
+        assert tgt is not None
+        c = self._controls
+        extra = list(c["action"])
+        if self.inner_lag_s > 0:
+            qo, qi = c["q_outer_ml_min"], self._inner_now_ml_min
+            p_lo, p_hi = self.inner_fraction_range
+            phi = qi / (qo + qi)
+            extra.append(0.0 if p_hi <= p_lo else 2.0 * (phi - p_lo) / (p_hi - p_lo) - 1.0)
+        for axis in self.needle_axes:
+            k = "xyz".index(axis)
+            lo, hi = self.needle_box_mm[k]
+            extra.append(0.0 if hi <= lo else 2.0 * (self._needle_mm[k] - lo) / (hi - lo) - 1.0)
+        n, j = tgt.n_samples, self._n_scored
+        miss = self.metric_params.missing_error
+        extra += [self._printed_mm / self._episode_length_mm, j / n]
+        if not self.goal_conditioned:
+            lo = max(0, j - RECENT_SAMPLES)
+            recent = squared_sum(self._errors[lo:j], j - lo) if j > lo else 0.0
+            extra += [
+                math.sqrt(self._sse / j) / miss if j else 0.0,
+                math.sqrt(recent / (j - lo)) / miss if j > lo else 0.0,
+            ]
+        return observe_v1(
+            self._x, self._v, self._u, self._rho, _OBS_QUERY_MM, len(TIP_OFFSETS_MM),
+            len(VEL_OFFSETS_MM), _OBS_CURV_INDEX, self._obs_dens_off, self._obs_scales,
+            self._target_features, self._obs_tgt_off, self._printed_mm - self.lead_in_mm,
+            tgt.spacing_mm, np.array(extra), OBS_CLIP,
+        )
+
+    def target_ahead(self, obs: np.ndarray, lead_mm: float = 0.0) -> dict[str, float]:
+        """The target features an observation shows at ``lead_mm`` (one of
+        ``TARGET_OFFSETS_MM``) ahead of the tip, decoded: curvature and torsion (1/mm),
+        density band (kg/m^3; the bounds read at the observation's clip)."""
+        if self.goal_conditioned:
+            raise ValueError("the goal-conditioned observation has no target features")
+        col = TARGET_OFFSETS_MM.index(lead_mm)
+        nf = len(self.target_feature_names)
+        row = np.asarray(obs, np.float64)[self.obs_slices()["target"]].reshape(-1, nf)[col]
+        out = {"curvature_1_mm": 0.0, "torsion_1_mm": 0.0,
+               "density_lo_kg_m3": FREE_DENSITY[0], "density_hi_kg_m3": FREE_DENSITY[1]}
+        for name, value in zip(self.target_feature_names, row, strict=True):
+            if name in ("curvature", "torsion"):
+                out[f"{name}_1_mm"] = float(value) / OBS_CURVATURE_MM
+            else:
+                out[f"{name}_kg_m3"] = float(value) * self.obs_density_scale + self.obs_density_ref
+        return out
+
+    # ------------------------------------------------------------------ goals
+    def _goal_vector(self, pts: np.ndarray, lo: np.ndarray, hi: np.ndarray, n: int,
+                     n_prev: int) -> np.ndarray:
+        """[points (N x 3) mm | density lo (N) | density hi (N) | n | n_prev], N = the spec's
+        samples, padded with zeros; points only if shape is scored, the band only if density
+        is."""
+        size = self.n_target_samples
+        parts = []
+        if self.scores_shape:
+            p = np.zeros((size, 3))
+            p[: len(pts)] = pts[:size]
+            parts.append(p.ravel())
+        if self.scores_density:
+            for band in (lo, hi):
+                b = np.zeros(size)
+                b[: len(band)] = band[:size]
+                parts.append(b)
+        parts.append(np.array([float(n), float(n_prev)]))
+        return np.concatenate(parts)
+
+    def _achieved_goal(self) -> np.ndarray:
+        j = self._n_scored
+        return self._goal_vector(
+            self._rec_pts[:j], self._rec_rho[:j], self._rec_rho[:j], j, self._n_scored_prev
+        )
+
+    def _split_goal(self, g: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, int, int]:
+        size = self.n_target_samples
+        k = 0
+        pts = np.zeros((size, 3))
+        lo = np.full(size, FREE_DENSITY[0])
+        hi = np.full(size, FREE_DENSITY[1])
+        if self.scores_shape:
+            pts = np.ascontiguousarray(g[: 3 * size].reshape(size, 3))
+            k = 3 * size
+        if self.scores_density:
+            lo = np.ascontiguousarray(g[k : k + size])
+            hi = np.ascontiguousarray(g[k + size : k + 2 * size])
+        return pts, lo, hi, int(round(g[-2])), int(round(g[-1]))
+
+    def _goal_sse(self, a_pts: np.ndarray, a_rho: np.ndarray, n: int, d_pts: np.ndarray,
+                  d_lo: np.ndarray, d_hi: np.ndarray, n_d: int) -> float:
+        """Sum of squared errors of the first n achieved samples against the desired goal's
+        first n_d samples (the metric of the environment)."""
+        mp = self.metric_params
+        h = self.target_spacing_mm
+        half = max(1, int(round(0.5 * mp.window_mm / h)))
+        k = max(1, int(round(mp.curvature_span_mm / h)))
+        tpts = np.ascontiguousarray(d_pts[:n_d])
+        tcurv = discrete_curvature(tpts, k) if mp.w_curvature > 0 else np.zeros(0)
+        w = np.array([mp.w_shape, mp.w_curvature, mp.w_density, mp.length_scale_mm,
+                      mp.density_scale_kg_m3, mp.missing_error**2])
+        b_lo, b_hi = (-math.inf, math.inf) if self.bath_range is None else self.bath_range
+        j = min(n, n_d)
+        errors = metric_errors(
+            np.ascontiguousarray(a_pts[:j]), np.ascontiguousarray(a_rho[:j]), tpts, tcurv,
+            np.ascontiguousarray(d_lo[:n_d]), np.ascontiguousarray(d_hi[:n_d]), half, k, w,
+            bool(mp.allow_reflection), float(b_lo), float(b_hi),
+        )[0]
+        return squared_sum(errors, j)
+
+    def goal_reward(self, achieved_goal: np.ndarray, desired_goal: np.ndarray,
+                    info: Any = None) -> np.ndarray | float:
+        """The reward of reaching ``achieved_goal`` (the step's) for ``desired_goal``: the
+        decrease of the sum of squared errors of the scored samples (from the achieved
+        goal's previous count to its count) over the desired goal's number of samples.
+        Equal to the step reward (diverged steps aside); batches of goals give an array
+        (HER). ``info`` is not used. With ``goal_conditioned=True`` this is also the
+        environment's ``compute_reward`` (only then: checkers take an environment with
+        ``compute_reward`` for a goal environment)."""
+        if not self.goal_conditioned:
+            raise RuntimeError("goal rewards need goal_conditioned=True")
+        ag = np.asarray(achieved_goal, np.float64)
+        dg = np.asarray(desired_goal, np.float64)
+        single = ag.ndim == 1
+        ag2, dg2 = np.atleast_2d(ag), np.atleast_2d(dg)
+        out = np.empty(len(ag2))
+        for i in range(len(ag2)):
+            a_pts, a_rho, _, n, n_prev = self._split_goal(ag2[i])
+            d_pts, d_lo, d_hi, n_d, _ = self._split_goal(dg2[i])
+            if n_d <= 0:
+                out[i] = 0.0
+                continue
+            before = self._goal_sse(a_pts, a_rho, n_prev, d_pts, d_lo, d_hi, n_d)
+            after = self._goal_sse(a_pts, a_rho, n, d_pts, d_lo, d_hi, n_d)
+            out[i] = (before - after) / n_d
+        return float(out[0]) if single else out
+
+    def _obs_out(self, obs: np.ndarray) -> Any:
+        if not self.goal_conditioned:
+            return obs.copy()
+        return {
+            "observation": obs.copy(),
+            "achieved_goal": self._achieved_goal(),
+            "desired_goal": self._desired_goal.copy(),
+        }
+
+    # ------------------------------------------------------------------ info, state
+    def _info(self) -> dict[str, Any]:
+        assert self.sim is not None and self.target is not None
+        c, m = self._controls, self._metric
+        n = self.target.n_samples
+        return {
+            "metric": m.value,
+            "shape_rms_mm": m.shape_rms_mm,
+            "curvature_rms_1_mm": m.curvature_rms_1_mm,
+            "density_rms_kg_m3": m.density_rms_kg_m3,
+            "scored_fraction": m.scored_fraction,
+            "scored_squared_error": self._sse / n,
+            "is_success": False,
+            "printed_length_mm": self._printed_mm,
+            "episode_length_mm": self._episode_length_mm,
+            "q_outer_ml_min": float(c["q_outer_ml_min"]),
+            "q_inner_ml_min": float(c["q_inner_ml_min"]),
+            "inner_fraction": float(c["inner_fraction"]),
+            "needle_mm": self._needle_mm.copy(),
+            "sim_time_s": float(self.sim.t) if not self._diverged else float("nan"),
+            "n_nodes": int(self._x.shape[0]),
+            "target_key": self._target_key,
+            "target_set": self._target_source,
+            "target_index": self._target_index,
+            "start_state": self._start_index,
+        }
+
+    def get_state(self) -> dict[str, Any]:
+        """Everything the episode's future depends on (the simulation pickled), for
+        :meth:`set_state` on this or another instance with the same settings: planners
+        branch from it."""
+        assert self.sim is not None
+        return {
+            "sim": pickle.dumps(self.sim),
+            "target": self.target,
+            "target_index": self._target_index,
+            "target_source": self._target_source,
+            "start_index": self._start_index,
+            "u0": self._u0_mm,
+            "controls": {**self._controls, "vel": self._controls["vel"].copy()},
+            "inner_now": self._inner_now_ml_min,
+            "needle_mm": self._needle_mm.copy(),
+            "steps": self._steps,
+            "diverged": self._diverged,
+            "error": getattr(self, "_error_message", ""),
+            "rec_pts": self._rec_pts.copy(),
+            "rec_rho": self._rec_rho.copy(),
+            "n_scored": self._n_scored,
+            "n_scored_prev": self._n_scored_prev,
+            "last_obs": self._last_obs.copy(),
+        }
+
+    def set_state(self, state: dict[str, Any]) -> None:
+        """Continue from a :meth:`get_state` snapshot."""
+        self.sim = pickle.loads(state["sim"])
+        self.target = state["target"]
+        self._target_index = state["target_index"]
+        self._target_source = state["target_source"]
+        self._start_index = state["start_index"]
+        self._u0_mm = state["u0"]
+        self._origin_mm = self._u0_mm + self.lead_in_mm
+        self._controls = {**state["controls"], "vel": state["controls"]["vel"].copy()}
+        self._inner_now_ml_min = state["inner_now"]
+        self._needle_mm = state["needle_mm"].copy()
+        self._steps = state["steps"]
+        self._diverged = state["diverged"]
+        self._error_message = state["error"]
+        self._rec_pts = state["rec_pts"].copy()
+        self._rec_rho = state["rec_rho"].copy()
+        self._n_scored = state["n_scored"]
+        self._n_scored_prev = state["n_scored_prev"]
+        self._last_obs = state["last_obs"].copy()
+        if self._prepared_target is not self.target:
+            self._prepare_target()
+        if not self._diverged:
+            self._snapshot()
+        self._metric = self._evaluate()
