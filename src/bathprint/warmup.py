@@ -1,8 +1,8 @@
 """Compile (or load from numba's cache) the simulator's kernels before timed work.
 
 numba compiles a kernel at its first call and caches the machine code on disk
-(``cache=True``), so only the first run after an install or an upgrade pays for it (about
-a minute on two cores). :func:`ensure_compiled` does that work up front, on a throwaway
+(``cache=True``), so only the first run after an install or an upgrade pays for it
+(``summary.json`` reports it as ``compile_s``). :func:`ensure_compiled` does that work up front, on a throwaway
 two-millisecond simulation, says so once when the cache is cold, and returns the seconds
 it took, so that a run's own wall time (``summary.json``) never counts compilation.
 """
@@ -54,8 +54,8 @@ def ensure_compiled(announce: bool = True, environments: bool = False) -> float:
     cold = kernels_cached() is False
     if cold and announce:
         print(
-            "bathprint: compiling the numba kernels (once after an install or an upgrade, "
-            "about a minute; cached afterwards) ...",
+            "bathprint: compiling the numba kernels (once after an install or an upgrade; "
+            "cached afterwards) ...",
             file=sys.stderr,
             flush=True,
         )
