@@ -1,10 +1,10 @@
 """Compile (or load from numba's cache) the simulator's kernels before timed work.
 
 numba compiles a kernel at its first call and caches the machine code on disk
-(``cache=True``), so only the first run after an install or an upgrade pays for it
-(``summary.json`` reports it as ``compile_s``). :func:`ensure_compiled` does that work up front, on a throwaway
-two-millisecond simulation, says so once when the cache is cold, and returns the seconds
-it took, so that a run's own wall time (``summary.json``) never counts compilation.
+(``cache=True``), so only the first run after an install or an upgrade pays for it.
+:func:`ensure_compiled` does that work up front, on a throwaway two-millisecond
+simulation, says so once when the cache is cold, and returns the seconds it took
+(``summary.json``: ``compile_s``), so that a run's own wall time never counts compilation.
 """
 
 from __future__ import annotations
