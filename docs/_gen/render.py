@@ -35,7 +35,9 @@ from typing import Any
 ROOT = Path(__file__).resolve().parents[2]
 RESULTS = ROOT / "benchmarks" / "results"
 AGENTS = ROOT / "agents" / "results"
-DIRECTIVE = re.compile(r"<!-- render: ([\w-]+) -->(?:\n(.*?)\n<!-- end render -->)?", re.S)
+DIRECTIVE = re.compile(
+    r"^<!-- render: ([\w-]+) -->$(?:\n(.*?)\n<!-- end render -->$)?", re.S | re.M
+)
 
 
 class RenderError(RuntimeError):
@@ -231,9 +233,7 @@ def scene_keys() -> str:
         body = []
         for key, f in rows:
             meaning = f.metadata.get("doc") or MEANINGS.get(key, "—")
-            body.append(
-                [f"`{key}`", _unit(f.name), _show(_default(f)), S._allowed(f), meaning]
-            )
+            body.append([f"`{key}`", _unit(f.name), _show(_default(f)), S._allowed(f), meaning])
         out.append(_table(["key", "unit", "default", "allowed", "meaning"], body) + "\n")
     out.append(
         "*Rendered from the dataclasses of `bathprint.core.scene` when the docs are built: "
@@ -330,8 +330,13 @@ def scaling() -> str:
         ]
         for r in _csv(path)
     ]
-    head = ["N", "µs/step", "Newton iterations/step", "µs per iteration per node",
-            "cost vs N = 100 (linear)"]
+    head = [
+        "N",
+        "µs/step",
+        "Newton iterations/step",
+        "µs per iteration per node",
+        "cost vs N = 100 (linear)",
+    ]
     return _table(head, rows) + "\n\n" + provenance(path)
 
 
@@ -343,8 +348,10 @@ def effects() -> str:
     )
     r = _table(
         ["effects", "Newton iterations", "µs per Newton iteration"],
-        [[x["effects"], x["newton_iterations"], _g(x["us_per_newton_iteration"])]
-         for x in _csv(rpath)],
+        [
+            [x["effects"], x["newton_iterations"], _g(x["us_per_newton_iteration"])]
+            for x in _csv(rpath)
+        ],
     )
     return f"{k}\n\n{provenance(kpath)}\n\n{r}\n\n{provenance(rpath)}"
 
@@ -390,8 +397,16 @@ def pyelastica(name: str = "pyelastica") -> str:
         for level in (1e-3, 1e-4, 1e-6):
             pw, bw = _cost_at(pe, level), _cost_at(bp, level)
             if math.isfinite(pw) and math.isfinite(bw):
-                rows.append(["(a) steady deflection", n, f"error {_g(level)}", _g(pw, 3),
-                             _g(bw, 3), f"**{_g(pw / bw, 3)}×**"])
+                rows.append(
+                    [
+                        "(a) steady deflection",
+                        n,
+                        f"error {_g(level)}",
+                        _g(pw, 3),
+                        _g(bw, 3),
+                        f"**{_g(pw / bw, 3)}×**",
+                    ]
+                )
         pe_b = sorted(
             (float(r["knob_value"]), float(r["wall_s"]), float(r["error"]))
             for r in data
@@ -403,11 +418,24 @@ def pyelastica(name: str = "pyelastica") -> str:
             for dt, wall, err in pe_b:
                 bw = _cost_at(bp_b, err)
                 label = "dt_max" if dt == dt_max else f"dt_max/{round(dt_max / dt)}"
-                rows.append(["(b) motion with inertia", n, f"{label}: error {_g(err, 2)}",
-                             _g(wall, 3), _g(bw, 3),
-                             f"**{_g(wall / bw, 3)}×**" if math.isfinite(bw) else "–"])
-    head = ["problem", "elements", "PyElastica at", "PyElastica wall (s)",
-            "bathprint wall (s) at that error", "ratio"]
+                rows.append(
+                    [
+                        "(b) motion with inertia",
+                        n,
+                        f"{label}: error {_g(err, 2)}",
+                        _g(wall, 3),
+                        _g(bw, 3),
+                        f"**{_g(wall / bw, 3)}×**" if math.isfinite(bw) else "–",
+                    ]
+                )
+    head = [
+        "problem",
+        "elements",
+        "PyElastica at",
+        "PyElastica wall (s)",
+        "bathprint wall (s) at that error",
+        "ratio",
+    ]
     return _table(head, rows) + "\n\n" + provenance(path)
 
 
@@ -419,13 +447,17 @@ def profile() -> str:
     by = {(r["case"], r["component"]): r for r in data}
     rows = []
     for comp in comps:
-        rows.append([comp.replace("\n", " ")] + [
-            _g(by[(c, comp)]["pct_of_step"], 2) + "%" if (c, comp) in by else "–" for c in cases
-        ])
-    rows.append(["**whole step (µs)**"] + [
-        _g(by[(c, "whole step")]["us_per_step"], 3) if (c, "whole step") in by else "–"
-        for c in cases
-    ])
+        rows.append(
+            [comp.replace("\n", " ")]
+            + [_g(by[(c, comp)]["pct_of_step"], 2) + "%" if (c, comp) in by else "–" for c in cases]
+        )
+    rows.append(
+        ["**whole step (µs)**"]
+        + [
+            _g(by[(c, "whole step")]["us_per_step"], 3) if (c, "whole step") in by else "–"
+            for c in cases
+        ]
+    )
     return _table(["component"] + cases, rows) + "\n\n" + provenance(path)
 
 
@@ -440,22 +472,45 @@ def hard_cases() -> str:
     rows = []
     for r in _csv(path):
         ok = r["result"] == "ok"
-        rows.append([
-            f"`{r['case']}`", f"`{r['scene']}`", _g(r["t_end_s"]),
-            f"{r['steps']} / {r['rejected']}", r["nodes"] if ok else "–",
-            _g(r["wall_s"], 2), _g(r["stretch_err"], 2) if ok else "–",
-            _g(r["mass_err"], 1) if ok else "–",
-            "ok" if ok else _failure(r["result"]),
-        ])
-    head = ["case", "scene", "simulated (s)", "steps / rejected", "nodes", "wall (s)",
-            "worst stretch", "mass error", "result"]
+        rows.append(
+            [
+                f"`{r['case']}`",
+                f"`{r['scene']}`",
+                _g(r["t_end_s"]),
+                f"{r['steps']} / {r['rejected']}",
+                r["nodes"] if ok else "–",
+                _g(r["wall_s"], 2),
+                _g(r["stretch_err"], 2) if ok else "–",
+                _g(r["mass_err"], 1) if ok else "–",
+                "ok" if ok else _failure(r["result"]),
+            ]
+        )
+    head = [
+        "case",
+        "scene",
+        "simulated (s)",
+        "steps / rejected",
+        "nodes",
+        "wall (s)",
+        "worst stretch",
+        "mass error",
+        "result",
+    ]
     return _table(head, rows) + "\n\n" + provenance(path)
 
 
 def freezing_coil() -> str:
     path = RESULTS / "freezing_coil.csv"
-    rows = [[r["preset"], r["variant"], _pct(r["radius_change"]), _pct(r["frequency_change"]),
-             f"{_g(r['wall_ratio'], 2)}×"] for r in _csv(path)]
+    rows = [
+        [
+            r["preset"],
+            r["variant"],
+            _pct(r["radius_change"]),
+            _pct(r["frequency_change"]),
+            f"{_g(r['wall_ratio'], 2)}×",
+        ]
+        for r in _csv(path)
+    ]
     return _table(["preset", "variant", "ΔR/R", "Δω/ω", "wall time vs not frozen"], rows) + (
         "\n\n" + provenance(path)
     )
@@ -463,21 +518,47 @@ def freezing_coil() -> str:
 
 def freezing_rope() -> str:
     path = RESULTS / "freezing_rope.csv"
-    rows = [[r["variant"], f"{r['frozen_nodes']} of {r['nodes']}",
-             f"{_g(r['near_needle_rms_mm'], 2)} mm", f"{_g(r['pile_centre_shift_mm'], 2)} mm",
-             f"{r['steps']} / {r['rejected']}", f"{_g(r['wall_ratio'], 2)}×"]
-            for r in _csv(path)]
-    head = ["variant", "frozen nodes", "change near the needle (RMS)", "pile centre shift",
-            "steps / rejected", "wall time"]
+    rows = [
+        [
+            r["variant"],
+            f"{r['frozen_nodes']} of {r['nodes']}",
+            f"{_g(r['near_needle_rms_mm'], 2)} mm",
+            f"{_g(r['pile_centre_shift_mm'], 2)} mm",
+            f"{r['steps']} / {r['rejected']}",
+            f"{_g(r['wall_ratio'], 2)}×",
+        ]
+        for r in _csv(path)
+    ]
+    head = [
+        "variant",
+        "frozen nodes",
+        "change near the needle (RMS)",
+        "pile centre shift",
+        "steps / rejected",
+        "wall time",
+    ]
     return _table(head, rows) + "\n\n" + provenance(path)
 
 
 def freezing_envs() -> str:
     path = RESULTS / "freezing_envs.csv"
-    rows = [[f"`{r['env']}`", r["episodes"], _g(r["freezing_change"], 2),
-             _g(r["draft_vs_balanced"], 2), f"{_g(r['speedup'], 2)}×"] for r in _csv(path)]
-    head = ["environment", "episodes", "final metric change by freezing",
-            "draft vs balanced", "speed-up"]
+    rows = [
+        [
+            f"`{r['env']}`",
+            r["episodes"],
+            _g(r["freezing_change"], 2),
+            _g(r["draft_vs_balanced"], 2),
+            f"{_g(r['speedup'], 2)}×",
+        ]
+        for r in _csv(path)
+    ]
+    head = [
+        "environment",
+        "episodes",
+        "final metric change by freezing",
+        "draft vs balanced",
+        "speed-up",
+    ]
     return _table(head, rows) + "\n\n" + provenance(path)
 
 
@@ -500,8 +581,13 @@ def accuracy_presets() -> str:
         r = by.get(("coil_frequency", preset))
         row.append("reference" if r and float(r["error"]) == 0 else _g(r["error"], 2) if r else "–")
         rows.append(row)
-    head = ["preset", "cantilever error / wall", "onset error / wall",
-            "coil radius error / wall", "coil frequency error"]
+    head = [
+        "preset",
+        "cantilever error / wall",
+        "onset error / wall",
+        "coil radius error / wall",
+        "coil frequency error",
+    ]
     return _table(head, rows) + "\n\n" + provenance(path)
 
 
@@ -510,8 +596,14 @@ def envs_speed() -> str:
     data = _csv(path)
     envs = list(dict.fromkeys(r["env"] for r in data))
     by = {(r["env"], r["accuracy"]): r for r in data}
-    rows = [[f"`{e}`"] + [_g(by[(e, a)]["steps_per_cpu_s"], 4) if (e, a) in by else "–"
-                          for a in ("draft", "balanced", "fine")] for e in envs]
+    rows = [
+        [f"`{e}`"]
+        + [
+            _g(by[(e, a)]["steps_per_cpu_s"], 4) if (e, a) in by else "–"
+            for a in ("draft", "balanced", "fine")
+        ]
+        for e in envs
+    ]
     load = {r["load_avg_1min"] for r in data}
     return _table(["environment", "draft", "balanced", "fine"], rows) + (
         f"\n\nSteps per CPU second of one process, random actions with resets "
@@ -567,8 +659,9 @@ def agents() -> str:
             row.append("–" if v is None else (f"**{v[0]}**" if best[e] == n else v[0]))
         rows.append(row)
     head = ["policy"] + [f"{e}-v0" for e in envs]
-    dates = sorted({" ".join(x for x in _committed(tables[e][1]) if x) or "uncommitted"
-                    for e in envs})
+    dates = sorted(
+        {" ".join(x for x in _committed(tables[e][1]) if x) or "uncommitted" for e in envs}
+    )
     srcs = (
         f"*Source: `agents/results/{{{','.join(envs)}}}/table.json` (committed "
         f"{', '.join(dates)}); machine: not recorded in the files.*"
@@ -592,8 +685,10 @@ REPRODUCE = RESULTS / "reproduce"
 def _reproduce() -> dict[str, Any]:
     path = REPRODUCE / "reproduce.json"
     if not path.is_file():
-        raise RenderError(f"{_rel(path)} does not exist (bathprint reproduce all --out "
-                          "benchmarks/results/reproduce)")
+        raise RenderError(
+            f"{_rel(path)} does not exist (bathprint reproduce all --out "
+            "benchmarks/results/reproduce)"
+        )
     return json.loads(path.read_text())
 
 
@@ -621,10 +716,23 @@ def stability_onsets() -> str:
 
 def coils() -> str:
     res = _reproduce()["coils"]["result"]
-    rows = [[k, str(v["turns"]), str(v["core_turns"]), f"{1e3 * v['median_radius_m']:.2f} mm",
-             f"{100 * v['radius_spread']:.2g}%"] for k, v in res.items()]
-    head = ["filament", "turns below the needle", "turns in the trimmed core",
-            "median coil radius", "radius spread (core)"]
+    rows = [
+        [
+            k,
+            str(v["turns"]),
+            str(v["core_turns"]),
+            f"{1e3 * v['median_radius_m']:.2f} mm",
+            f"{100 * v['radius_spread']:.2g}%",
+        ]
+        for k, v in res.items()
+    ]
+    head = [
+        "filament",
+        "turns below the needle",
+        "turns in the trimmed core",
+        "median coil radius",
+        "radius spread (core)",
+    ]
     return _table(head, rows) + "\n\n" + _reproduce_source("coils.csv", "reproduce.json")
 
 
@@ -634,25 +742,45 @@ def paper_constants() -> str:
     th = theory.summary_dict()
     paper = th["paper"]
     fit = _reproduce()["fig2"]["result"]
-    rows2 = [r for r in _csv(REPRODUCE / "fig2.csv") if r["regime"] == "drag_coiling"
-             and r["buckling_length_m"]]
+    rows2 = [
+        r
+        for r in _csv(REPRODUCE / "fig2.csv")
+        if r["regime"] == "drag_coiling" and r["buckling_length_m"]
+    ]
     lb = [float(r["buckling_length_m"]) / float(r["scale_B_mu_v_m"]) for r in rows2]
     fig1c = _reproduce()["fig1c"]["result"]["paper_points"]
     sim_regimes = ", ".join(v["simulated"].replace("_", " ") for v in fig1c.values())
     paper_regimes = ", ".join(v["paper"].replace("_", " ") for v in fig1c.values())
     rows = [
-        ["β_c (onset)", _g(paper["BETA_C"]), f"{th['beta_c']:.4f} (theory, two methods agree to "
-         f"{_g(th['beta_c_relative_difference'], 1)})"],
+        [
+            "β_c (onset)",
+            _g(paper["BETA_C"]),
+            f"{th['beta_c']:.4f} (theory, two methods agree to "
+            f"{_g(th['beta_c_relative_difference'], 1)})",
+        ],
         ["L_c / (B/(μ_s v))^(1/3)", "—", f"{th['critical_length_prefactor']:.4f}"],
-        ["L_c / (B/(μ v))^(1/3), Cox's μ_s", _g(paper["LC_PREFACTOR"]),
-         f"{th['paper_prefactor_with_cox_mean']:.2f} (mean over the paper's r, v range; "
-         f"{th['paper_prefactor_with_cox_min']:.2f}–{th['paper_prefactor_with_cox_max']:.2f})"],
-        ["buckling length l / (B/(μv))^(1/3), simulated", "1.04 (experiments)",
-         f"{min(lb):.2f}–{max(lb):.2f} ({len(lb)} drag-coiling runs)" if lb else "–"],
+        [
+            "L_c / (B/(μ v))^(1/3), Cox's μ_s",
+            _g(paper["LC_PREFACTOR"]),
+            f"{th['paper_prefactor_with_cox_mean']:.2f} (mean over the paper's r, v range; "
+            f"{th['paper_prefactor_with_cox_min']:.2f}–{th['paper_prefactor_with_cox_max']:.2f})",
+        ],
+        [
+            "buckling length l / (B/(μv))^(1/3), simulated",
+            "1.04 (experiments)",
+            f"{min(lb):.2f}–{max(lb):.2f} ({len(lb)} drag-coiling runs)" if lb else "–",
+        ],
         ["l = a R", f"a = {_g(paper['L_OVER_R'])}", f"a = {fit['l_over_R']:.2f}"],
-        ["R = b (B/(μv))^(1/3)", f"b = {_g(paper['R_PREFACTOR'])}", f"b = {fit['R_prefactor']:.2f}"],
-        ["ω = c v^(4/3)(μ/B)^(1/3)", f"c = {_g(paper['OMEGA_PREFACTOR'])}",
-         f"c = {fit['omega_prefactor']:.2f}"],
+        [
+            "R = b (B/(μv))^(1/3)",
+            f"b = {_g(paper['R_PREFACTOR'])}",
+            f"b = {fit['R_prefactor']:.2f}",
+        ],
+        [
+            "ω = c v^(4/3)(μ/B)^(1/3)",
+            f"c = {_g(paper['OMEGA_PREFACTOR'])}",
+            f"c = {fit['omega_prefactor']:.2f}",
+        ],
         ["Fig. 1B regimes at the paper's four points", paper_regimes, sim_regimes],
     ]
     return _table(["constant", "paper", "bathprint"], rows) + (
@@ -674,9 +802,7 @@ def fig1c_regimes() -> str:
             r = by.get((d, q))
             line.append("–" if r is None else (r["regime"] or r["status"]).replace("_", " "))
         body.append(line)
-    return _table(["needle d \\ Q_o (ml/min)"] + qs, body) + "\n\n" + _reproduce_source(
-        "fig1c.csv"
-    )
+    return _table(["needle d \\ Q_o (ml/min)"] + qs, body) + "\n\n" + _reproduce_source("fig1c.csv")
 
 
 def fig3_settling() -> str:
@@ -686,11 +812,22 @@ def fig3_settling() -> str:
     body = []
     for r in rows:
         rho = float(r["density_kg_m3"])
-        body.append([r["filament"], f"{rho:.0f}", f"{1e3 * float(r['settled_height_m']):+.3f} mm",
-                     f"{1e3 * float(r['expected_height_m']):+.3f} mm",
-                     _g(abs(float(r["difference_m"])), 1) + " m"])
-    head = ["paper's filament (Fig. 3E)", "ρ_c (kg/m³)", "settled at (simulated)",
-            "where the column is as dense", "difference"]
+        body.append(
+            [
+                r["filament"],
+                f"{rho:.0f}",
+                f"{1e3 * float(r['settled_height_m']):+.3f} mm",
+                f"{1e3 * float(r['expected_height_m']):+.3f} mm",
+                _g(abs(float(r["difference_m"])), 1) + " m",
+            ]
+        )
+    head = [
+        "paper's filament (Fig. 3E)",
+        "ρ_c (kg/m³)",
+        "settled at (simulated)",
+        "where the column is as dense",
+        "difference",
+    ]
     return _table(head, body) + (
         f"\n\nPure alginate is {rho_gel:.0f} kg/m³; heights are below the surface (0), and a "
         "filament lighter than the top of the column floats.\n\n"
@@ -706,41 +843,63 @@ def headline() -> str:
     pe = _csv(RESULTS / "pyelastica.csv")
 
     def pts(problem: str, code: str, n: str) -> list[tuple[float, float]]:
-        return [(float(r["wall_s"]), float(r["error"])) for r in pe
-                if r["problem"] == problem and r["code"] == code and r["elements"] == n]
+        return [
+            (float(r["wall_s"]), float(r["error"]))
+            for r in pe
+            if r["problem"] == problem and r["code"] == code and r["elements"] == n
+        ]
 
     ratios_b = []
     for n in ("50", "100"):
         pe_b = sorted(
             (float(r["knob_value"]), float(r["wall_s"]), float(r["error"]))
-            for r in pe if r["problem"] == "b_dynamic" and r["code"] == "pyelastica"
-            and r["elements"] == n
+            for r in pe
+            if r["problem"] == "b_dynamic" and r["code"] == "pyelastica" and r["elements"] == n
         )
         if pe_b:
             _, wall, err = pe_b[-1]  # dt_max
             ratios_b.append(wall / _cost_at(pts("b_dynamic", "bathprint", n), err))
-    ratios_a = [_cost_at(pts("a_steady", "pyelastica", n), 1e-4)
-                / _cost_at(pts("a_steady", "bathprint", n), 1e-4) for n in ("50", "100")]
+    ratios_a = [
+        _cost_at(pts("a_steady", "pyelastica", n), 1e-4)
+        / _cost_at(pts("a_steady", "bathprint", n), 1e-4)
+        for n in ("50", "100")
+    ]
     coil, _ = _agent_rows("CoilRadius")
     best_name = min(coil, key=lambda n: float(coil[n][0].split(" ")[0]))
     rows = [
-        ["default scene (3 s, buckling and coiling)",
-         f"{_g(d['wall_s'], 2)} s wall, {d['steps']} steps, {d['final_nodes']} nodes",
-         "[performance](docs/performance.md)"],
-        ["against PyElastica, steady cantilever (error 1e-4)",
-         f"{_g(min(ratios_a), 2)}–{_g(max(ratios_a), 2)}× faster",
-         "[performance](docs/performance.md#against-pyelastica)"],
-        ["against PyElastica, motion with inertia (its dt_max)",
-         f"{_g(min(ratios_b), 2)}–{_g(max(ratios_b), 2)}× faster",
-         "[performance](docs/performance.md#against-pyelastica)"],
-        ["environments, draft preset", f"{_g(min(draft), 3)}–{_g(max(draft), 3)} steps/s per core",
-         "[environments](docs/environments.md)"],
-        ["CoilRadius-v0, held-out targets (lower is better)",
-         f"{best_name}: {coil[best_name][0].split(' (')[0]}; best constant "
-         f"{coil['best constant'][0]}", "[agents](docs/agents.md)"],
+        [
+            "default scene (3 s, buckling and coiling)",
+            f"{_g(d['wall_s'], 2)} s wall, {d['steps']} steps, {d['final_nodes']} nodes",
+            "[performance](docs/performance.md)",
+        ],
+        [
+            "against PyElastica, steady cantilever (error 1e-4)",
+            f"{_g(min(ratios_a), 2)}–{_g(max(ratios_a), 2)}× faster",
+            "[performance](docs/performance.md#against-pyelastica)",
+        ],
+        [
+            "against PyElastica, motion with inertia (its dt_max)",
+            f"{_g(min(ratios_b), 2)}–{_g(max(ratios_b), 2)}× faster",
+            "[performance](docs/performance.md#against-pyelastica)",
+        ],
+        [
+            "environments, draft preset",
+            f"{_g(min(draft), 3)}–{_g(max(draft), 3)} steps/s per core",
+            "[environments](docs/environments.md)",
+        ],
+        [
+            "CoilRadius-v0, held-out targets (lower is better)",
+            f"{best_name}: {coil[best_name][0].split(' (')[0]}; best constant "
+            f"{coil['best constant'][0]}",
+            "[agents](docs/agents.md)",
+        ],
     ]
-    srcs = [RESULTS / "default_paper_simulation.csv", RESULTS / "pyelastica.csv",
-            RESULTS / "envs.csv", AGENTS / "CoilRadius" / "table.json"]
+    srcs = [
+        RESULTS / "default_paper_simulation.csv",
+        RESULTS / "pyelastica.csv",
+        RESULTS / "envs.csv",
+        AGENTS / "CoilRadius" / "table.json",
+    ]
     dates = sorted({_committed(p)[0] or "uncommitted" for p in srcs})
     return _table(["what", "result", "details"], rows) + (
         "\n\nRendered by `python docs/_gen/render.py --write README.md` from "
