@@ -13,7 +13,7 @@ from bathprint.core import layout as L
 from bathprint.core.composite import INNER_FLUIDS, composite_properties
 from bathprint.core.run import integrated_flow_volume
 
-COMPOSITE = {"effects": ["elasticity", "drag", "gravity", "inclusions"]}
+COMPOSITE = {"effects": ["elasticity", "drag", "gravity", "contact", "inclusions"]}
 
 
 def test_inner_and_outer_volumes_equal_the_integrals_of_the_flows() -> None:

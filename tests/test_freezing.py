@@ -78,6 +78,61 @@ def test_freezing_changes_a_steady_coil_less_than_the_tolerance_does() -> None:
     assert abs(om_f / om0 - 1) < tol_om, (om0, om_f, om_t)
 
 
+def test_freezing_with_inertia_changes_a_steady_coil_less_than_the_tolerance_does() -> None:
+    """The same criterion with inertia (the experiments' regimes need it): the frozen tail
+    carries its mass and added mass, following the active end's acceleration."""
+    base = Simulation(COIL).scene
+    effects = [*base.effects, "inertia"]
+    draft = {"numerics.accuracy": "draft", "effects": effects}
+    tighter = {
+        "numerics.tolerance": 1e-3,
+        "numerics.max_inlet_growth": 2.0,
+        "numerics.node_spacing_mm": 2 * base.numerics.node_spacing_mm,
+        "effects": effects,
+    }
+    r0, om0 = coil_run(draft)
+    r_f, om_f = coil_run({**draft, "numerics.freeze_beyond_mm": 60.0})
+    r_t, om_t = coil_run(tighter)
+    assert abs(r_f / r0 - 1) < abs(r_t / r0 - 1), (r0, r_f, r_t)
+    assert abs(om_f / om0 - 1) < abs(om_t / om0 - 1), (om0, om_f, om_t)
+
+
+def test_the_frozen_tail_carries_its_mass() -> None:
+    """With inertia the lumped load includes -M a at the active end, M the tail's mass with
+    transverse added mass, and its Jacobian block ca M."""
+    sim = Simulation(
+        COIL,
+        {
+            "numerics.accuracy": "draft",
+            "numerics.freeze_beyond_mm": 20.0,
+            "effects": [*Simulation(COIL).scene.effects, "inertia"],
+        },
+    )
+    sim.advance(0.8)
+    k = sim.n_frozen
+    assert k > 5
+    ws = new_workspace(sim.capacity, 1)
+    whole = Rod(sim.pos, sim.vel, sim.vel, sim.n_nodes, sim.node_s, sim.seg_rest, sim.seg_mat)
+    tail_load(sim.model.record, whole, k, False, False, ws)
+    mass = ws.tail[0]["mass"]
+    vol = np.pi * sim.seg_mat[:k, L.MAT_RADIUS] ** 2 * sim.seg_rest[:k]
+    m_self = float(np.sum(vol * sim.seg_mat[:k, L.MAT_DENSITY]))
+    assert np.trace(mass) > 3 * m_self  # the filament's own mass plus the added mass
+    acc = np.zeros(3 * sim.capacity)
+    acc[:3] = (0.0, 0.0, 2.0)
+    zero = np.zeros_like(acc)
+    rod = Rod(sim.pos[3 * k :], zero, acc, 10, sim.node_s[k:], sim.seg_rest[k:], sim.seg_mat[k:])
+    f = np.zeros(3 * sim.capacity)
+    band = np.zeros_like(ws.band)
+    stage = Stage(0.0, 0.0, 0.0, 1.0, True)
+    out = Out(f, band, ws.tail, new_scratch(), ws.cpl_drop, ws.contact, rod, 0, sim.pos)
+    accumulate_tail(sim.model.record, rod, stage, out)
+    weightless = f[:3] - ws.tail[0]["force"]
+    np.testing.assert_allclose(weightless, -mass @ acc[:3], rtol=1e-12, atol=1e-30)
+    block = np.array([[band[a, b - a + L.KL] for b in range(3)] for a in range(3)])
+    np.testing.assert_allclose(block, mass, rtol=1e-12)
+
+
 def test_without_freezing_nothing_is_frozen() -> None:
     sim = Simulation(COIL, {"numerics.accuracy": "draft"})
     sim.advance(0.5)
@@ -93,10 +148,6 @@ def test_without_freezing_nothing_is_frozen() -> None:
         (
             {"numerics.freeze_beyond_mm": 30.0, "effects": ["elasticity", "drag", "end_load"]},
             "end_load",
-        ),
-        (
-            {"numerics.freeze_beyond_mm": 30.0, "effects": ["elasticity", "drag", "inertia"]},
-            "inertia",
         ),
     ],
 )
@@ -185,7 +236,14 @@ def _unclamped(model):
 
 @pytest.mark.parametrize("integrator", ["implicit_euler", "explicit"])
 def test_other_integrators_run_with_a_frozen_tail(integrator: str) -> None:
-    ov = {"numerics.accuracy": "draft", "numerics.freeze_beyond_mm": 8.0}
+    # frozen just 8 mm behind the needle at 5 ml/min, the new turns land on the frozen coil
+    # itself; self-contact with a tail that short is out of this test's scope (the scene
+    # without contact: freezing with contact is tested at the lengths the presets use)
+    ov = {
+        "numerics.accuracy": "draft",
+        "numerics.freeze_beyond_mm": 8.0,
+        "effects": ["elasticity", "drag", "gravity", "gelation"],
+    }
     if integrator == "explicit":
         ov.update({"numerics.integrator": "explicit", "numerics.time_step_s": 2e-6})
         t_end = 0.02

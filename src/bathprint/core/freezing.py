@@ -7,10 +7,14 @@ so the tail keeps its shape and stays attached. Far from the needle the filament
 a rigid body (a laid helix sinks or is pushed away as a whole), so what the tail does to
 the active filament is its total drag at the velocity of that node, and its net weight:
 
-    F_tail = W - D (v_a - u_bath),   D = sum_j mu_s l_j (2 I - t_j t_j^T),
-    W = -sum_j (rho_j - rho_bath(z_j)) A_j l_j g e_z     (only when gravity is listed)
+    F_tail = W - D (v_a - u_bath) - M a_a,   D = sum_j mu_s l_j (2 I - t_j t_j^T),
+    W = -sum_j (rho_j - rho_bath(z_j)) A_j l_j g e_z     (only when gravity is listed),
+    M = sum_j A_j l_j [rho_j I + C_a rho_bath (I - t_j t_j^T)]   (only with inertia)
 
-summed over the frozen segments (the one joining the tail to the active end included).
+summed over the frozen segments (the one joining the tail to the active end included): a
+rigid tail translating with the active end at its velocity v_a has that drag, and, when
+inertia is listed, that mass (with the transverse added mass of effects.inertia), which
+follows the end's acceleration a_a.
 
 With the floor listed, only material resting on the floor freezes, and the tail slides
 with the active end horizontally (its height stays): its weight is carried by the floor
@@ -56,6 +60,7 @@ def tail_load(model, rod, n_frozen: int, gravity_on: bool, on_floor: bool, ws) -
         tail.force[a] = 0.0
         for b in range(3):
             tail.drag[a, b] = 0.0
+            tail.mass[a, b] = 0.0
     ws.solver[0].norm_extra = 3.0 * n_frozen
     tail.normal = 0.0
     tail.on_floor = on_floor
@@ -74,6 +79,16 @@ def tail_load(model, rod, n_frozen: int, gravity_on: bool, on_floor: bool, ws) -
         for a in range(3):
             for b in range(3):
                 tail.drag[a, b] += mu_s * length * ((2.0 if a == b else 0.0) - tt[a] * tt[b])
+        if p.inertial:
+            r = seg_mat[j, MAT_RADIUS]
+            vol = math.pi * r * r * seg_rest[j]
+            rho_b, _ = bath_density(p, 0.5 * (pos[3 * j + 2] + pos[3 * j + 5]), r)
+            rho = seg_mat[j, MAT_DENSITY]
+            c_a = p.added_mass_coefficient
+            for a in range(3):
+                for b in range(3):
+                    eye = 1.0 if a == b else 0.0
+                    tail.mass[a, b] += vol * (rho * eye + c_a * rho_b * (eye - tt[a] * tt[b]))
         if gravity_on:
             r = seg_mat[j, MAT_RADIUS]
             half_vol = 0.5 * math.pi * r * r * seg_rest[j]
@@ -84,6 +99,7 @@ def tail_load(model, rod, n_frozen: int, gravity_on: bool, on_floor: bool, ws) -
     if on_floor:  # the tail moves horizontally only: D P_h; the floor carries the weight
         for a in range(3):
             tail.drag[a, 2] = 0.0
+            tail.mass[a, 2] = 0.0
         tail.normal = max(weight, 0.0)
         weight = 0.0
     # drag of a tail at rest in the bath's flow: D u_bath
@@ -97,15 +113,16 @@ def tail_load(model, rod, n_frozen: int, gravity_on: bool, on_floor: bool, ws) -
 
 @njit(cache=True)
 def accumulate_tail(model, rod, stage, out) -> float:
-    """Add the frozen tail's load to the active end (node 0 of the active views) and cv D
-    to its Jacobian block; returns the tail drag's dissipation rate (v - u) D (v - u) (W),
-    u the bath's flow."""
+    """Add the frozen tail's load to the active end (node 0 of the active views) and
+    cv D + ca M to its Jacobian block; returns the tail drag's dissipation rate
+    (v - u) D (v - u) (W), u the bath's flow."""
     tail = out.tail[0]
     if not tail.on:
         return 0.0
     p = model.params[0]
-    vel, force = rod.vel, out.force
+    vel, acc, force = rod.vel, rod.acc, out.force
     drag = tail.drag
+    mass = tail.mass
     flow = p.bath_flow
     power = 0.0
     for a in range(3):
@@ -113,10 +130,14 @@ def accumulate_tail(model, rod, stage, out) -> float:
         for b in range(3):
             f -= drag[a, b] * vel[b]
             power += (vel[a] - flow[a]) * drag[a, b] * (vel[b] - flow[b])
+            if p.inertial:
+                f -= mass[a, b] * acc[b]
         force[a] += f
     n_free = free_nodes(rod.n_nodes, p)
     if stage.jac:
         add_block(out.band, n_free, 0, 0, drag, stage.cv)
+        if p.inertial:
+            add_block(out.band, n_free, 0, 0, mass, stage.ca)
     normal = tail.normal
     mu_f = p.friction_coefficient
     if tail.on_floor and normal > 0.0 and mu_f > 0.0:

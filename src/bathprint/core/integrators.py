@@ -437,7 +437,7 @@ def explicit_step(model, rod, state, ws, h: float, t: float) -> float:
 
 
 @njit(cache=True)
-def _max_strain_change(pos0, rod, p) -> float:
+def _max_strain_change(pos0, rod, p) -> tuple[float, int]:
     """Largest change of a segment's length over the step, relative to its rest length;
     a strain beyond ``numerics.max_strain`` counts as a change beyond the bound.
 
@@ -445,10 +445,12 @@ def _max_strain_change(pos0, rod, p) -> float:
     rod pushed into the floor compresses instead of buckling when h is much longer than
     the buckling time), so the step is retried shorter; a filament that really strains
     more (very soft slugs, very fast jets) needs a larger ``numerics.max_strain``. The
-    inlet segment is left out: its rest length grows during the step.
+    inlet segment is left out: its rest length grows during the step. Returns the change
+    and the segment that has it.
     """
     pos, seg_rest = rod.pos, rod.seg_rest
     worst = 0.0
+    worst_seg = 0
     n_check = filament_segments(rod.n_nodes, p) - (1 if p.clamped else 0)
     for j in range(n_check):
         a = 0.0
@@ -457,13 +459,15 @@ def _max_strain_change(pos0, rod, p) -> float:
             a += (pos0[3 * j + 3 + c] - pos0[3 * j + c]) ** 2
             b += (pos[3 * j + 3 + c] - pos[3 * j + c]) ** 2
         change = abs(math.sqrt(b) - math.sqrt(a)) / seg_rest[j]
-        worst = max(worst, change)
         s_new = abs(math.sqrt(b) / seg_rest[j] - 1.0)
         if s_new > p.max_strain:
             # a strain beyond numerics.max_strain is reported as a change of the same
             # relative size, so the step is retried shorter
-            worst = max(worst, p.max_strain_change * s_new / p.max_strain)
-    return worst
+            change = max(change, p.max_strain_change * s_new / p.max_strain)
+        if change > worst:
+            worst = change
+            worst_seg = j
+    return worst, worst_seg
 
 
 @njit(cache=True)
@@ -591,10 +595,12 @@ def _attempt(model, state, ws, h: float) -> tuple[float, int]:
     cause = CAUSE_ERROR
     if err >= 0.0 and p.fixed_step <= 0.0:
         # a jump in strain means Newton found a spurious (folded) branch: step back
-        jump = _max_strain_change(pos0, rod, p) / p.max_strain_change
+        change, seg = _max_strain_change(pos0, rod, p)
+        jump = change / p.max_strain_change
         if jump > 1.0:
             if 16.0 * jump > err:
                 cause = CAUSE_STRAIN
+                state.info[1] = seg + frozen
             err = max(err, 16.0 * jump)
     if err >= 0.0 and contact_on:
         sc = ws.scratch

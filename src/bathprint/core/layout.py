@@ -97,6 +97,7 @@ PARAMS_FIELDS: tuple[tuple[str, str, str], ...] = (
     ("contact_friction", "f8", "-, Coulomb coefficient between touching segments"),
     ("contact_friction_velocity", "f8", "m/s, regularisation of that friction"),
     ("krylov_tolerance", "f8", "-, GMRES residual relative to the right-hand side"),
+    ("contact_exact_hessian", "?", "contact's Newton matrix: exact Hessian (else Gauss-Newton)"),
 )
 PARAMS_DTYPE = np.dtype([(name, kind) for name, kind, _ in PARAMS_FIELDS])
 
@@ -195,6 +196,7 @@ TAIL_FIELDS: tuple[tuple[str, str, str], ...] = (
     ("on", "?", "a tail is frozen"),
     ("force", "3f8", "N, its net weight and the drag of the bath's flow on it"),
     ("drag", "(3,3)f8", "N s/m, its drag tensor: force -drag (v - u_bath) at the active end"),
+    ("mass", "(3,3)f8", "kg, its mass with added mass (with inertia): force -mass a at the end"),
     ("normal", "f8", "N, the weight the floor carries (floor mode)"),
     ("on_floor", "?", "the tail rests on the floor and slides at its height"),
 )

@@ -150,8 +150,8 @@ MIN_ACTIVE_SPACINGS = 8  # the active filament keeps at least this many node spa
 
 def _freeze_beyond(scene: Scene, node_spacing_mm: float) -> float:
     """``numerics.freeze_beyond_mm``, checked: 0 (off) or at least ``MIN_ACTIVE_SPACINGS``
-    node spacings, and not with end_load or inertia (the lumped tail of
-    :mod:`bathprint.core.freezing` carries drag, net weight and floor friction only)."""
+    node spacings, and not with end_load (the lumped tail of :mod:`bathprint.core.freezing`
+    carries drag, net weight, mass and floor friction, but no end load)."""
     value = scene.numerics.freeze_beyond_mm
     if value == 0.0:
         return 0.0
@@ -167,12 +167,11 @@ def _freeze_beyond(scene: Scene, node_spacing_mm: float) -> float:
             f"{scene.initial.length_mm!r}: the initial filament would freeze before it settles; "
             "allowed: at least initial.length_mm"
         )
-    clash = [e for e in ("end_load", "inertia") if e in scene.effects]
-    if clash:
+    if "end_load" in scene.effects:
         raise SceneError(
-            f"numerics.freeze_beyond_mm = {value!r} with the {clash[0]} effect: the frozen tail "
-            "is lumped into drag, net weight and floor friction at the active end (no end load "
-            f"or tail mass); allowed: 0 with {clash[0]}"
+            f"numerics.freeze_beyond_mm = {value!r} with the end_load effect: the end load acts "
+            "on the filament's free end, which freezing takes out of the solve; allowed: 0 with "
+            "end_load"
         )
     return value
 
@@ -251,6 +250,7 @@ def compile_model(scene: Scene) -> Model:
     p.contact_width_fraction = c.width_fraction
     p.contact_friction = c.friction_coefficient
     p.contact_friction_velocity = c.friction_velocity_mm_s * MM
+    p.contact_exact_hessian = c.hessian == "exact"
     enabled = np.array([1 if e in scene.effects else 0 for e in L.EFFECT_NAMES], dtype=np.int64)
     flow = _flow_table(scene)
     return Model(

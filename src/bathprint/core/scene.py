@@ -178,6 +178,14 @@ class Contact:
     friction_velocity_mm_s: float = _num(
         1.0, 1e-6, 1e3, lo_open=True, doc="regularisation of that friction"
     )
+    hessian: str = field(
+        default="exact",
+        metadata={
+            "choices": ("exact", "gauss_newton"),
+            "doc": "Newton matrix of the penalty: the exact Hessian, or its Gauss-Newton part "
+            "P'' grad d grad d^T (positive semi-definite; Newton then converges linearly)",
+        },
+    )
 
 
 @dataclass

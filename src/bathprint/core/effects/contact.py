@@ -175,6 +175,7 @@ def accumulate(model, rod, stage, out) -> float:
     factor = p.contact_distance_factor
     mu_f = p.contact_friction
     eps = p.contact_friction_velocity
+    exact = p.contact_exact_hessian
     energy = 0.0
     x = out.scratch.pair_x
     for q in range(min(contact.count[0], contact.pairs.shape[0])):
@@ -219,10 +220,9 @@ def accumulate(model, rod, stage, out) -> float:
                 for b in range(4):
                     for r in range(3):
                         for c in range(3):
-                            blk[r, c] = (
-                                e_pp * grad[3 * a + r] * grad[3 * b + c]
-                                - e_p * hess[3 * a + r, 3 * b + c]
-                            )
+                            blk[r, c] = e_pp * grad[3 * a + r] * grad[3 * b + c]
+                            if exact:
+                                blk[r, c] -= e_p * hess[3 * a + r, 3 * b + c]
                     row = max(nodes[a], 0)
                     col = max(nodes[b], 0)
                     add_coupling(out.band, out.cpl, n_free, row, col, blk, cx)

@@ -1,0 +1,455 @@
+"""Self-contact (effect 'contact') and the solver for couplings off the band.
+
+Rods pressed across each other stop at the contact distance and the contact carries the
+load; a coil collapsing under its weight never interpenetrates and its energy never grows;
+contact forces balance pairwise; the Jacobian, blocks off the band included, equals finite
+differences; GMRES solves what a dense solve does; without couplings off the band the path
+is the banded one, bit for bit; the built-in scenes that list contact keep their turns apart.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from numba import njit
+
+from bathprint import SceneError, Simulation, SimulationError, simulate
+from bathprint.core import layout as L
+from bathprint.core import solver
+from bathprint.core.assemble import assemble
+from bathprint.core.effects import contact
+from bathprint.core.effects._segment_geometry import segment_distance
+from bathprint.core.effects.gelation import node_curvature
+from bathprint.core.records import Rod, Stage, new_couplings, new_krylov, new_workspace
+
+MM = 1e-3
+
+
+@njit(cache=True)
+def min_gap_ratio(pos, n_nodes, radius, min_sep) -> float:
+    """min over segment pairs i < j - min_sep of distance / (r_i + r_j) (brute force)."""
+    best = np.inf
+    for i in range(n_nodes - 1):
+        for j in range(i + min_sep + 1, n_nodes - 1):
+            d = segment_distance(pos, i, i + 1, j, j + 1)
+            best = min(best, d / (radius[i] + radius[j]))
+    return best
+
+
+def gap_ratio(points: np.ndarray, radius: float, spacing: float) -> float:
+    r = np.full(len(points), radius)
+    sep = contact.min_separation_for(2 * radius, spacing)
+    return min_gap_ratio(np.ascontiguousarray(points).ravel(), len(points), r, sep)
+
+
+def free_filament(
+    points: np.ndarray, overrides: dict, soft: tuple[int, ...] = (), relaxed: bool = False
+) -> Simulation:
+    """A free (released) filament through ``points`` (m), at rest, rest lengths as drawn;
+    segments in ``soft`` get a modulus 1e-6 of the rest and the bath's density (links that
+    carry no load); ``relaxed``: its natural curvature is the drawn one (no bending stress)."""
+    seg = np.linalg.norm(np.diff(points, axis=0), axis=1)
+    sim = Simulation(
+        "paper_simulation",
+        {
+            "flow.q_outer_ml_min": 0.0,
+            "initial.length_mm": float((len(points) + 1) * np.median(seg) / MM),
+            "numerics.node_spacing_mm": float(np.median(seg) / MM),
+            **overrides,
+        },
+    )
+    sim.release()
+    n = len(points)
+    assert sim.n_nodes >= n, "the initial filament has too few nodes"
+    sim.istate[0] = n
+    sim.pos[:] = 0.0
+    sim.pos[: 3 * n] = points.ravel()
+    sim.vel[:] = 0.0
+    sim.seg_rest[: n - 1] = seg
+    sim.seg_mat[n - 1 :] = 0.0
+    if relaxed:
+        kappa = np.zeros((n, 3))
+        for i in range(1, n - 1):
+            node_curvature(sim.pos, sim.seg_rest, i, kappa[i])
+        kappa[0], kappa[-1] = kappa[1], kappa[-2]
+        sim.seg_mat[: n - 1, L.MAT_KAPPA_X : L.MAT_KAPPA_X + 3] = 0.5 * (kappa[:-1] + kappa[1:])
+    for j in soft:  # weightless too, or their own weight would stretch them
+        sim.seg_mat[j, L.MAT_YOUNGS_MODULUS] *= 1e-6
+        sim.seg_mat[j, L.MAT_DENSITY] = sim.scene.bath.density_kg_m3
+    sim._consistent_velocity()
+    return sim
+
+
+# ------------------------------------------------------------------ crossed rods
+def _crossed_rods() -> tuple[Simulation, slice, float]:
+    """Rods A1 (y = -2.5 mm) and A2 (y = +2.5 mm) along x on the floor, rod B along y
+    resting across both, joined into one filament by soft links far away (r = 0.5 mm,
+    delta = 1 mm)."""
+    r, dl = 0.5 * MM, 0.5 * MM
+    z0 = -20 * MM + r  # on the floor (bath.depth_mm = 20)
+    n = 17  # nodes per rod: 8 mm
+    x = np.linspace(-4 * MM, 4 * MM, n)
+    a1 = np.column_stack([x[::-1], np.full(n, -2.5 * MM), np.full(n, z0)])
+    b = np.column_stack([np.full(n, 0.3 * MM), x, np.full(n, z0 + 2 * r * 1.02)])
+    a2 = np.column_stack([x[::-1], np.full(n, 2.5 * MM), np.full(n, z0)])
+    lift = np.array([0.0, 0.0, 6 * MM])
+    link1 = np.array([a1[-1] + lift, b[0] + lift])
+    link2 = np.array([b[-1] + lift, a2[0] + lift])
+    pts = np.vstack([a1, link1, b, link2, a2])
+    k = np.cumsum([0, n, 2, n, 2])  # first node of each part
+    # links and the rods' end segments on either side (their nodes' bending couples the two)
+    soft = tuple(range(k[1] - 2, k[2] + 1)) + tuple(range(k[3] - 2, k[4] + 1))
+    sim = free_filament(
+        pts,
+        {
+            "effects": ["elasticity", "drag", "gravity", "floor", "contact"],
+            "bath.depth_mm": 20.0,
+            "needle.inner_diameter_mm": 2 * r / MM,
+            "material.youngs_modulus_pa": 5e5,
+            "material.density_kg_m3": 1300.0,
+            "contact.stiffness_pa": 1e4,
+            "floor.friction_coefficient": 0.0,
+            "numerics.max_strain": 10.0,  # the soft links may stretch freely
+            "numerics.stretch_limit": 10.0,
+            "duration_s": 10.0,
+        },
+        soft=soft,
+    )
+    assert dl > 0
+    return sim, slice(int(k[2]) + 1, int(k[3]) - 1), 2 * r  # B's loaded nodes
+
+
+def test_crossed_rods_stop_at_the_contact_distance_and_carry_the_load() -> None:
+    sim, b_nodes, delta = _crossed_rods()
+    sim.advance(1.5)
+    x = sim.centerline()
+    a_nodes = np.r_[0:16, len(x) - 16 : len(x)]
+    gaps = [
+        segment_distance(x.ravel(), i, i + 1, j, j + 1)
+        for i in range(b_nodes.start, b_nodes.stop - 1)
+        for j in a_nodes[:-1]
+        if j + 1 in a_nodes
+    ]
+    assert min(gaps) == pytest.approx(delta, rel=0.02)  # stopped at the contact distance
+    # the contact forces on B carry B's net weight (the soft links carry nothing)
+    model, rod, _, out = sim.kernel_inputs(1.0, 0.0, 0.0, False)
+    contact.accumulate(model, rod, Stage(sim.t, 0.0, 0.0, 0.0, False), out)
+    f_contact = out.force[: 3 * len(x)].reshape(-1, 3)
+    mat = sim.material()
+    vol = math.pi * mat[:, L.MAT_RADIUS] ** 2 * sim.rest_lengths()
+    rho_b = sim.scene.bath.density_kg_m3
+    weight = vol * (mat[:, L.MAT_DENSITY] - rho_b) * sim.scene.bath.gravity_m_s2
+    segs_b = range(b_nodes.start, b_nodes.stop - 1)  # B's stiff, loaded segments
+    w_b = sum(weight[j] for j in segs_b)
+    lift = f_contact[b_nodes.start - 1 : b_nodes.stop + 1, 2].sum()
+    assert lift == pytest.approx(w_b, rel=0.03)
+    assert abs(f_contact.sum(axis=0)).max() <= 1e-12 * abs(lift)  # action = reaction
+
+
+# ------------------------------------------------------------------ a coil collapsing onto itself
+def _collapsing_coil(with_contact: bool, **extra) -> Simulation:
+    """A soft, heavy helical spring (4 turns of radius 3 mm, pitch 1.3 delta), stress-free
+    as drawn, standing on the floor: it collapses under its weight, turn onto turn."""
+    r, radius, pitch, turns, dl = 0.5 * MM, 3 * MM, 1.3 * MM, 4, 0.5 * MM
+    n = int(turns * 2 * math.pi * radius / dl) + 1
+    phi = np.linspace(0.0, 2 * math.pi * turns, n)
+    z = -30 * MM + r + pitch * phi / (2 * math.pi)
+    pts = np.column_stack([radius * np.cos(phi), radius * np.sin(phi), z])
+    effects = ["elasticity", "drag", "gravity", "floor"] + (["contact"] if with_contact else [])
+    return free_filament(
+        pts,
+        {
+            "effects": effects,
+            "bath.depth_mm": 30.0,
+            "needle.inner_diameter_mm": 2 * r / MM,
+            "material.youngs_modulus_pa": 300.0,
+            "material.density_kg_m3": 1400.0,
+            "duration_s": 10.0,
+            **extra,
+        },
+        relaxed=True,
+    )
+
+
+def test_a_coil_collapsing_onto_itself_never_interpenetrates_and_loses_energy() -> None:
+    sim = _collapsing_coil(True)
+    energy, ratios = [], []
+    for k in range(1, 21):
+        sim.advance(0.05 * k)
+        ratios.append(gap_ratio(sim.centerline(), 0.5 * MM, 0.5 * MM))
+        energy.append(
+            sum(sim.energies_now()[e] for e in ("elasticity", "gravity", "floor", "contact"))
+        )
+    assert min(ratios) >= 0.9  # never interpenetrating, at every saved frame
+    drop = energy[0] - energy[-1]
+    assert drop > 0.0
+    assert np.all(np.diff(energy) <= 1e-9 * abs(drop))  # overdamped: never increasing
+    # the same coil without contact passes through itself: the check can fail
+    free = _collapsing_coil(False)
+    free.advance(1.0)
+    assert gap_ratio(free.centerline(), 0.5 * MM, 0.5 * MM) < 0.5
+
+
+def test_contact_forces_balance_pairwise() -> None:
+    sim = _collapsing_coil(True)
+    sim.advance(0.6)
+    model, rod, _, out = sim.kernel_inputs(1.0, 0.0, 0.0, False)
+    pairs = sim.ws.contact.pairs[: sim.ws.contact.count[0]].copy()
+    total = np.zeros(3)
+    touching = 0
+    for i, j in pairs:  # each pair on its own: what A gets, B gets with the opposite sign
+        one = sim.ws.contact._replace(pairs=np.array([[i, j]]), count=np.array([1]))
+        o = out._replace(force=np.zeros_like(out.force), contact=one)
+        contact.accumulate(model, rod, Stage(sim.t, 0.0, 0.0, 0.0, False), o)
+        f = o.force.reshape(-1, 3)
+        on_a, on_b = f[i : i + 2].sum(axis=0), f[j : j + 2].sum(axis=0)
+        if np.abs(on_a).max() > 0:
+            touching += 1
+            np.testing.assert_allclose(on_a, -on_b, rtol=1e-12, atol=1e-15 * np.abs(on_a).max())
+        total += f.sum(axis=0)
+    assert touching > 10
+    assert np.abs(total).max() < 1e-9 * 1e-6  # N: zero to round-off
+
+
+# ------------------------------------------------------------------ the Jacobian
+@pytest.mark.parametrize("friction", [0.0, 0.5])
+def test_contact_jacobian_with_its_off_band_blocks_matches_finite_differences(friction) -> None:
+    """A coil squeezed below the contact distance (pitch 0.85 delta): many pairs touch. The
+    assembled Newton matrix (band and off-band blocks) against central differences of the
+    force: in positions without friction, in velocities with it (friction's Jacobian holds
+    the geometry, as the floor's does: exact in the velocities only)."""
+    r = 0.5 * MM
+    n = 120
+    phi = np.linspace(0.0, 2 * math.pi * 3, n)
+    pts = np.column_stack([3 * MM * np.cos(phi), 3 * MM * np.sin(phi), 0.85 * MM * phi / 6.283])
+    sim = free_filament(
+        pts,
+        {
+            "effects": ["elasticity", "drag", "contact"],
+            "needle.inner_diameter_mm": 2 * r / MM,
+            "contact.friction_coefficient": friction,
+            "contact.hessian": "exact",
+        },
+    )
+    rng = np.random.default_rng(4)
+    sim.vel[: 3 * n] = rng.normal(scale=1e-3, size=3 * n)
+    whole = Rod(sim.pos, sim.vel, sim.vel, n, sim.node_s, sim.seg_rest, sim.seg_mat)
+    while not contact.prepare(sim.model.record, whole, 0, sim.ws.contact):
+        sim._grow_off_band()  # more pairs than room: grown as the simulation does
+
+    def pairs_in_use():
+        return sim.ws.contact.pairs[: sim.ws.contact.count[0]]
+
+    def assembled(pos, vel, cx, cv, jac):
+        model, _, _, out = sim.kernel_inputs(cx, cv, 0.0, jac)
+        rod = Rod(pos, vel, np.zeros_like(vel), n, sim.node_s, sim.seg_rest, sim.seg_mat)
+        out = out._replace(whole=rod, start=pos, cpl=new_couplings(16 * len(pairs_in_use())))
+        calls = np.zeros(L.N_EFFECTS, np.int64)
+        assemble(model, rod, Stage(0.0, cx, cv, 0.0, jac), out, calls, np.zeros(L.N_EFFECTS))
+        return out
+
+    nd = 3 * n
+    for which, coeffs, x0 in (("x", (1.0, 0.0), sim.pos), ("v", (0.0, 1.0), sim.vel)):
+        if (which == "v") != (friction > 0.0):
+            continue
+        out = assembled(sim.pos.copy(), sim.vel.copy(), *coeffs, True)
+        cpl = out.cpl
+        assert cpl.count[0] > 0  # there are couplings off the band
+        dense = np.zeros((nd, nd))
+        for i in range(nd):
+            for j in range(max(0, i - L.KL), min(nd, i + L.KU + 1)):
+                dense[i, j] = out.band[i, j - i + L.KL]
+        for k in range(cpl.count[0]):
+            a, b = 3 * cpl.row[k], 3 * cpl.col[k]
+            dense[a : a + 3, b : b + 3] += cpl.block[k]
+        fd = np.zeros((nd, nd))
+        h = 1e-9 if which == "x" else 1e-8
+        for k in range(nd):
+            xp, xm = x0.copy(), x0.copy()
+            xp[k] += h
+            xm[k] -= h
+            args_p = (xp, sim.vel.copy()) if which == "x" else (sim.pos.copy(), xp)
+            args_m = (xm, sim.vel.copy()) if which == "x" else (sim.pos.copy(), xm)
+            fp = assembled(*args_p, 0.0, 0.0, False).force[:nd]
+            fm = assembled(*args_m, 0.0, 0.0, False).force[:nd]
+            fd[:, k] = -(fp - fm) / (2 * h)
+        far = np.abs(np.subtract.outer(np.arange(n), np.arange(n))) > 2
+        assert np.abs(fd[np.kron(far, np.ones((3, 3), bool))]).max() > 0  # truly off the band
+        np.testing.assert_allclose(dense, fd, atol=2e-5 * np.abs(fd).max(), rtol=0)
+
+
+# ------------------------------------------------------------------ the solver
+def test_gmres_solves_band_plus_off_band_blocks_like_a_dense_solve() -> None:
+    rng = np.random.default_rng(1)
+    n_nodes = 60
+    nd = 3 * n_nodes
+    ws = new_workspace(n_nodes, 1, off_band=True)
+    dense = np.zeros((nd, nd))
+    for i in range(nd):
+        for j in range(max(0, i - L.KL), min(nd, i + L.KU + 1)):
+            v = rng.normal() + (12.0 if i == j else 0.0)
+            ws.band[i, j - i + L.KL] = v
+            dense[i, j] = v
+    k = 0
+    for _ in range(40):
+        i, j = rng.integers(0, n_nodes, 2)
+        if abs(i - j) <= 2:
+            continue
+        blk = rng.normal(size=(3, 3))
+        ws.cpl.row[k], ws.cpl.col[k], ws.cpl.block[k] = i, j, blk
+        dense[3 * i : 3 * i + 3, 3 * j : 3 * j + 3] += blk
+        k += 1
+    ws.cpl.count[0] = k
+    b = rng.normal(size=nd)
+    x = np.zeros(3 * n_nodes)
+    x[:nd] = b
+    counters = np.zeros(L.N_COUNTERS, np.int64)
+    assert solver.factor(ws, nd)
+    assert solver.solve(ws, nd, x, counters, 1e-10)
+    exact = np.linalg.solve(dense, b)
+    np.testing.assert_allclose(x[:nd], exact, rtol=0, atol=1e-8 * np.abs(exact).max())
+    assert counters[L.C_KRYLOV_ITERATIONS] > 0
+
+
+def test_a_stalled_gmres_solve_is_reported_not_passed_on() -> None:
+    ws = new_workspace(4, 1, off_band=True)._replace(krylov=new_krylov(12, 1))
+    nd = 12
+    for i in range(nd):
+        ws.band[i, L.KL] = 1.0
+    # A = I - P with P the cyclic shift of the 4 nodes: singular, and b = ones lies outside
+    # its range (the ones are its null vector), so no solve can reach the tolerance
+    for i in range(4):
+        ws.cpl.row[i], ws.cpl.col[i] = i, (i + 3) % 4
+    ws.cpl.block[:4] = -np.eye(3)
+    ws.cpl.count[0] = 4
+    counters = np.zeros(L.N_COUNTERS, np.int64)
+    assert solver.factor(ws, nd)
+    x = np.ones(nd)
+    ok = solver.solve(ws, nd, x, counters, 1e-14)
+    assert not ok and counters[L.C_KRYLOV_FAILURES] == 1
+
+
+def test_without_couplings_off_the_band_the_path_is_the_banded_one_bit_for_bit(
+    monkeypatch,
+) -> None:
+    """The same scene with the off-band workspace allocated and with none: identical."""
+    over = {"duration_s": 0.4, "effects": ["elasticity", "drag", "gravity"]}
+    plain = Simulation("drag_coiling_22G", over)
+    plain.advance(0.4)
+    monkeypatch.setattr(Simulation, "_off_band", lambda self: True)
+    ready = Simulation("drag_coiling_22G", over)
+    assert ready.ws.cpl.row.shape[0] > 0
+    ready.advance(0.4)
+    np.testing.assert_array_equal(plain.centerline(), ready.centerline())
+    assert plain.counts() == ready.counts()
+
+
+def test_contact_listed_but_never_touching_takes_no_krylov_iteration() -> None:
+    sim = Simulation("paper_simulation", {"effects": ["elasticity", "drag", "gravity", "contact"]})
+    sim.advance(1.0)
+    assert sim.counts()["krylov_iterations"] == 0
+    assert sim.effect_calls()["contact"] > 0
+
+
+# ------------------------------------------------------------------ built-in scenes
+SCENES = {  # scene: (duration s, minimal gap ratio allowed)
+    "drag_coiling_22G": 1.5,
+    "period_doubling_22G": 0.15,
+    "gelation_coiling_22G": 1.5,
+    "composite_oil_22G": 1.3,
+    "rope_coiling_18G": 3.0,
+    "chaotic_crumpling_22G": 0.01,
+}
+
+
+@pytest.mark.parametrize("scene", list(SCENES))
+def test_builtin_scenes_with_contact_keep_their_turns_apart(scene: str) -> None:
+    res = simulate(scene, {"duration_s": SCENES[scene], "outputs.plot": False})
+    assert "contact" in res.scene.effects
+    r = float(res.material[0, L.MAT_RADIUS])
+    spacing = res.summary["numerics"]["node_spacing_mm"] * MM
+    worst = min(gap_ratio(f, r, spacing) for f in res.frames[1:])
+    assert worst >= 0.9
+
+
+def test_rope_coiling_on_the_floor_lays_turns_beside_turns_instead_of_through_them() -> None:
+    """After about 15 s the rope coil's new turns reach the ones already on the floor:
+    without contact they pass through them (distance ~0), with contact they stay apart."""
+    worst = {}
+    for name, effects in (("contact", ["contact"]), ("none", [])):
+        over = {
+            "duration_s": 20.0,
+            "outputs.plot": False,
+            "outputs.frame_interval_s": 1.0,
+            "effects": ["elasticity", "drag", "gravity", "floor", *effects],
+        }
+        res = simulate("rope_coiling_18G", over)
+        r = float(res.material[0, L.MAT_RADIUS])
+        spacing = res.summary["numerics"]["node_spacing_mm"] * MM
+        worst[name] = min(gap_ratio(f, r, spacing) for f in res.frames[1:])
+    assert worst["none"] < 0.5
+    assert worst["contact"] >= 0.9
+
+
+# ------------------------------------------------------------------ bad input
+@pytest.mark.parametrize(
+    "key, value",
+    [
+        ("contact.stiffness_pa", 0.0),
+        ("contact.stiffness_pa", -1.0),
+        ("contact.distance_factor", 0.0),
+        ("contact.distance_factor", -2.0),
+        ("contact.friction_coefficient", 2.5),
+        ("contact.friction_coefficient", -0.1),
+    ],
+)
+def test_bad_contact_values_are_refused_by_name(key: str, value: float) -> None:
+    with pytest.raises(SceneError, match=key.replace(".", r"\.")):
+        Simulation("drag_coiling_22G", {key: value})
+
+
+def test_contact_without_elasticity_is_refused() -> None:
+    with pytest.raises(SceneError, match="elasticity"):
+        Simulation("drag_coiling_22G", {"effects": ["drag", "gravity", "contact"]})
+
+
+def test_segments_never_pass_through_each_other_even_when_the_penalty_cannot_stop_them() -> None:
+    """A contact stiffness far too small to carry B: B sinks into A, the steps shrink as the
+    centre lines approach (no step may let them cross), and the run stops with an error
+    naming the pair instead of passing one through the other."""
+    sim, b_nodes, _ = _crossed_rods()
+    sim.model.p.contact_stiffness = 1e-3  # Pa (the scene's 1e4 holds B at the distance)
+    sim.model.p.min_step = 1e-7
+    sim.model.enabled[L.E_FLOOR] = 0  # no floor: A floats (neutral), B sinks onto it
+    n_seg = sim.n_segments
+    for j in range(n_seg):
+        if not b_nodes.start - 1 <= j < b_nodes.stop:
+            sim.seg_mat[j, L.MAT_DENSITY] = sim.scene.bath.density_kg_m3
+    sim._consistent_velocity()
+    with pytest.raises(SimulationError, match=r"segments \d+ and \d+") as info:
+        sim.advance(2.0)
+    assert "pass through each other" in str(info.value)
+    i, j = (int(k) for k in info.value.detail.split("segments ")[1].split(" (")[0].split(" and "))
+    in_b = [b_nodes.start - 1 <= k < b_nodes.stop for k in (i, j)]
+    assert sum(in_b) == 1  # one segment of B, one of A
+    x = sim.centerline()
+    assert x[b_nodes, 2].mean() > x[:16, 2].mean()  # B is still above A
+
+
+def test_adaptive_steps_shrink_instead_of_passing_through() -> None:
+    sim, b_nodes, delta = _crossed_rods()
+    for j in range(b_nodes.start - 1, b_nodes.stop):
+        sim.seg_mat[j, L.MAT_DENSITY] = 3000.0
+    sim.advance(0.3)
+    x = sim.centerline()
+    assert x[b_nodes, 2].min() > x[:16, 2].max()  # B is still above A
+    assert sim.counts()["steps"] > 0
+
+
+def test_couplings_grow_when_they_do_not_fit() -> None:
+    sim = _collapsing_coil(True)
+    sim.ws = sim.ws._replace(cpl=new_couplings(4))
+    sim.advance(0.3)
+    assert sim.ws.cpl.row.shape[0] >= sim.ws.cpl.count[0] > 4
