@@ -95,6 +95,9 @@ def test_view_refusals(tmp_path: Path, capsys):
         ["view", str(tmp_path), "--env", "CoilRadius"],  # both
         ["view", str(tmp_path / "missing")],
         ["view", str(tmp_path)],  # a directory without trajectory.npz
+        ["view", "--env", "NoSuchEnv"],
+        ["view", "--env", "CoilRadius", "--policy", str(tmp_path / "no_run")],
+        ["view", "--env", "CoilRadius", "--target-index", "999"],
     ):
         capsys.readouterr()
         assert main(argv) == 2, argv

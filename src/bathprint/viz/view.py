@@ -376,7 +376,10 @@ def episode_page(
     from bathprint.agents.wrappers import wrapper_factory
     from bathprint.envs import make, resolve_id
 
-    env_id = resolve_id(env_id)
+    try:
+        env_id = resolve_id(env_id)
+    except ValueError as exc:
+        raise OptionError(f"--env = {env_id!r}: {exc}") from None
     kwargs, wrapper = _run_settings(policy, accuracy, env_id)
     env = make(env_id, target_set="eval", **kwargs)
     try:
@@ -388,7 +391,10 @@ def episode_page(
                 f"--target-index = {target_index}; the evaluation set of {env_id} "
                 f"has {n_eval} targets: allowed 0..{n_eval - 1}"
             )
-        pol, label = load_policy(policy, env, env_id, seed=seed)
+        try:
+            pol, label = load_policy(policy, env, env_id, seed=seed)
+        except FileNotFoundError as exc:
+            raise OptionError(f"--policy = {policy!r}: {exc}") from None
         rec = RecordEpisode(env)
         obs, info = env.reset(seed=seed, options={"target_index": target_index})
         rec.capture(info)
