@@ -3,6 +3,11 @@
 from __future__ import annotations
 
 import csv
+import json
+import os
+import platform
+import subprocess
+import sys
 import time
 from collections.abc import Callable
 from pathlib import Path
@@ -20,14 +25,62 @@ def best_of(fn: Callable[[], object], repeats: int = 3) -> float:
     return best
 
 
+def machine() -> str:
+    """This machine in one line: CPU model, cores, OS, Python."""
+    model = platform.processor() or platform.machine()
+    try:
+        for line in Path("/proc/cpuinfo").read_text().splitlines():
+            if line.startswith("model name"):
+                model = line.split(":", 1)[1].strip()
+                break
+    except OSError:
+        pass
+    return (
+        f"{model}, {os.cpu_count()} CPUs, {platform.system()} {platform.release()}, "
+        f"Python {platform.python_version()}"
+    )
+
+
+def write_meta(path: Path) -> Path:
+    """Write PATH's provenance beside it (NAME.meta.json): the command that wrote it, the
+    date, the machine and the commit. The documentation states them under every table it
+    renders from the file (docs/_gen/render.py)."""
+    try:
+        commit = subprocess.run(
+            ["git", "rev-parse", "--short", "HEAD"],
+            capture_output=True,
+            text=True,
+            check=True,
+            cwd=Path(__file__).parent,
+        ).stdout.strip()
+    except (OSError, subprocess.CalledProcessError):
+        commit = ""
+    script = Path(sys.argv[0])
+    try:
+        script = script.resolve().relative_to(Path(__file__).resolve().parents[1])
+    except ValueError:
+        pass
+    meta = {
+        "command": " ".join(["python", str(script), *sys.argv[1:]]),
+        "date": time.strftime("%Y-%m-%d", time.gmtime()),
+        "machine": machine(),
+        "commit": commit,
+    }
+    out = path.with_suffix(".meta.json")
+    out.write_text(json.dumps(meta, indent=2) + "\n")
+    return out
+
+
 def write_csv(name: str, rows: list[dict]) -> Path:
-    """Write rows (dicts with the same keys) to benchmarks/results/NAME.csv."""
+    """Write rows (dicts with the same keys) to benchmarks/results/NAME.csv, and its
+    provenance to NAME.meta.json."""
     RESULTS.mkdir(exist_ok=True)
     path = RESULTS / f"{name}.csv"
     with path.open("w", newline="") as f:
         w = csv.DictWriter(f, fieldnames=list(rows[0]))
         w.writeheader()
         w.writerows(rows)
+    write_meta(path)
     return path
 
 

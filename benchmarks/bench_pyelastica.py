@@ -104,6 +104,7 @@ from typing import Any
 import elastica as ea
 import matplotlib
 import numpy as np
+from _common import write_meta
 from numba import njit
 
 from bathprint import Simulation
@@ -775,6 +776,7 @@ def main() -> None:
         w = csv.DictWriter(f, fieldnames=list(cfg.rows[0]))
         w.writeheader()
         w.writerows(cfg.rows)
+    write_meta(csv_path)
     log(
         "\nconverged answers (a), beam theory q L^4 / 8 E I = "
         f"{DEFLECTION_BEAM:.6e} m; reference trajectories (b):"

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import signal
 import sys
 from pathlib import Path
@@ -68,10 +69,42 @@ def _cmd_show(args: argparse.Namespace) -> int:
     return 0
 
 
+def _check_record(c: object) -> dict:
+    """One validation check as a JSON object: its fields, relative error and verdict."""
+    import dataclasses
+
+    rec = dataclasses.asdict(c)  # type: ignore[call-overload]
+    rec["unit"] = rec.pop("detail", "")
+    rec["relative_error"] = c.relative_error  # type: ignore[attr-defined]
+    rec["passed"] = bool(c.passed)  # type: ignore[attr-defined]
+    return rec
+
+
 def _cmd_validate(args: argparse.Namespace) -> int:
+    import platform
+    import time
+
     from bathprint.analysis.validation import run_all
 
+    t0 = time.perf_counter()
     checks = run_all()
+    if args.json:
+        print(
+            json.dumps(
+                {
+                    "command": "bathprint validate --json",
+                    "bathprint": _version(),
+                    "date": time.strftime("%Y-%m-%d"),
+                    "machine": f"{platform.machine()}, {os.cpu_count()} CPUs, "
+                    f"{platform.system()} {platform.release()}, Python "
+                    f"{platform.python_version()}",
+                    "wall_s": time.perf_counter() - t0,
+                    "checks": [_check_record(c) for c in checks],
+                },
+                indent=2,
+            )
+        )
+        return 0 if all(c.passed for c in checks) else 1
     print(f"{'check':<58} {'simulated':>12} {'exact':>12} {'rel. error':>10} {'tol':>6}  ok")
     for c in checks:
         print(
@@ -79,6 +112,33 @@ def _cmd_validate(args: argparse.Namespace) -> int:
             f"{c.tolerance:>6.0e}  {'yes' if c.passed else 'NO'}"
         )
     return 0 if all(c.passed for c in checks) else 1
+
+
+def _cmd_view(args: argparse.Namespace) -> int:
+    from bathprint.viz import view
+
+    if (args.run_dir is None) == (args.env is None):
+        raise OptionError(
+            "bathprint view takes a RUN_DIR or --env ENV (one of them); allowed: "
+            "bathprint view RUN_DIR [--out FILE.html] or bathprint view --env ENV --policy P"
+        )
+    if args.run_dir is not None:
+        path = view.run_page(args.run_dir, args.out, colour=args.colour)
+    else:
+        from bathprint.paths import check_output_file
+
+        out = check_output_file(args.out or "episode.html", "--out")
+        path, info = view.episode_page(
+            args.env,
+            args.policy,
+            out,
+            seed=args.seed,
+            target_index=args.target_index,
+            accuracy=args.accuracy,
+        )
+        print(f"episode: metric {info.get('metric', float('nan')):.4f}")
+    print(f"wrote {path} (open it in a browser)")
+    return 0
 
 
 def _cmd_composites(args: argparse.Namespace) -> int:
@@ -151,7 +211,34 @@ def build_parser() -> argparse.ArgumentParser:
     sh.add_argument("--json", action="store_true", help="JSON instead of TOML (not read back)")
     sh.set_defaults(func=_cmd_show)
     v = sub.add_parser("validate", help="run the analytic checks and print the table")
+    v.add_argument("--json", action="store_true", help="the checks as JSON (with date and machine)")
     v.set_defaults(func=_cmd_validate)
+    vw_help = (
+        "an interactive 3D page (HTML, opens without a network) of a run directory, or of "
+        "one episode of an environment with its target (--env)"
+    )
+    vw = sub.add_parser("view", help=vw_help, description=vw_help)
+    vw.add_argument("run_dir", nargs="?", help="a directory written by bathprint simulate")
+    vw.add_argument("--out", help="the page (default RUN_DIR/view.html, or episode.html)")
+    vw.add_argument(
+        "--colour",
+        "--color",
+        dest="colour",
+        default="age",
+        choices=("age", "modulus", "density", "inner_fraction"),
+        help="material column the page starts with (it can be changed on the page)",
+    )
+    vw.add_argument("--env", help="play an episode of this environment instead of a run")
+    vw.add_argument(
+        "--policy",
+        default="random",
+        help="with --env: a baseline (random, constant, feedforward, feedforward_calibrated), "
+        "a trained run directory or a model .zip",
+    )
+    vw.add_argument("--seed", type=int, default=0, help="with --env: the episode's seed")
+    vw.add_argument("--target-index", type=int, default=0, help="with --env: held-out target")
+    vw.add_argument("--accuracy", choices=("draft", "balanced", "fine"), help="with --env: preset")
+    vw.set_defaults(func=_cmd_view)
     sub.add_parser("theory", help="scaling laws and linear stability: bathprint theory [--json]")
     sub.add_parser("warmup", help="compile the numba kernels now (once after an install)")
     sub.add_parser("play", help="one episode of an environment to a GIF: bathprint play ENV ...")

@@ -1,10 +1,10 @@
 """Compile (or load from numba's cache) the simulator's kernels before timed work.
 
 numba compiles a kernel at its first call and caches the machine code on disk
-(``cache=True``), so only the first run after an install or an upgrade pays for it (about
-a minute on two cores). :func:`ensure_compiled` does that work up front, on a throwaway
-two-millisecond simulation, says so once when the cache is cold, and returns the seconds
-it took, so that a run's own wall time (``summary.json``) never counts compilation.
+(``cache=True``), so only the first run after an install or an upgrade pays for it.
+:func:`ensure_compiled` does that work up front, on a throwaway two-millisecond
+simulation, says so once when the cache is cold, and returns the seconds it took
+(``summary.json``: ``compile_s``), so that a run's own wall time never counts compilation.
 """
 
 from __future__ import annotations
@@ -54,8 +54,8 @@ def ensure_compiled(announce: bool = True, environments: bool = False) -> float:
     cold = kernels_cached() is False
     if cold and announce:
         print(
-            "bathprint: compiling the numba kernels (once after an install or an upgrade, "
-            "about a minute; cached afterwards) ...",
+            "bathprint: compiling the numba kernels (once after an install or an upgrade; "
+            "cached afterwards) ...",
             file=sys.stderr,
             flush=True,
         )

@@ -7,7 +7,9 @@ Outputs (``bathprint simulate --out DIR``):
 - ``summary.json``: wall time (``compile_s``, numba compiling or loading its kernels
   before the run, is kept apart), steps, rejected steps, final length, mass balance, and
   ``measurements`` for the analyses other modules add;
-- ``filament.png``: 3D view of the final filament coloured by material age.
+- ``scene.toml``: the scene as run (``bathprint simulate DIR/scene.toml`` repeats it);
+- ``filament.png``: the final filament coloured by material age (``bathprint view DIR``
+  makes an interactive 3D page of all frames).
 """
 
 from __future__ import annotations
@@ -57,6 +59,9 @@ class Result:
             material_columns=np.array(L.MATERIAL_COLUMNS),
         )
         (out / "summary.json").write_text(json.dumps(self.summary, indent=2))
+        from bathprint.core.scene import scene_to_toml  # the scene as run (bathprint view)
+
+        (out / "scene.toml").write_text(scene_to_toml(self.scene))
         if plot:
             from bathprint.viz.plotting import plot_filament
 
@@ -66,6 +71,7 @@ class Result:
                 self.summary.get("time_s", 0.0),
                 out / "filament.png",
                 title=self.scene.name,
+                measurements=self.summary.get("measurements"),
             )
         return out
 

@@ -31,7 +31,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         help="coils: steady coiling over 20+ turns, with and without gelation",
     )
     p.add_argument("--out", default="runs/reproduce", help="output directory")
-    p.add_argument("--quick", action="store_true", help="small grids: about 2 minutes in all")
+    p.add_argument("--quick", action="store_true", help="small grids: every figure, roughly")
     p.add_argument("--workers", type=int, default=None, help="parallel runs (default: cores)")
     p.add_argument(
         "--scheduler",

@@ -1,0 +1,994 @@
+"""Tables of the documentation, rendered from the code and from the result files.
+
+Every table of numbers in the docs and the README comes from here, so none is typed by
+hand: the scene reference from the scene dataclasses (:mod:`bathprint.core.scene`), the
+validation table from ``bathprint validate --json``, and the measured figures from the files
+the benchmarks and studies write (``benchmarks/results/*.csv`` with their ``*.meta.json``,
+``agents/results/*/table.json``), each followed by the command, date and machine that
+produced it.
+
+A page asks for a table with a line ``<!-- render: NAME -->``. The mkdocs hook
+(``docs/_gen/hooks.py``) replaces such lines at build time. Files outside the site (the
+README) keep the rendered text between ``<!-- render: NAME -->`` and ``<!-- end render -->``:
+
+    python docs/_gen/render.py --write README.md    # re-render those blocks in place
+    python docs/_gen/render.py --check README.md    # exit 1 if they are out of date (CI)
+    python docs/_gen/render.py NAME                 # print one table
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import dataclasses
+import json
+import math
+import os
+import re
+import subprocess
+import sys
+from collections.abc import Callable
+from functools import cache
+from pathlib import Path
+from typing import Any
+
+ROOT = Path(__file__).resolve().parents[2]
+RESULTS = ROOT / "benchmarks" / "results"
+AGENTS = ROOT / "agents" / "results"
+DIRECTIVE = re.compile(
+    r"^<!-- render: ([\w-]+) -->$(?:\n(.*?)\n<!-- end render -->$)?", re.S | re.M
+)
+
+
+class RenderError(RuntimeError):
+    """A table cannot be rendered (a missing file or column, an unknown table)."""
+
+
+# ------------------------------------------------------------------ provenance
+def _git(*args: str) -> str:
+    try:
+        out = subprocess.run(
+            ["git", *args], cwd=ROOT, capture_output=True, text=True, check=True, timeout=30
+        )
+    except (OSError, subprocess.CalledProcessError, subprocess.TimeoutExpired):
+        return ""
+    return out.stdout.strip()
+
+
+def _rel(path: Path) -> str:
+    return path.resolve().relative_to(ROOT).as_posix()
+
+
+def _committed(path: Path) -> tuple[str, str]:
+    """(date, short commit) of the last commit of ``path``; ("", "") if uncommitted."""
+    if _git("status", "--porcelain", "--", _rel(path)):
+        return "", ""
+    out = _git("log", "-1", "--format=%cs %h", "--", _rel(path)).split()
+    return (out[0], out[1]) if len(out) == 2 else ("", "")
+
+
+def provenance(*paths: Path) -> str:
+    """One line under a table: the command, date, commit and machine that produced the
+    files (from NAME.meta.json when it is as new as the file, else from git)."""
+    parts = []
+    for path in paths:
+        meta_path = path.with_suffix(".meta.json")
+        meta: dict[str, Any] = {}
+        if meta_path.is_file():
+            meta = json.loads(meta_path.read_text())
+        date, commit = _committed(path)
+        if not date:
+            date = "not yet committed"
+        stale = bool(meta) and bool(commit) and meta.get("date", "") < date
+        cmd = meta.get("command") if meta else None
+        machine = meta.get("machine") if meta and not stale else "not recorded"
+        when = meta.get("date", date) if meta and not stale else date
+        sha = meta.get("commit") or commit if not stale else commit
+        text = f"`{_rel(path)}`"
+        if cmd:
+            text += f", written by `{cmd}`"
+        text += f" on {when}" + (f" (commit {sha})" if sha else "") + f"; machine: {machine}"
+        parts.append(text)
+    return "*Source: " + "; ".join(parts) + ".*"
+
+
+# ------------------------------------------------------------------ helpers
+def _csv(path: Path) -> list[dict[str, str]]:
+    if not path.is_file():
+        raise RenderError(f"{_rel(path)} does not exist (run the command that writes it)")
+    with path.open(newline="") as f:
+        return list(csv.DictReader(f))
+
+
+def _table(head: list[str], rows: list[list[str]]) -> str:
+    out = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
+    out += ["| " + " | ".join(r) + " |" for r in rows]
+    return "\n".join(out)
+
+
+def _g(x: Any, digits: int = 3) -> str:
+    try:
+        v = float(x)
+    except (TypeError, ValueError):
+        return str(x)
+    if not math.isfinite(v):
+        return "–"
+    if v != 0 and (abs(v) >= 1e5 or abs(v) < 1e-3):
+        m, e = f"{v:.{max(digits - 1, 0)}e}".split("e")
+        return f"{m}e{int(e)}"
+    text = f"{v:.{digits}g}"
+    if "e" in text:  # 100 <= |v| < 1e5 with few digits: round, but print in full
+        text = f"{float(text):.0f}"
+    return text
+
+
+def _pct(x: Any, digits: int = 2) -> str:
+    return f"{100 * float(x):+.{digits}g}%"
+
+
+# ------------------------------------------------------------------ scenes
+_UNITS = [
+    ("_kg_m3", "kg/m³"),
+    ("_pa_s", "Pa s"),
+    ("_m_s2", "m/s²"),
+    ("_mm_s", "mm/s"),
+    ("_ml_min", "ml/min"),
+    ("_1_s", "1/s"),
+    ("_pa", "Pa"),
+    ("_mm", "mm"),
+    ("_um", "µm"),
+    ("_deg", "degrees"),
+    ("_s", "s"),
+    ("_n", "N"),
+]
+
+#: meanings of keys whose dataclass field has no ``doc`` (checked: every entry must be a key)
+MEANINGS = {
+    "name": "scene name (outputs go to runs/NAME by default)",
+    "description": "one line shown by `bathprint scenes`",
+    "seed": "seed of the needle imperfections (counter-based, so runs are deterministic)",
+    "needle.position_mm": "needle tip; z is up, the bath's free surface is z = 0",
+    "needle.direction": "direction the needle points (normalised)",
+    "gelation.curvature_memory": "natural curvature follows the current one as the gel sets",
+    "inclusions.fluid": "inner fluid (its density is in `bathprint.core.composite`)",
+    "inclusions.ferrofluid_density_kg_m3": "density of `fluid = 'ferrofluid'`",
+    "end_load.force_n": "dead force on the free end (validation scenes)",
+    "numerics.integrator": "`implicit` (SDIRK2), `sdirk4`, `implicit_euler`, `explicit`",
+    "numerics.max_step_s": "largest adaptive step",
+    "numerics.min_step_s": "smallest adaptive step (below it a failing step is a divergence)",
+    "numerics.max_newton_iterations": "Newton iterations per stage before the step is retried",
+    "outputs.frame_interval_s": "simulated time between saved frames",
+    "outputs.plot": "write filament.png",
+}
+
+
+def _unit(name: str) -> str:
+    for suffix, unit in _UNITS:
+        if name.endswith(suffix):
+            return unit
+    return "–"
+
+
+def _default(f: dataclasses.Field) -> Any:
+    if f.default is not dataclasses.MISSING:
+        return f.default
+    if f.default_factory is not dataclasses.MISSING:  # type: ignore[misc]
+        return f.default_factory()  # type: ignore[misc]
+    return None
+
+
+def _show(v: Any) -> str:
+    if isinstance(v, bool):
+        return "`true`" if v else "`false`"
+    if isinstance(v, str):
+        return f'`"{v}"`' if v else '`""`'
+    if isinstance(v, tuple | list):
+        return "`[" + ", ".join(_g(x, 4) if not isinstance(x, str) else f'"{x}"' for x in v) + "]`"
+    if isinstance(v, float):
+        return f"`{_g(v, 4)}`"
+    return f"`{v}`"
+
+
+def scene_fields() -> list[tuple[str, dataclasses.Field, str]]:
+    """(dotted key, field, table) of every scene key, in the dataclasses' order."""
+    from bathprint.core.scene import Scene
+
+    out = []
+
+    def walk(cls: type, prefix: str, table: str) -> None:
+        for f in dataclasses.fields(cls):
+            factory = f.default_factory  # type: ignore[misc]
+            if isinstance(factory, type) and dataclasses.is_dataclass(factory):
+                walk(factory, f"{prefix}{f.name}.", f.name)
+            else:
+                out.append((f"{prefix}{f.name}", f, table))
+
+    walk(Scene, "", "")
+    return out
+
+
+def scene_keys() -> str:
+    """The scene reference: every key with unit, default, allowed values and meaning."""
+    from bathprint.core import scene as S
+
+    fields = scene_fields()
+    keys = {k for k, _, _ in fields}
+    unknown = sorted(set(MEANINGS) - keys)
+    if unknown:
+        raise RenderError(f"docs/_gen/render.py MEANINGS names keys that do not exist: {unknown}")
+    docs = {}
+    for cls in (S.Scene, *{type(_default(f)) for _, f, _ in []}):
+        docs[cls.__name__] = (cls.__doc__ or "").strip().splitlines()[0]
+    out = []
+    tables: dict[str, list] = {}
+    for key, f, table in fields:
+        tables.setdefault(table, []).append((key, f))
+    for table, rows in tables.items():
+        if table:
+            cls = type(getattr(S.Scene(), table))
+            doc = " ".join((cls.__doc__ or "").split())
+            out.append(f"### `[{table}]`\n\n{doc}\n")
+        else:
+            out.append("### Top level\n")
+        body = []
+        for key, f in rows:
+            meaning = f.metadata.get("doc") or MEANINGS.get(key, "—")
+            body.append([f"`{key}`", _unit(f.name), _show(_default(f)), S._allowed(f), meaning])
+        out.append(_table(["key", "unit", "default", "allowed", "meaning"], body) + "\n")
+    out.append(
+        "*Rendered from the dataclasses of `bathprint.core.scene` when the docs are built: "
+        "a key, default or range changed there changes here.*"
+    )
+    return "\n".join(out)
+
+
+def builtin_scenes() -> str:
+    """The built-in scenes: name, duration, effects, description."""
+    from bathprint.core.scene import builtin_scene_names, load_scene
+
+    rows = []
+    for name in builtin_scene_names():
+        s = load_scene(name)
+        rows.append(
+            [f"`{name}`", _g(s.duration_s), ", ".join(s.effects), s.description.replace("|", "/")]
+        )
+    return _table(["scene", "duration (s)", "effects", "what"], rows) + (
+        "\n\n*Rendered from `src/bathprint/scenes/*.toml` (`bathprint scenes` lists them).*"
+    )
+
+
+# ------------------------------------------------------------------ validation
+@cache
+def validation_data() -> dict[str, Any]:
+    """``bathprint validate --json``, run once per process (or read from the file that
+    ``$BATHPRINT_VALIDATION_JSON`` names)."""
+    path = os.environ.get("BATHPRINT_VALIDATION_JSON")
+    if path:
+        return json.loads(Path(path).read_text())
+    env = dict(os.environ)
+    env["PYTHONPATH"] = os.pathsep.join([str(ROOT / "src"), env.get("PYTHONPATH", "")])
+    proc = subprocess.run(
+        [sys.executable, "-m", "bathprint.cli", "validate", "--json"],
+        capture_output=True,
+        text=True,
+        env=env,
+        cwd=ROOT,
+        timeout=900,
+    )
+    if proc.returncode not in (0, 1) or not proc.stdout.strip():
+        raise RenderError(f"bathprint validate --json failed: {proc.stderr.strip()[-2000:]}")
+    return json.loads(proc.stdout)
+
+
+def validation() -> str:
+    data = validation_data()
+    rows = []
+    for c in data["checks"]:
+        unit = c.get("unit", "")
+        unit = "" if unit in ("", "-") else f" {unit}"
+        rows.append(
+            [
+                c["name"],
+                f"{_g(c['simulated'], 6)}{unit}",
+                f"{_g(c['exact'], 6)}{unit}",
+                _g(c["relative_error"], 2),
+                _g(c["tolerance"], 1),
+                "yes" if c["passed"] else "**no**",
+            ]
+        )
+    table = _table(["check", "simulated", "exact", "relative error", "tolerance", "passed"], rows)
+    return (
+        f"{table}\n\n*Produced by `{data['command']}` (bathprint {data['bathprint']}) on "
+        f"{data['date']} in {data['wall_s']:.1f} s; machine: {data['machine']}.*"
+    )
+
+
+# ------------------------------------------------------------------ performance
+def default_scene() -> str:
+    path = RESULTS / "default_paper_simulation.csv"
+    r = _csv(path)[0]
+    rows = [
+        ["simulated", f"{_g(r['simulated_s'])} s"],
+        ["wall time", f"{_g(r['wall_s'])} s ({_g(r['wall_s_per_simulated_s'])} s per simulated s)"],
+        ["steps (rejected)", f"{r['steps']} ({r['rejected']})"],
+        ["nodes at the end", r["final_nodes"]],
+        ["node-steps per second", _g(r["node_steps_per_s"], 2)],
+        ["mean step / explicit stability limit", _g(r["mean_step_over_explicit_limit"], 2)],
+    ]
+    return _table(["`paper_simulation`", "value"], rows) + "\n\n" + provenance(path)
+
+
+def scaling() -> str:
+    path = RESULTS / "scaling.csv"
+    rows = [
+        [
+            r["nodes"],
+            _g(r["us_per_step"]),
+            _g(r["newton_per_step"], 2),
+            _g(r["us_per_newton_per_node"], 2),
+            f"{_g(r['cost_ratio_vs_100'], 2)} ({_g(r['linear_ratio'])})",
+        ]
+        for r in _csv(path)
+    ]
+    head = [
+        "N",
+        "µs/step",
+        "Newton iterations/step",
+        "µs per iteration per node",
+        "cost vs N = 100 (linear)",
+    ]
+    return _table(head, rows) + "\n\n" + provenance(path)
+
+
+def effects() -> str:
+    kpath, rpath = RESULTS / "effects_kernels.csv", RESULTS / "effects_runs.csv"
+    k = _table(
+        ["effect", "ns per node (force and Jacobian)"],
+        [[f"`{r['effect']}`", _g(r["ns_per_node"])] for r in _csv(kpath)],
+    )
+    r = _table(
+        ["effects", "Newton iterations", "µs per Newton iteration"],
+        [
+            [x["effects"], x["newton_iterations"], _g(x["us_per_newton_iteration"])]
+            for x in _csv(rpath)
+        ],
+    )
+    return f"{k}\n\n{provenance(kpath)}\n\n{r}\n\n{provenance(rpath)}"
+
+
+def _pareto(points: list[tuple[float, float]]) -> list[tuple[float, float]]:
+    front: list[tuple[float, float]] = []
+    for w, e in sorted((w, max(e, 1e-14)) for w, e in points):
+        if not front or e < front[-1][1]:
+            front.append((w, e))
+    return front
+
+
+def _cost_at(points: list[tuple[float, float]], target: float) -> float:
+    """Wall time to reach error <= target, log-log along the Pareto front (as
+    benchmarks/bench_pyelastica.py computes it)."""
+    front = _pareto(points)
+    if not front:
+        return math.nan
+    if target >= front[0][1]:
+        return front[0][0]
+    for (w0, e0), (w1, e1) in zip(front[:-1], front[1:], strict=True):
+        if e0 >= target >= e1:
+            f = (math.log(target) - math.log(e0)) / (math.log(e1) - math.log(e0))
+            return math.exp(math.log(w0) + f * (math.log(w1) - math.log(w0)))
+    return math.nan
+
+
+def pyelastica(name: str = "pyelastica") -> str:
+    path = RESULTS / f"{name}.csv"
+    data = _csv(path)
+
+    def pts(problem: str, code: str, n: str) -> list[tuple[float, float]]:
+        return [
+            (float(r["wall_s"]), float(r["error"]))
+            for r in data
+            if r["problem"] == problem and r["code"] == code and r["elements"] == n
+        ]
+
+    rows = []
+    for n in sorted({r["elements"] for r in data}, key=int):
+        pe = pts("a_steady", "pyelastica", n)
+        bp = pts("a_steady", "bathprint", n)
+        for level in (1e-3, 1e-4, 1e-6):
+            pw, bw = _cost_at(pe, level), _cost_at(bp, level)
+            if math.isfinite(pw) and math.isfinite(bw):
+                rows.append(
+                    [
+                        "(a) steady deflection",
+                        n,
+                        f"error {_g(level)}",
+                        _g(pw, 3),
+                        _g(bw, 3),
+                        f"**{_g(pw / bw, 3)}×**",
+                    ]
+                )
+        pe_b = sorted(
+            (float(r["knob_value"]), float(r["wall_s"]), float(r["error"]))
+            for r in data
+            if r["problem"] == "b_dynamic" and r["code"] == "pyelastica" and r["elements"] == n
+        )[::-1]
+        bp_b = pts("b_dynamic", "bathprint", n)
+        if pe_b:
+            dt_max = pe_b[0][0]
+            for dt, wall, err in pe_b:
+                bw = _cost_at(bp_b, err)
+                label = "dt_max" if dt == dt_max else f"dt_max/{round(dt_max / dt)}"
+                rows.append(
+                    [
+                        "(b) motion with inertia",
+                        n,
+                        f"{label}: error {_g(err, 2)}",
+                        _g(wall, 3),
+                        _g(bw, 3),
+                        f"**{_g(wall / bw, 3)}×**" if math.isfinite(bw) else "–",
+                    ]
+                )
+    head = [
+        "problem",
+        "elements",
+        "PyElastica at",
+        "PyElastica wall (s)",
+        "bathprint wall (s) at that error",
+        "ratio",
+    ]
+    return _table(head, rows) + "\n\n" + provenance(path)
+
+
+def profile() -> str:
+    path = RESULTS / "profile.csv"
+    data = _csv(path)
+    cases = list(dict.fromkeys(r["case"] for r in data))
+    comps = [c for c in dict.fromkeys(r["component"] for r in data) if c != "whole step"]
+    by = {(r["case"], r["component"]): r for r in data}
+    rows = []
+    for comp in comps:
+        rows.append(
+            [comp.replace("\n", " ")]
+            + [_g(by[(c, comp)]["pct_of_step"], 2) + "%" if (c, comp) in by else "–" for c in cases]
+        )
+    rows.append(
+        ["**whole step (µs)**"]
+        + [
+            _g(by[(c, "whole step")]["us_per_step"], 3) if (c, "whole step") in by else "–"
+            for c in cases
+        ]
+    )
+    return _table(["component"] + cases, rows) + "\n\n" + provenance(path)
+
+
+def _failure(text: str) -> str:
+    """'FAIL: simulation diverged at t = T s, node N: CAUSE (...)' -> 'stops at t = T s: CAUSE'."""
+    m = re.search(r"at t = ([\d.e+-]+) s, node \d+: ([^(]*?)(?: even at| \(|$)", text)
+    return f"stops at t = {m.group(1)} s: {m.group(2).strip()}" if m else text[:80]
+
+
+def hard_cases() -> str:
+    path = RESULTS / "hard_cases.csv"
+    rows = []
+    for r in _csv(path):
+        ok = r["result"] == "ok"
+        rows.append(
+            [
+                f"`{r['case']}`",
+                f"`{r['scene']}`",
+                _g(r["t_end_s"]),
+                f"{r['steps']} / {r['rejected']}",
+                r["nodes"] if ok else "–",
+                _g(r["wall_s"], 2),
+                _g(r["stretch_err"], 2) if ok else "–",
+                _g(r["mass_err"], 1) if ok else "–",
+                "ok" if ok else _failure(r["result"]),
+            ]
+        )
+    head = [
+        "case",
+        "scene",
+        "simulated (s)",
+        "steps / rejected",
+        "nodes",
+        "wall (s)",
+        "worst stretch",
+        "mass error",
+        "result",
+    ]
+    return _table(head, rows) + "\n\n" + provenance(path)
+
+
+def freezing_coil() -> str:
+    path = RESULTS / "freezing_coil.csv"
+    rows = [
+        [
+            r["preset"],
+            r["variant"],
+            _pct(r["radius_change"]),
+            _pct(r["frequency_change"]),
+            f"{_g(r['wall_ratio'], 2)}×",
+        ]
+        for r in _csv(path)
+    ]
+    return _table(["preset", "variant", "ΔR/R", "Δω/ω", "wall time vs not frozen"], rows) + (
+        "\n\n" + provenance(path)
+    )
+
+
+def freezing_rope() -> str:
+    path = RESULTS / "freezing_rope.csv"
+    rows = [
+        [
+            r["variant"],
+            f"{r['frozen_nodes']} of {r['nodes']}",
+            f"{_g(r['near_needle_rms_mm'], 2)} mm",
+            f"{_g(r['pile_centre_shift_mm'], 2)} mm",
+            f"{r['steps']} / {r['rejected']}",
+            f"{_g(r['wall_ratio'], 2)}×",
+        ]
+        for r in _csv(path)
+    ]
+    head = [
+        "variant",
+        "frozen nodes",
+        "change near the needle (RMS)",
+        "pile centre shift",
+        "steps / rejected",
+        "wall time",
+    ]
+    return _table(head, rows) + "\n\n" + provenance(path)
+
+
+def freezing_envs() -> str:
+    path = RESULTS / "freezing_envs.csv"
+    rows = [
+        [
+            f"`{r['env']}`",
+            r["episodes"],
+            _g(r["freezing_change"], 2),
+            _g(r["draft_vs_balanced"], 2),
+            f"{_g(r['speedup'], 2)}×",
+        ]
+        for r in _csv(path)
+    ]
+    head = [
+        "environment",
+        "episodes",
+        "final metric change by freezing",
+        "draft vs balanced",
+        "speed-up",
+    ]
+    return _table(head, rows) + "\n\n" + provenance(path)
+
+
+def accuracy_presets() -> str:
+    path = RESULTS / "accuracy" / "presets.csv"
+    data = _csv(path)
+    by = {(r["problem"], r["knob"]): r for r in data}
+    rows = []
+    for preset in ("draft", "balanced", "fine"):
+        row = [f"`{preset}`"]
+        for problem in ("cantilever", "onset", "coil_radius"):
+            r = by.get((problem, preset))
+            if r is None:
+                row.append("–")
+                continue
+            err = float(r["error"])
+            wall = float(r["wall_s"])
+            e = "reference" if err == 0 and problem.startswith("coil") else _g(err, 2)
+            row.append(f"{e} / {_g(wall * 1e3, 2)} ms" if wall < 1 else f"{e} / {_g(wall, 2)} s")
+        r = by.get(("coil_frequency", preset))
+        row.append("reference" if r and float(r["error"]) == 0 else _g(r["error"], 2) if r else "–")
+        rows.append(row)
+    head = [
+        "preset",
+        "cantilever error / wall",
+        "onset error / wall",
+        "coil radius error / wall",
+        "coil frequency error",
+    ]
+    return _table(head, rows) + "\n\n" + provenance(path)
+
+
+def envs_speed() -> str:
+    path = RESULTS / "envs.csv"
+    data = _csv(path)
+    envs = list(dict.fromkeys(r["env"] for r in data))
+    by = {(r["env"], r["accuracy"]): r for r in data}
+    rows = [
+        [f"`{e}`"]
+        + [
+            _g(by[(e, a)]["steps_per_cpu_s"], 4) if (e, a) in by else "–"
+            for a in ("draft", "balanced", "fine")
+        ]
+        for e in envs
+    ]
+    load = {r["load_avg_1min"] for r in data}
+    return _table(["environment", "draft", "balanced", "fine"], rows) + (
+        f"\n\nSteps per CPU second of one process, random actions with resets "
+        f"(load average {', '.join(sorted(load))}).\n\n" + provenance(path)
+    )
+
+
+# ------------------------------------------------------------------ agents
+_POLICY_NAMES = {
+    "random": "random",
+    "constant": "best constant",
+    "feedforward": "feedforward (paper's law)",
+    "feedforward_calibrated": "feedforward, calibrated",
+}
+_RUN_NAMES = {"ppo": "PPO", "sac": "SAC", "ppores": "PPO residual on calibrated feedforward"}
+
+
+def _agent_rows(env: str) -> tuple[dict[str, tuple[str, str]], Path]:
+    path = AGENTS / env / "table.json"
+    if not path.is_file():
+        raise RenderError(f"{_rel(path)} does not exist (bathprint evaluate ... --out)")
+    out: dict[str, tuple[str, str]] = {}
+    for r in json.loads(path.read_text()):
+        label = r["policy"]
+        budget = ""
+        if ":" in label:  # algo:run_Env
+            run = label.split(":", 1)[1].rsplit("_", 1)[0]
+            info = AGENTS / env / f"run_{run}.json"
+            name = _RUN_NAMES.get(run, run)
+            if info.is_file():
+                rj = json.loads(info.read_text())
+                steps = rj.get("timesteps_done") or rj.get("n_timesteps")
+                budget = f" ({_g(steps / 1e3, 3)}k steps, {_g(rj['wall_time_s'] / 60, 2)} min)"
+        else:
+            name = _POLICY_NAMES.get(label, label)
+        out[name] = (f"{r['mean_metric']:.3f} ± {r['std_metric']:.3f}{budget}", label)
+    return out, path
+
+
+def agents() -> str:
+    envs = sorted(p.name for p in AGENTS.iterdir() if (p / "table.json").is_file())
+    tables = {e: _agent_rows(e) for e in envs}
+    names = list(dict.fromkeys(n for e in envs for n in tables[e][0]))
+    best = {}
+    for e in envs:
+        vals = {n: float(v[0].split(" ")[0]) for n, v in tables[e][0].items()}
+        best[e] = min(vals, key=vals.get)
+    rows = []
+    for n in names:
+        row = [n]
+        for e in envs:
+            v = tables[e][0].get(n)
+            row.append("–" if v is None else (f"**{v[0]}**" if best[e] == n else v[0]))
+        rows.append(row)
+    head = ["policy"] + [f"{e}-v0" for e in envs]
+    dates = sorted(
+        {" ".join(x for x in _committed(tables[e][1]) if x) or "uncommitted" for e in envs}
+    )
+    srcs = (
+        f"*Source: `agents/results/{{{','.join(envs)}}}/table.json` (committed "
+        f"{', '.join(dates)}); machine: not recorded in the files.*"
+    )
+    return (
+        _table(head, rows)
+        + "\n\nMean ± standard deviation of the final shape metric over the 16 held-out "
+        "targets (seed 0, draft preset; lower is better; best in bold). Training budgets are "
+        "environment steps and the wall time `run.json` records (a resumed run counts from "
+        "its resume).\n\n"
+        + srcs
+        + " Command: `bathprint evaluate RUN... random constant feedforward "
+        "feedforward_calibrated --env ENV --episodes 16 --seed 0`."
+    )
+
+
+# ------------------------------------------------------------------ the paper reproduced
+REPRODUCE = RESULTS / "reproduce"
+
+
+def _reproduce() -> dict[str, Any]:
+    path = REPRODUCE / "reproduce.json"
+    if not path.is_file():
+        raise RenderError(
+            f"{_rel(path)} does not exist (bathprint reproduce all --out "
+            "benchmarks/results/reproduce)"
+        )
+    return json.loads(path.read_text())
+
+
+def _reproduce_source(*names: str) -> str:
+    return provenance(REPRODUCE / "reproduce.json").replace(
+        "`benchmarks/results/reproduce/reproduce.json`",
+        ", ".join(f"`benchmarks/results/reproduce/{n}`" for n in names or ("reproduce.json",)),
+    )
+
+
+def reproduce_times() -> str:
+    data = _reproduce()
+    rows = [[f"`{k}`", _g(v.get("wall_time_s"), 2)] for k, v in data.items()]
+    return _table(["figure", "wall time (s)"], rows) + "\n\n" + _reproduce_source()
+
+
+def stability_onsets() -> str:
+    res = _reproduce()["stability"]["result"]
+    bc = res["beta_c"]
+    rows = [[k, f"{v:.4f}", _pct(v / bc - 1, 2)] for k, v in res["simulated_onsets"].items()]
+    return _table(["simulated rod", "onset β", "vs β_c = " + f"{bc:.4f}"], rows) + (
+        "\n\n" + _reproduce_source("stability.csv", "reproduce.json")
+    )
+
+
+def coils() -> str:
+    res = _reproduce()["coils"]["result"]
+    rows = [
+        [
+            k,
+            str(v["turns"]),
+            str(v["core_turns"]),
+            f"{1e3 * v['median_radius_m']:.2f} mm",
+            f"{100 * v['radius_spread']:.2g}%",
+        ]
+        for k, v in res.items()
+    ]
+    head = [
+        "filament",
+        "turns below the needle",
+        "turns in the trimmed core",
+        "median coil radius",
+        "radius spread (core)",
+    ]
+    return _table(head, rows) + "\n\n" + _reproduce_source("coils.csv", "reproduce.json")
+
+
+def paper_constants() -> str:
+    from bathprint.analysis import theory
+
+    th = theory.summary_dict()
+    paper = th["paper"]
+    fit = _reproduce()["fig2"]["result"]
+    rows2 = [
+        r
+        for r in _csv(REPRODUCE / "fig2.csv")
+        if r["regime"] == "drag_coiling" and r["buckling_length_m"]
+    ]
+    lb = [float(r["buckling_length_m"]) / float(r["scale_B_mu_v_m"]) for r in rows2]
+    fig1c = _reproduce()["fig1c"]["result"]["paper_points"]
+    sim_regimes = ", ".join(v["simulated"].replace("_", " ") for v in fig1c.values())
+    paper_regimes = ", ".join(v["paper"].replace("_", " ") for v in fig1c.values())
+    rows = [
+        [
+            "β_c (onset)",
+            _g(paper["BETA_C"]),
+            f"{th['beta_c']:.4f} (theory, two methods agree to "
+            f"{_g(th['beta_c_relative_difference'], 1)})",
+        ],
+        ["L_c / (B/(μ_s v))^(1/3)", "—", f"{th['critical_length_prefactor']:.4f}"],
+        [
+            "L_c / (B/(μ v))^(1/3), Cox's μ_s",
+            _g(paper["LC_PREFACTOR"]),
+            f"{th['paper_prefactor_with_cox_mean']:.2f} (mean over the paper's r, v range; "
+            f"{th['paper_prefactor_with_cox_min']:.2f}–{th['paper_prefactor_with_cox_max']:.2f})",
+        ],
+        [
+            "buckling length l / (B/(μv))^(1/3), simulated",
+            "1.04 (experiments)",
+            f"{min(lb):.2f}–{max(lb):.2f} ({len(lb)} drag-coiling runs)" if lb else "–",
+        ],
+        ["l = a R", f"a = {_g(paper['L_OVER_R'])}", f"a = {fit['l_over_R']:.2f}"],
+        [
+            "R = b (B/(μv))^(1/3)",
+            f"b = {_g(paper['R_PREFACTOR'])}",
+            f"b = {fit['R_prefactor']:.2f}",
+        ],
+        [
+            "ω = c v^(4/3)(μ/B)^(1/3)",
+            f"c = {_g(paper['OMEGA_PREFACTOR'])}",
+            f"c = {fit['omega_prefactor']:.2f}",
+        ],
+        ["Fig. 1B regimes at the paper's four points", paper_regimes, sim_regimes],
+    ]
+    return _table(["constant", "paper", "bathprint"], rows) + (
+        "\n\n*The theory column is computed by `bathprint theory --json` when the site is "
+        "built; the fits by `bathprint reproduce fig2` and `fig1c`.* "
+        + _reproduce_source("fig2.csv", "fig1c.csv", "reproduce.json")
+    )
+
+
+def fig1c_regimes() -> str:
+    rows = _csv(REPRODUCE / "fig1c.csv")
+    ds = sorted({r["diameter_mm"] for r in rows}, key=float)
+    qs = sorted({r["q_outer_ml_min"] for r in rows}, key=float)
+    by = {(r["diameter_mm"], r["q_outer_ml_min"]): r for r in rows}
+    body = []
+    for d in ds:
+        line = [f"{d} mm"]
+        for q in qs:
+            r = by.get((d, q))
+            line.append("–" if r is None else (r["regime"] or r["status"]).replace("_", " "))
+        body.append(line)
+    return _table(["needle d \\ Q_o (ml/min)"] + qs, body) + "\n\n" + _reproduce_source("fig1c.csv")
+
+
+def fig3_settling() -> str:
+    rows = _csv(REPRODUCE / "fig3e_settling.csv")
+    comp = _csv(REPRODUCE / "fig3df_composites.csv")
+    rho_gel = float(comp[0]["density_kg_m3"])
+    body = []
+    for r in rows:
+        rho = float(r["density_kg_m3"])
+        body.append(
+            [
+                r["filament"],
+                f"{rho:.0f}",
+                f"{1e3 * float(r['settled_height_m']):+.3f} mm",
+                f"{1e3 * float(r['expected_height_m']):+.3f} mm",
+                _g(abs(float(r["difference_m"])), 1) + " m",
+            ]
+        )
+    head = [
+        "paper's filament (Fig. 3E)",
+        "ρ_c (kg/m³)",
+        "settled at (simulated)",
+        "where the column is as dense",
+        "difference",
+    ]
+    return _table(head, body) + (
+        f"\n\nPure alginate is {rho_gel:.0f} kg/m³; heights are below the surface (0), and a "
+        "filament lighter than the top of the column floats.\n\n"
+        + _reproduce_source("fig3e_settling.csv", "fig3df_composites.csv")
+    )
+
+
+# ------------------------------------------------------------------ the README's headline
+def headline() -> str:
+    d = _csv(RESULTS / "default_paper_simulation.csv")[0]
+    env = {(r["env"], r["accuracy"]): r for r in _csv(RESULTS / "envs.csv")}
+    draft = [float(r["steps_per_cpu_s"]) for (e, a), r in env.items() if a == "draft"]
+    pe = _csv(RESULTS / "pyelastica.csv")
+
+    def pts(problem: str, code: str, n: str) -> list[tuple[float, float]]:
+        return [
+            (float(r["wall_s"]), float(r["error"]))
+            for r in pe
+            if r["problem"] == problem and r["code"] == code and r["elements"] == n
+        ]
+
+    ratios_b = []
+    for n in ("50", "100"):
+        pe_b = sorted(
+            (float(r["knob_value"]), float(r["wall_s"]), float(r["error"]))
+            for r in pe
+            if r["problem"] == "b_dynamic" and r["code"] == "pyelastica" and r["elements"] == n
+        )
+        if pe_b:
+            _, wall, err = pe_b[-1]  # dt_max
+            ratios_b.append(wall / _cost_at(pts("b_dynamic", "bathprint", n), err))
+    ratios_a = [
+        _cost_at(pts("a_steady", "pyelastica", n), 1e-4)
+        / _cost_at(pts("a_steady", "bathprint", n), 1e-4)
+        for n in ("50", "100")
+    ]
+    coil, _ = _agent_rows("CoilRadius")
+    best_name = min(coil, key=lambda n: float(coil[n][0].split(" ")[0]))
+    rows = [
+        [
+            "default scene (3 s, buckling and coiling)",
+            f"{_g(d['wall_s'], 2)} s wall, {d['steps']} steps, {d['final_nodes']} nodes",
+            "[performance](docs/performance.md)",
+        ],
+        [
+            "against PyElastica, steady cantilever (error 1e-4)",
+            f"{_g(min(ratios_a), 2)}–{_g(max(ratios_a), 2)}× faster",
+            "[performance](docs/performance.md#against-pyelastica)",
+        ],
+        [
+            "against PyElastica, motion with inertia (its dt_max)",
+            f"{_g(min(ratios_b), 2)}–{_g(max(ratios_b), 2)}× faster",
+            "[performance](docs/performance.md#against-pyelastica)",
+        ],
+        [
+            "environments, draft preset",
+            f"{_g(min(draft), 3)}–{_g(max(draft), 3)} steps/s per core",
+            "[environments](docs/environments.md)",
+        ],
+        [
+            "CoilRadius-v0, held-out targets (lower is better)",
+            f"{best_name}: {coil[best_name][0].split(' (')[0]}; best constant "
+            f"{coil['best constant'][0]}",
+            "[agents](docs/agents.md)",
+        ],
+    ]
+    srcs = [
+        RESULTS / "default_paper_simulation.csv",
+        RESULTS / "pyelastica.csv",
+        RESULTS / "envs.csv",
+        AGENTS / "CoilRadius" / "table.json",
+    ]
+    dates = sorted({_committed(p)[0] or "uncommitted" for p in srcs})
+    return _table(["what", "result", "details"], rows) + (
+        "\n\nRendered by `python docs/_gen/render.py --write README.md` from "
+        + ", ".join(f"`{_rel(p)}`" for p in srcs)
+        + f" (measured {', '.join(dates)} on the 2-core development machine; the pages linked "
+        "give each command and machine)."
+    )
+
+
+TABLES: dict[str, Callable[[], str]] = {
+    "scene-keys": scene_keys,
+    "builtin-scenes": builtin_scenes,
+    "validation": validation,
+    "default-scene": default_scene,
+    "scaling": scaling,
+    "effects": effects,
+    "pyelastica": pyelastica,
+    "profile": profile,
+    "hard-cases": hard_cases,
+    "freezing-coil": freezing_coil,
+    "freezing-rope": freezing_rope,
+    "freezing-envs": freezing_envs,
+    "accuracy-presets": accuracy_presets,
+    "envs-speed": envs_speed,
+    "agents": agents,
+    "headline": headline,
+    "reproduce-times": reproduce_times,
+    "stability-onsets": stability_onsets,
+    "coils": coils,
+    "paper-constants": paper_constants,
+    "fig1c-regimes": fig1c_regimes,
+    "fig3-settling": fig3_settling,
+}
+
+
+def render_table(name: str) -> str:
+    if name not in TABLES:
+        raise RenderError(f"unknown table {name!r}; tables: {', '.join(TABLES)}")
+    return TABLES[name]()
+
+
+def render_markdown(text: str, keep_markers: bool = False) -> str:
+    """Replace every ``<!-- render: NAME -->`` (and its old block, if any) by the table;
+    with ``keep_markers`` the markers stay around it (for files edited in place)."""
+
+    def sub(m: re.Match) -> str:
+        body = render_table(m.group(1))
+        if keep_markers:
+            return f"<!-- render: {m.group(1)} -->\n{body}\n<!-- end render -->"
+        return body
+
+    return DIRECTIVE.sub(sub, text)
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("what", nargs="*", help="table names, or files with --write/--check")
+    mode = ap.add_mutually_exclusive_group()
+    mode.add_argument("--write", action="store_true", help="re-render the files' blocks")
+    mode.add_argument("--check", action="store_true", help="exit 1 if a file is out of date")
+    args = ap.parse_args(argv)
+    try:
+        if not (args.write or args.check):
+            for name in args.what or list(TABLES):
+                print(f"## {name}\n\n{render_table(name)}\n")
+            return 0
+        stale = []
+        for f in args.what:
+            path = Path(f)
+            old = path.read_text(encoding="utf-8")
+            new = render_markdown(old, keep_markers=True)
+            if new != old:
+                if args.write:
+                    path.write_text(new, encoding="utf-8")
+                    print(f"rendered {f}")
+                else:
+                    stale.append(f)
+        if stale:
+            print(
+                f"out of date: {', '.join(stale)}; run python docs/_gen/render.py --write "
+                + " ".join(stale),
+                file=sys.stderr,
+            )
+            return 1
+    except RenderError as exc:
+        print(f"render.py: {exc}", file=sys.stderr)
+        return 2
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
