@@ -164,3 +164,17 @@ def test_the_studies_refuse_bad_options(capsys) -> None:
         assert main(["reproduce", study, "--workers", "0"]) == 2
         err = capsys.readouterr().err
         assert "--workers" in err and err.count("\n") == 1
+
+
+def test_the_cost_probe_times_every_variant_at_one_point() -> None:
+    costs = ablation.time_variants("fig2", ablation.QUICK["fig2"][0][0], quick=True)
+    _, missing = ablation.plan(quick=True)
+    assert list(costs) == [v.name for v in ablation.VARIANTS] + [ablation.ALL]
+    for name, c in costs.items():
+        if name in missing:
+            assert c["error"].startswith("not available")
+        else:
+            assert c["wall_s"] > 0 and c["nodes"] > 2 and c["regime"]
+            assert c["simulated_s"] == pytest.approx(costs[ablation.BASELINE]["simulated_s"])
+    with pytest.raises(ValueError, match="not in the 'fig2' set"):
+        ablation.time_variants("fig2", (9.0, 9.0), quick=True)

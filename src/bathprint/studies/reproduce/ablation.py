@@ -78,12 +78,14 @@ class Budget:
     max_segments: float
 
 
-# points per set and their budgets: Fig. 1C's for the Fig. 1B points, Fig. 2's for its range
+# points per set and their budgets: Fig. 1C's and Fig. 2's grids and segment budgets, with
+# longer caps on the simulated time (slow, thick jets take seconds to buckle; they are cheap:
+# few nodes). Measured cost: docs/reproduction.md.
 FULL = {
-    "fig1b": ([(d, q) for d, q, _ in PAPER_POINTS], Budget(6.0, 6.0, 1500.0)),
+    "fig1b": ([(d, q) for d, q, _ in PAPER_POINTS], Budget(6.0, 12.0, 1500.0)),
     "fig2": (
         [(d, q) for d in (0.26, 0.41, 0.6, 0.84) for q in (0.3, 0.5, 1.0, 2.0)],
-        Budget(6.0, 6.0, 4000.0),
+        Budget(6.0, 20.0, 4000.0),
     ),
 }
 QUICK_BUDGET = Budget(turns=1.0, max_duration_s=0.12, max_segments=60.0)
@@ -185,6 +187,43 @@ def plan(quick: bool = False) -> tuple[list[dict], dict[str, str]]:
                     }
                 )
     return runs, missing
+
+
+def time_variants(
+    set_name: str = "fig2", point: tuple[float, float] = (0.41, 1.0), quick: bool = False
+) -> dict[str, dict[str, Any]]:
+    """The cost probe: each available variant's run at one point of the study, one after the
+    other in this process (kernels compiled first): wall time (s), simulated time (s), nodes,
+    steps and regime, or the error. For choosing budgets before the full study."""
+    import time
+
+    from bathprint.core.run import simulate
+    from bathprint.errors import SimulationError
+
+    runs, missing = plan(quick)
+    chosen = [r for r in runs if r["set"] == set_name and r["point"] == tuple(point)]
+    if not chosen:
+        raise ValueError(f"point {point!r} is not in the {set_name!r} set of the study")
+    simulate(SCENE, {**chosen[0]["overrides"], "duration_s": 1e-3}, progress=False)
+    out: dict[str, dict[str, Any]] = {}
+    for r in chosen:
+        if r["overrides"] is None:
+            out[r["variant"]] = {"error": f"not available: {missing[r['variant']]}"}
+            continue
+        t0 = time.perf_counter()
+        try:
+            summary = simulate(SCENE, r["overrides"], progress=False).summary
+        except (SceneError, SimulationError) as exc:
+            out[r["variant"]] = {"wall_s": time.perf_counter() - t0, "error": str(exc)}
+            continue
+        out[r["variant"]] = {
+            "wall_s": time.perf_counter() - t0,
+            "simulated_s": summary["time_s"],
+            "nodes": summary["nodes"],
+            "steps": summary["steps"],
+            "regime": summary["measurements"]["regime"],
+        }
+    return out
 
 
 def extract(summary: dict) -> dict:

@@ -6,13 +6,14 @@ heavy (100 kg/m^3) at needle diameters and flow rates of the paper's range, with
 30 mm below the needle as in Fig. 1C (heavy filaments fall and coil on it: gravity-induced
 coiling; neutral ones coil by drag). The buckled length is measured as the paper does for
 drag coiling, the depth below the needle where the filament leaves the axis
-(:func:`bathprint.analysis.measure.buckling_length`), and for rope coiling as the height of
-that point above the floor (the straight part above it hangs in tension: what buckles is
-the part near the floor). Both are fitted through the origin against the universal scale
-L_u = (B / (mu v + drho g r^2))^(1/3) and against the drag scale L_d = (B / (mu v))^(1/3);
-the scatter of each fit (RMS of log(l / fit)) says which collapses the runs. The coil radius R
-is treated the same way. Runs as for Fig. 1C (:func:`bathprint.studies.reproduce.runs.
-run_overrides`), through the resumable sweep.
+(:func:`bathprint.analysis.measure.buckling_length`; also with the first departure by 2r),
+and for rope coiling as the height of that point above the floor (the straight part above
+it hangs in tension: what buckles is the part near the floor). Each is fitted through the
+origin against the universal scale L_u = (B / (mu v + drho g r^2))^(1/3) and against the
+drag scale L_d = (B / (mu v))^(1/3); the scatter of each fit (RMS of log(l / fit)) says
+which collapses the runs. The coil radius R is treated the same way. Runs as for Fig. 1C
+(:func:`bathprint.studies.reproduce.runs.run_overrides`, a longer budget), through the
+resumable sweep. Outputs: gravity.csv, gravity.png, gravity_runs.jsonl.
 """
 
 from __future__ import annotations
@@ -31,9 +32,9 @@ from bathprint.studies.sweep import run_id, run_sweep
 SCENE = "drag_coiling_22G"
 BATH_DENSITY = 1051.0  # kg/m^3, 150 mM CaCl2 (the scene's bath)
 FULL = {
-    "points": [(0.41, 0.5), (0.84, 0.5), (0.84, 2.0)],
+    "points": [(0.41, 0.5), (0.6, 1.0), (0.84, 0.5), (0.84, 2.0)],
     "drho": [0.0, 1.0, 3.0, 10.0, 30.0, 100.0],
-    "budget": (6.0, 6.0, 1500.0),  # turns, max_duration_s, max_segments
+    "budget": (10.0, 12.0, 3000.0),  # turns, max_duration_s, max_segments
 }
 QUICK = {"points": [(0.41, 0.5)], "drho": [0.0, 30.0], "budget": (1.0, 0.4, 100.0)}
 
@@ -56,6 +57,21 @@ def scales(diameter_mm: float, q_ml_min: float, drho: float) -> tuple[float, flo
         theory.gravity_drag_length(b, MU, v, drho, d / 2),
         theory.buckling_length_scale(b, MU, v),
     )
+
+
+def buckled_length(depth: float | None, regime: str | None) -> float | None:
+    """The buckled length (m) from the depth of the departure below the needle: the depth
+    itself, or with rope coiling the height of the departure above the floor."""
+    if depth is None:
+        return None
+    return HEIGHT_MM * 1e-3 - depth if regime == "rope_coiling" else depth
+
+
+QUANTITIES = {  # fitted quantity: its label
+    "buckled_length_m": "buckled length l (departure by max(r, R/4)) (mm)",
+    "buckled_length_2r_m": "buckled length l (departure by 2r) (mm)",
+    "coil_radius_m": "coil radius R (mm)",
+}
 
 
 def _fit(x: np.ndarray, y: np.ndarray) -> dict:
@@ -98,10 +114,8 @@ def run(
         res = row.get("result") or {}
         regime = res.get("measurements.regime")
         depth = res.get("measurements.buckling_length_m")
+        depth_2r = res.get("measurements.buckling_length_2r_m")
         l_u, l_d = scales(d, q, drho)
-        buckled = None
-        if depth is not None:
-            buckled = HEIGHT_MM * 1e-3 - depth if regime == "rope_coiling" else depth
         table.append(
             {
                 "diameter_mm": d,
@@ -110,7 +124,9 @@ def run(
                 "status": row["status"],
                 "regime": regime,
                 "buckling_depth_m": depth,
-                "buckled_length_m": buckled,
+                "buckled_length_m": buckled_length(depth, regime),
+                "buckling_depth_2r_m": depth_2r,
+                "buckled_length_2r_m": buckled_length(depth_2r, regime),
                 "coil_radius_m": res.get("measurements.coil_radius_m"),
                 "universal_scale_m": l_u,
                 "drag_scale_m": l_d,
@@ -126,7 +142,7 @@ def run(
         w.writeheader()
         w.writerows(table)
     fits = {}
-    for quantity in ("buckled_length_m", "coil_radius_m"):
+    for quantity in QUANTITIES:
         ok = [
             r for r in table if r[quantity] is not None and r[quantity] > 0 and r["status"] == "ok"
         ]
@@ -142,13 +158,15 @@ def run(
 def _plot(path: Path, table: list[dict], fits: dict) -> None:
     from bathprint.viz.plotting import plt
 
-    fig, axes = plt.subplots(1, 3, figsize=(15, 4.5))
+    fig, axes = plt.subplots(2, 2, figsize=(12, 9))
     points = sorted({(r["diameter_mm"], r["q_outer_ml_min"]) for r in table})
     markers = dict(zip(points, "osd^v<>", strict=False))
+    universal = "(B/(mu v + drho g r^2))^(1/3)"
     panels = [
-        (axes[0], "buckled_length_m", "universal_scale_m", "(B/(mu v + drho g r^2))^(1/3)"),
-        (axes[1], "buckled_length_m", "drag_scale_m", "(B/(mu v))^(1/3) (no gravity)"),
-        (axes[2], "coil_radius_m", "universal_scale_m", "(B/(mu v + drho g r^2))^(1/3)"),
+        (axes[0, 0], "buckled_length_m", "universal_scale_m", universal),
+        (axes[0, 1], "buckled_length_m", "drag_scale_m", "(B/(mu v))^(1/3) (no gravity)"),
+        (axes[1, 0], "buckled_length_2r_m", "universal_scale_m", universal),
+        (axes[1, 1], "coil_radius_m", "universal_scale_m", universal),
     ]
     cmap = plt.get_cmap("viridis")
     drhos = sorted({r["drho_kg_m3"] for r in table})
@@ -159,38 +177,29 @@ def _plot(path: Path, table: list[dict], fits: dict) -> None:
                 continue
             c = cmap(drhos.index(r["drho_kg_m3"]) / max(len(drhos) - 1, 1))
             mk = markers[(r["diameter_mm"], r["q_outer_ml_min"])]
-            ax.scatter(r[scale] * 1e3, r[quantity] * 1e3, color=c, marker=mk, edgecolor="k")
-            ax.annotate(
-                r["regime"][:4] if r["regime"] else "",
-                (r[scale] * 1e3, r[quantity] * 1e3),
-                fontsize=6,
-                xytext=(3, 3),
-                textcoords="offset points",
-            )
-            top = max(top, r[scale] * 1e3)
+            x, y = r[scale] * 1e3, r[quantity] * 1e3
+            ax.scatter(x, y, color=c, marker=mk, edgecolor="k")
+            tag = "rope" if r["regime"] == "rope_coiling" else ""
+            ax.annotate(tag, (x, y), fontsize=6, xytext=(3, 3), textcoords="offset points")
+            top = max(top, x)
         f = fits[quantity][scale]
         if f["points"]:
             xx = np.linspace(0, 1.1 * top, 10)
-            ax.plot(
-                xx,
-                f["slope"] * xx,
-                "k-",
-                lw=0.8,
-                label=f"slope {f['slope']:.2f}, log-RMS scatter {f['log_rms']:.2f}",
-            )
+            label = f"slope {f['slope']:.2f}, log-RMS scatter {f['log_rms']:.2f}"
+            ax.plot(xx, f["slope"] * xx, "k-", lw=0.8, label=label)
             ax.legend(fontsize=8, loc="upper left")
         ax.set_xlabel(xlabel + " (mm)")
-        ax.set_ylabel(
-            ("buckled length l" if quantity.startswith("buckled") else "coil radius R") + " (mm)"
-        )
+        ax.set_ylabel(QUANTITIES[quantity])
     for (d, q), mk in markers.items():
-        axes[2].scatter([], [], marker=mk, color="w", edgecolor="k", label=f"d={d} mm, Q={q}")
+        axes[1, 1].scatter([], [], marker=mk, color="w", edgecolor="k", label=f"d={d} mm, Q={q}")
     for k, drho in enumerate(drhos):
-        axes[2].scatter([], [], color=cmap(k / max(len(drhos) - 1, 1)), label=f"drho={drho:g}")
-    axes[2].legend(fontsize=6, loc="lower right")
-    axes[0].set_title("SI Fig. S4: l against the universal scale")
-    axes[1].set_title("l against the drag scale alone")
-    axes[2].set_title("R against the universal scale")
+        color = cmap(k / max(len(drhos) - 1, 1))
+        axes[1, 1].scatter([], [], color=color, label=f"drho={drho:g} kg/m^3")
+    axes[1, 1].legend(fontsize=6, loc="lower right")
+    axes[0, 0].set_title("SI Fig. S4: l against the universal scale")
+    axes[0, 1].set_title("l against the drag scale alone")
+    axes[1, 0].set_title("l (first departure by 2r) against the universal scale")
+    axes[1, 1].set_title("R against the universal scale ('rope': rope coiling)")
     fig.tight_layout()
     fig.savefig(path, dpi=110)
     plt.close(fig)
