@@ -6,14 +6,14 @@ heavy (100 kg/m^3) at needle diameters and flow rates of the paper's range, with
 30 mm below the needle as in Fig. 1C (heavy filaments fall and coil on it: gravity-induced
 coiling; neutral ones coil by drag). The buckled length is measured as the paper does for
 drag coiling, the depth below the needle where the filament leaves the axis
-(:func:`bathprint.analysis.measure.buckling_length`; also with the first departure by 2r),
-and for rope coiling as the height of that point above the floor (the straight part above
-it hangs in tension: what buckles is the part near the floor). Each is fitted through the
-origin against the universal scale L_u = (B / (mu v + drho g r^2))^(1/3) and against the
-drag scale L_d = (B / (mu v))^(1/3); the scatter of each fit (RMS of log(l / fit)) says
-which collapses the runs. The coil radius R is treated the same way. Runs as for Fig. 1C
-(:func:`bathprint.studies.reproduce.runs.run_overrides`, a longer budget), through the
-resumable sweep. Outputs: gravity.csv, gravity.png, gravity_runs.jsonl.
+(:func:`bathprint.analysis.measure.buckling_length`), and for rope coiling as the height of
+that point above the floor (the straight part above it hangs in tension: what buckles is
+the part near the floor). It is fitted through the origin against the universal scale
+L_u = (B / (mu v + drho g r^2))^(1/3) and against the drag scale L_d = (B / (mu v))^(1/3);
+the scatter of each fit (RMS of log(l / fit)) says which collapses the runs. The coil
+radius R is treated the same way. Runs as for Fig. 1C (:func:`bathprint.studies.reproduce.
+runs.run_overrides`, a longer budget), through the resumable sweep. Outputs: gravity.csv,
+gravity.png, gravity_runs.jsonl.
 """
 
 from __future__ import annotations
@@ -68,8 +68,7 @@ def buckled_length(depth: float | None, regime: str | None) -> float | None:
 
 
 QUANTITIES = {  # fitted quantity: its label
-    "buckled_length_m": "buckled length l (departure by max(r, R/4)) (mm)",
-    "buckled_length_2r_m": "buckled length l (departure by 2r) (mm)",
+    "buckled_length_m": "buckled length l (mm)",
     "coil_radius_m": "coil radius R (mm)",
 }
 
@@ -114,7 +113,6 @@ def run(
         res = row.get("result") or {}
         regime = res.get("measurements.regime")
         depth = res.get("measurements.buckling_length_m")
-        depth_2r = res.get("measurements.buckling_length_2r_m")
         l_u, l_d = scales(d, q, drho)
         table.append(
             {
@@ -125,8 +123,6 @@ def run(
                 "regime": regime,
                 "buckling_depth_m": depth,
                 "buckled_length_m": buckled_length(depth, regime),
-                "buckling_depth_2r_m": depth_2r,
-                "buckled_length_2r_m": buckled_length(depth_2r, regime),
                 "coil_radius_m": res.get("measurements.coil_radius_m"),
                 "universal_scale_m": l_u,
                 "drag_scale_m": l_d,
@@ -165,8 +161,8 @@ def _plot(path: Path, table: list[dict], fits: dict) -> None:
     panels = [
         (axes[0, 0], "buckled_length_m", "universal_scale_m", universal),
         (axes[0, 1], "buckled_length_m", "drag_scale_m", "(B/(mu v))^(1/3) (no gravity)"),
-        (axes[1, 0], "buckled_length_2r_m", "universal_scale_m", universal),
-        (axes[1, 1], "coil_radius_m", "universal_scale_m", universal),
+        (axes[1, 0], "coil_radius_m", "universal_scale_m", universal),
+        (axes[1, 1], "coil_radius_m", "drag_scale_m", "(B/(mu v))^(1/3) (no gravity)"),
     ]
     cmap = plt.get_cmap("viridis")
     drhos = sorted({r["drho_kg_m3"] for r in table})
@@ -196,10 +192,10 @@ def _plot(path: Path, table: list[dict], fits: dict) -> None:
         color = cmap(k / max(len(drhos) - 1, 1))
         axes[1, 1].scatter([], [], color=color, label=f"drho={drho:g} kg/m^3")
     axes[1, 1].legend(fontsize=6, loc="lower right")
-    axes[0, 0].set_title("SI Fig. S4: l against the universal scale")
+    axes[0, 0].set_title("SI Fig. S4: l against the universal scale ('rope': rope coiling)")
     axes[0, 1].set_title("l against the drag scale alone")
-    axes[1, 0].set_title("l (first departure by 2r) against the universal scale")
-    axes[1, 1].set_title("R against the universal scale ('rope': rope coiling)")
+    axes[1, 0].set_title("R against the universal scale")
+    axes[1, 1].set_title("R against the drag scale alone")
     fig.tight_layout()
     fig.savefig(path, dpi=110)
     plt.close(fig)
