@@ -236,6 +236,8 @@ def test_the_bulk_model_stays_the_default() -> None:
         ("gelation.calcium_diffusivity_m2_s", -1e-9, "physical range"),
         ("gelation.calcium_diffusivity_m2_s", 0.0, "physical range"),
         ("gelation.bath_calcium_mol_m3", math.nan, "physical range"),
+        ("gelation.bath_calcium_mol_m3", 1e-9, "physical range"),
+        ("gelation.binding_capacity_mol_m3", 0.0, "physical range"),
         ("gelation.binding_capacity_mol_m3", "53", "not a number"),
         ("gelation.shell_modulus_pa", 1e9, "physical range"),
         ("gelation.core_modulus_pa", 0.0, "physical range"),

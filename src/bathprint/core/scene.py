@@ -135,10 +135,10 @@ class Gelation:
         0.7e-9, 1e-13, 1e-6, lo_open=True, doc="Ca2+ diffusivity D in the gel (surface)"
     )
     bath_calcium_mol_m3: float = _num(
-        150.0, 0.0, 1e4, lo_open=True, doc="Ca2+ in the bath, mol/m^3 = mM (surface)"
+        150.0, 1e-3, 1e4, doc="Ca2+ in the bath, mol/m^3 = mM (surface)"
     )
     binding_capacity_mol_m3: float = _num(
-        53.0, 0.0, 1e4, lo_open=True, doc="Ca2+ bound per volume of set gel (surface)"
+        53.0, 1e-3, 1e4, doc="Ca2+ bound per volume of set gel (surface)"
     )
     shell_modulus_pa: float = _num(
         30000.0, 1.0, 1e8, lo_open=True, doc="E of the set shell (surface)"
