@@ -98,6 +98,13 @@ PARAMS_FIELDS: tuple[tuple[str, str, str], ...] = (
     ("contact_friction_velocity", "f8", "m/s, regularisation of that friction"),
     ("krylov_tolerance", "f8", "-, GMRES residual relative to the right-hand side"),
     ("contact_exact_hessian", "?", "contact's Newton matrix: exact Hessian (else Gauss-Newton)"),
+    ("gel_model", "i8", "-, one of GEL_* (gelation's material model)"),
+    ("gel_diffusivity", "f8", "m^2/s, Ca2+ diffusivity D in the gel (surface model)"),
+    ("gel_bath_calcium", "f8", "mol/m^3, Ca2+ concentration c0 of the bath (surface model)"),
+    ("gel_binding_capacity", "f8", "mol/m^3, Ca2+ bound per volume of set gel c_b"),
+    ("gel_front_lambda", "f8", "-, Neumann constant: the front is 2 lambda sqrt(D t) deep early"),
+    ("gel_shell_modulus", "f8", "Pa, E of the set gel shell (surface model)"),
+    ("gel_core_modulus", "f8", "Pa, E of the ungelled core (surface model; > 0)"),
 )
 PARAMS_DTYPE = np.dtype([(name, kind) for name, kind, _ in PARAMS_FIELDS])
 
@@ -124,6 +131,11 @@ EFFECT_NAMES = (
     "inclusions",
     "contact",
 )
+
+# --- gelation's material models (``p.gel_model``) -------------------------------------
+GEL_BULK = 0  # modulus from the material's age (first-order crosslinking)
+GEL_SURFACE = 1  # a set shell growing inward by Ca2+ diffusion around a liquid core
+GEL_MODEL_NAMES = ("bulk", "surface")
 
 # --- integrators ----------------------------------------------------------------------
 INTEGRATOR_IMPLICIT = 0  # SDIRK2, Newton on the banded Jacobian

@@ -176,6 +176,28 @@ def _freeze_beyond(scene: Scene, node_spacing_mm: float) -> float:
     return value
 
 
+def _gel_surface(scene: Scene, p: np.record) -> None:
+    """The surface model's parameters (:mod:`bathprint.core.effects.gelation`); checked only
+    when a listed gelation effect selects it."""
+    from bathprint.core.effects.gelation import neumann_lambda
+
+    gel = scene.gelation
+    p.gel_model = L.GEL_MODEL_NAMES.index(gel.model)
+    p.gel_diffusivity = gel.calcium_diffusivity_m2_s
+    p.gel_bath_calcium = gel.bath_calcium_mol_m3
+    p.gel_binding_capacity = gel.binding_capacity_mol_m3
+    p.gel_shell_modulus = gel.shell_modulus_pa
+    p.gel_core_modulus = gel.core_modulus_pa
+    if "gelation" in scene.effects and gel.model == "surface":
+        if gel.core_modulus_pa >= gel.shell_modulus_pa:
+            raise SceneError(
+                f"gelation.core_modulus_pa = {gel.core_modulus_pa!r} is not below "
+                f"gelation.shell_modulus_pa = {gel.shell_modulus_pa!r}; allowed: a core "
+                "softer than the set shell (the core is ungelled solution)"
+            )
+    p.gel_front_lambda = neumann_lambda(gel.bath_calcium_mol_m3 / gel.binding_capacity_mol_m3)
+
+
 def compile_model(scene: Scene) -> Model:
     """Turn a validated scene into the arrays of a :class:`Model`."""
     params = records.new_params()
@@ -225,6 +247,7 @@ def compile_model(scene: Scene) -> Model:
     p.gel_final_modulus = gel.final_modulus_pa
     p.gel_rate = gel.rate_1_s
     p.curvature_memory = bool(gel.curvature_memory)
+    _gel_surface(scene, p)
     inc = scene.inclusions
     p.inclusions = "inclusions" in scene.effects
     fluid = INNER_FLUIDS[inc.fluid]

@@ -22,7 +22,7 @@ from pathlib import Path
 from typing import Any
 
 from bathprint.core.composite import INNER_FLUIDS
-from bathprint.core.layout import EFFECT_NAMES, INTEGRATOR_NAMES
+from bathprint.core.layout import EFFECT_NAMES, GEL_MODEL_NAMES, INTEGRATOR_NAMES
 from bathprint.errors import SceneError
 
 # accuracy presets: (tolerance, max_inlet_growth, node spacing factor); "custom" uses the
@@ -111,12 +111,41 @@ class Flow:
 
 @dataclass
 class Gelation:
-    """Modulus growing with material age; optional curvature memory (effect 'gelation')."""
+    """The gel setting (effect 'gelation'), with optional curvature memory.
+
+    ``model = "bulk"``: the modulus grows with material age (initial_modulus_pa,
+    final_modulus_pa, rate_1_s). ``model = "surface"``: a set shell grows inward from the
+    surface as Ca2+ diffuses in from the bath, around a liquid core (the keys below the
+    model's; docs/physics/gelation.md gives the sources of their defaults).
+    """
 
     initial_modulus_pa: float = _num(300.0, 1.0, 1e7, lo_open=True, doc="E at age 0")
     final_modulus_pa: float = _num(30000.0, 1.0, 1e8, lo_open=True, doc="E of set gel")
     rate_1_s: float = _num(1.0 / 60.0, 1e-6, 1e4, lo_open=True, doc="crosslinking rate k")
     curvature_memory: bool = True
+    model: str = field(
+        default="bulk",
+        metadata={
+            "choices": GEL_MODEL_NAMES,
+            "doc": "bulk: modulus from the age law; surface: a set shell growing inward by "
+            "Ca2+ diffusion around a liquid core",
+        },
+    )
+    calcium_diffusivity_m2_s: float = _num(
+        0.7e-9, 1e-13, 1e-6, lo_open=True, doc="Ca2+ diffusivity D in the gel (surface)"
+    )
+    bath_calcium_mol_m3: float = _num(
+        150.0, 1e-3, 1e4, doc="Ca2+ in the bath, mol/m^3 = mM (surface)"
+    )
+    binding_capacity_mol_m3: float = _num(
+        53.0, 1e-3, 1e4, doc="Ca2+ bound per volume of set gel (surface)"
+    )
+    shell_modulus_pa: float = _num(
+        30000.0, 1.0, 1e8, lo_open=True, doc="E of the set shell (surface)"
+    )
+    core_modulus_pa: float = _num(
+        30.0, 0.0, 1e8, lo_open=True, doc="E of the ungelled core, a viscous liquid (surface)"
+    )
 
 
 @dataclass
