@@ -98,8 +98,13 @@ def test_sedimenting_filament_speed_and_shape_against_xu_nadim(sedimenting: dict
 def test_sedimenting_filament_without_hydrodynamics_stays_straight() -> None:
     """With local drag only a uniform filament has uniform drag: it sinks without bending
     (the U shape is the nonlocal flow's)."""
-    r = V.sedimenting_filament(aspect=50.0, deflection_scale=0.2, n_segments=30,
-                               duration_relaxations=2.0, hydrodynamics=False)  # fmt: skip
+    r = V.sedimenting_filament(
+        aspect=50.0,
+        deflection_scale=0.2,
+        n_segments=30,
+        duration_relaxations=2.0,
+        hydrodynamics=False,
+    )
     assert np.max(np.abs(r["lag"])) < 1e-3 * 0.0742 * r["D"]
 
 
@@ -145,8 +150,21 @@ def test_far_field_is_the_stokeslet_of_the_total_force() -> None:
     for d in ([1.0, 0.0, 0.0], [0.3, -0.8, 0.5]):
         far = centre + 1000.0 * s[-1] * np.asarray(d) / np.linalg.norm(d)
         u = np.zeros(3)
-        _stokeslet.nonlocal_flow(far, np.array([1e30]), 1, x.ravel().copy(), s, n - 1, f,
-                                 np.full(n, np.inf), MU, 0.0, 1e-4, 0.0, u)  # fmt: skip
+        _stokeslet.nonlocal_flow(
+            far,
+            np.array([1e30]),
+            1,
+            x.ravel().copy(),
+            s,
+            n - 1,
+            f,
+            np.full(n, np.inf),
+            MU,
+            0.0,
+            1e-4,
+            0.0,
+            u,
+        )
         rv = far - centre
         rr = np.linalg.norm(rv)
         ref = (total / rr + rv * (rv @ total) / rr**3) / (8 * math.pi * MU)
@@ -220,8 +238,9 @@ def test_fmm_agrees_with_the_direct_sum() -> None:
     direct = np.zeros(3 * n)
     fast = np.zeros(3 * n)
     a_cut = 1e-3
-    _stokeslet.nonlocal_flow(pos, s, n, pos, s, n - 1, f, np.full(n, np.inf), MU, 0.0, a_cut,
-                             0.0, direct)  # fmt: skip
+    _stokeslet.nonlocal_flow(
+        pos, s, n, pos, s, n - 1, f, np.full(n, np.inf), MU, 0.0, a_cut, 0.0, direct
+    )
     _stokeslet.fmm_flow(pos, s, n, n - 1, f, MU, 0.0, a_cut, 1e-6, fast)
     assert np.max(np.abs(fast - direct)) < 1e-3 * np.max(np.abs(direct))
 
@@ -231,9 +250,13 @@ def test_implicit_operator_is_r_m_w_inverse_j_other() -> None:
     reconstruction from its pieces: R M P W^-1 J_other."""
     sim = Simulation(
         "drag_coiling_22G",
-        {"effects": ["elasticity", "drag", "gravity", "hydrodynamics"],
-         "initial.length_mm": 6.0, "flow.q_outer_ml_min": 0.0, "initial.perturbation_mm": 0.5},
-    )  # fmt: skip
+        {
+            "effects": ["elasticity", "drag", "gravity", "hydrodynamics"],
+            "initial.length_mm": 6.0,
+            "flow.q_outer_ml_min": 0.0,
+            "initial.perturbation_mm": 0.5,
+        },
+    )
     n = sim.n_nodes
     n_free = n - 2
     nd = 3 * n_free
@@ -260,8 +283,21 @@ def test_implicit_operator_is_r_m_w_inverse_j_other() -> None:
     col = np.zeros(3 * n_free)
     for k in range(3 * n_seg):
         unit[k] = 1.0
-        _stokeslet.nonlocal_flow(hyd.lin_pos, hyd.lin_s, n_free, hyd.lin_pos, hyd.lin_s, n_seg,
-                                 unit, hyd.screen, MU, 0.0, sim.model.p.hydro_cutoff, 0.0, col)  # fmt: skip
+        _stokeslet.nonlocal_flow(
+            hyd.lin_pos,
+            hyd.lin_s,
+            n_free,
+            hyd.lin_pos,
+            hyd.lin_s,
+            n_seg,
+            unit,
+            hyd.screen,
+            MU,
+            0.0,
+            sim.model.p.hydro_cutoff,
+            0.0,
+            col,
+        )
         mob[:, k] = col
         unit[k] = 0.0
     resist = np.zeros((nd, nd))
@@ -275,8 +311,9 @@ def test_implicit_operator_is_r_m_w_inverse_j_other() -> None:
 
 
 def test_lagged_and_implicit_couplings_reach_the_same_steady_shape(sedimenting: dict) -> None:
-    lagged = V.sedimenting_filament(aspect=50.0, deflection_scale=0.2, n_segments=60,
-                                    coupling="lagged")  # fmt: skip
+    lagged = V.sedimenting_filament(
+        aspect=50.0, deflection_scale=0.2, n_segments=60, coupling="lagged"
+    )
     assert abs(lagged["speed"] / sedimenting["speed"] - 1.0) < 1e-4
     end_i = 0.5 * (sedimenting["lag"][0] + sedimenting["lag"][-1])
     end_l = 0.5 * (lagged["lag"][0] + lagged["lag"][-1])

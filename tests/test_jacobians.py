@@ -187,11 +187,14 @@ def _check_against_finite_differences(sim: Simulation, which: str, vel_scale: fl
     [
         {"drag.model": "finite_re"},
         {"effects": ["drag", "hydrodynamics"], "hydrodynamics.coupling": "lagged"},
-        {"effects": ["drag", "hydrodynamics"], "hydrodynamics.coupling": "lagged",
-         "drag.model": "finite_re"},
+        {
+            "effects": ["drag", "hydrodynamics"],
+            "hydrodynamics.coupling": "lagged",
+            "drag.model": "finite_re",
+        },
     ],
     ids=["finite_re", "hydrodynamics_cox", "hydrodynamics_finite_re"],
-)  # fmt: skip
+)
 @pytest.mark.parametrize("vel_scale", [1e-2, 1.0])  # Re_d ~ 0.1 (Lamb, blend) and ~ 10
 @pytest.mark.parametrize("which", ["x", "v"])
 def test_drag_law_jacobians_match_finite_differences(extra: dict, vel_scale: float, which: str):
