@@ -9,99 +9,20 @@ import numpy as np
 import pytest
 
 from bathprint import Simulation
+from bathprint.analysis import validation as V
 from bathprint.core.effects import _drag_laws as C
 from bathprint.core.effects import drag
 from bathprint.errors import SceneError
 
 MU, RHO, LENGTH = 1.0e-3, 1051.0, 0.020  # the CaCl2 bath; L = 20 mm (drag.length_scale_mm)
 
-# Experimental C_D of circular cylinders in cross-flow, as (log10 Re, log10 C_D): the points
-# within +-0.25 to 0.4 decades of each Re of the compilation figure "drag coefficient of a
-# circular cylinder" in Panton, Incompressible Flow (Wiley), as digitised by P. Sharpe
-# (github.com/peterdsharpe/CylinderDragFits, Fig_from_incompressible_flow_wiley.csv). The
-# figure combines several experiments (Tritton 1959, J. Fluid Mech. 6:547, for 0.5 < Re < 100,
-# and Wieselsberger 1921 above); the points scatter by about +-15% between experiments.
-DATA_WINDOWS = {
-    0.1: [
-        (-0.93402, 1.69914),
-        (-0.92636, 1.73283),
-        (-0.8369, 1.62958),
-        (-0.75482, 1.55104),
-        (-0.73572, 1.6229),
-        (-0.67249, 1.52189),
-        (-0.6353, 1.46353),
-    ],
-    1.0: [
-        (-0.24628, 1.29084),
-        (-0.20852, 1.34476),
-        (-0.20199, 1.15165),
-        (-0.17948, 1.15615),
-        (-0.14217, 1.12024),
-        (-0.1346, 1.13372),
-        (-0.11213, 1.12924),
-        (-0.10477, 1.1023),
-        (-0.08219, 1.12028),
-        (-0.05985, 1.08885),
-        (-0.02952, 1.15623),
-        (0.01488, 1.03949),
-        (0.05228, 1.02155),
-        (0.06002, 1.07095),
-        (0.08961, 0.99013),
-        (0.10447, 0.96319),
-        (0.11953, 0.97668),
-        (0.14941, 0.95424),
-        (0.18683, 0.94079),
-        (0.21676, 0.92733),
-        (0.23918, 0.91387),
-    ],
-    10.0: [
-        (0.75538, 0.68512),
-        (0.8, 0.61329),
-        (0.81498, 0.6088),
-        (0.85983, 0.58188),
-        (0.86717, 0.55045),
-        (0.89714, 0.54598),
-        (0.92713, 0.54599),
-        (0.94951, 0.52355),
-        (0.9571, 0.54152),
-        (0.98671, 0.46519),
-        (0.98695, 0.51459),
-        (1.02435, 0.49665),
-        (1.04675, 0.47869),
-        (1.05414, 0.45624),
-        (1.07652, 0.4338),
-        (1.09161, 0.45177),
-        (1.10644, 0.42034),
-        (1.13643, 0.42036),
-        (1.14384, 0.4024),
-        (1.16634, 0.40241),
-        (1.17388, 0.4114),
-        (1.18881, 0.39794),
-    ],
-    100.0: [
-        (1.76491, 0.15574),
-        (1.83976, 0.12884),
-        (1.98208, 0.10197),
-        (2.01986, 0.16038),
-        (2.06453, 0.09753),
-        (2.11726, 0.14696),
-        (2.19958, 0.11557),
-    ],
-}
-
-
-def _data_value(re: float) -> float:
-    """C_D at re from a local log-log straight line through the points of its window."""
-    pts = np.array(DATA_WINDOWS[re])
-    slope, intercept = np.polyfit(pts[:, 0], pts[:, 1], 1)
-    return 10.0 ** (slope * math.log10(re) + intercept)
-
 
 @pytest.mark.parametrize("re", [0.1, 1.0, 10.0, 100.0])
 def test_cylinder_drag_curve_within_10_percent_of_experiment(re: float) -> None:
     """The normal law's C_D (infinite cylinder) against the experimental drag curve."""
     law = C.cd_cylinder(re)[0]
-    assert abs(law / _data_value(re) - 1.0) < 0.10, (re, law, _data_value(re))
+    data = V.cylinder_drag_data(re)
+    assert abs(law / data - 1.0) < 0.10, (re, law, data)
 
 
 def test_lamb_below_the_blend_and_cheng_above() -> None:

@@ -8,8 +8,6 @@ import math
 
 import numpy as np
 import pytest
-from scipy.integrate import solve_ivp
-from scipy.optimize import brentq
 
 from bathprint import Simulation
 from bathprint.analysis import validation as V
@@ -171,22 +169,8 @@ def test_far_field_is_the_stokeslet_of_the_total_force() -> None:
         assert np.linalg.norm(u - ref) < 2e-3 * np.linalg.norm(ref)
 
 
-def _onset_theory(rho: float) -> float:
-    """beta_c of the extruded rod with normal / tangential drag ratio rho: B y'''' +
-    zeta_t v (x y'' + rho y') = 0, free at x = 0, clamped at x = L (rho = 2: the paper's
-    0F1 condition, 3.4766)."""
-
-    def slope_at_needle(beta: float) -> float:
-        def rhs(x, y):
-            return [y[1], y[2], -beta * (x * y[1] + rho * y[0])]
-
-        return solve_ivp(rhs, (0.0, 1.0), [1.0, 0.0, 0.0], rtol=1e-10, atol=1e-12).y[0, -1]
-
-    return float(brentq(slope_at_needle, 0.5, 20.0, xtol=1e-10))
-
-
 def test_onset_theory_reduces_to_the_papers_condition() -> None:
-    assert _onset_theory(2.0) == pytest.approx(V.beta_critical(), rel=1e-6)
+    assert V.beta_critical_for_ratio(2.0) == pytest.approx(V.beta_critical(), rel=1e-6)
 
 
 def test_extruded_rod_onset_with_hydrodynamics_moves_by_the_slender_body_correction() -> None:
@@ -198,21 +182,7 @@ def test_extruded_rod_onset_with_hydrodynamics_moves_by_the_slender_body_correct
     rho = zeta_n / zeta_t = 1.34 instead of 2; the linear theory with those predicts
     beta_c = 3.85. The simulated onset is within 5% of that, and its shift from 3.48 is
     between 0.5 and 1.5 times the predicted one."""
-    extra = {
-        "effects": ["elasticity", "drag", "hydrodynamics"],
-        "drag.model": "cox",
-        "drag.length_scale_mm": 10.0,  # beta with Cox's mu_s of the rod's own length
-    }
-    lo, hi = 3.6, 4.2
-    s_lo = V.extruded_rod_growth_rate_for(lo, extra=extra)[0]
-    s_hi = V.extruded_rod_growth_rate_for(hi, extra=extra)[0]
-    assert s_lo < 0.0 < s_hi
-    onset = lo + (hi - lo) * (-s_lo) / (s_hi - s_lo)
-    aspect = 10.0  # L/d
-    f_par, f_perp = V.cylinder_drag_tirado(aspect, MU, 1.0)
-    mu_s = 2 * math.pi * MU / math.log(2 * aspect)
-    zeta_t, zeta_n = f_par, f_perp
-    predicted = _onset_theory(zeta_n / zeta_t) * mu_s / zeta_t
+    onset, predicted = V.hydro_onset_beta()
     beta_c = V.beta_critical()
     assert abs(onset / predicted - 1.0) < 0.05
     assert 0.5 < (onset - beta_c) / (predicted - beta_c) < 1.5

@@ -42,6 +42,24 @@ CANTILEVER = {
 }
 
 
+def beta_critical_for_ratio(rho: float) -> float:
+    """beta_c = zeta_t v L^3 / B of the extruded rod's onset with normal / tangential drag
+    ratio rho: the static mode of B y'''' + zeta_t v (x y'' + rho y') = 0 (compression
+    -zeta_t v x from the free end x = 0, and the normal drag's advection term
+    (zeta_n - zeta_t) v y'), free at x = 0, clamped at x = L; rho = 2 is the paper's
+    condition (3.4766)."""
+    from scipy.integrate import solve_ivp
+
+    def slope_at_needle(beta: float) -> float:
+        def rhs(x: float, y: np.ndarray) -> list[float]:
+            return [y[1], y[2], -beta * (x * y[1] + rho * y[0])]
+
+        sol = solve_ivp(rhs, (0.0, 1.0), [1.0, 0.0, 0.0], rtol=1e-10, atol=1e-12)
+        return float(sol.y[0, -1])
+
+    return float(brentq(slope_at_needle, 0.5, 20.0, xtol=1e-10))
+
+
 def beta_critical() -> float:
     """Root of 0F1(4/3; -b/9) = (b/4) 0F1(7/3; -b/9): the onset of the extruded rod's buckling."""
     f = lambda b: hyp0f1(4.0 / 3.0, -b / 9.0) - 0.25 * b * hyp0f1(7.0 / 3.0, -b / 9.0)  # noqa: E731
@@ -293,7 +311,186 @@ def run_all() -> list[Check]:
     )
     w_sim, w_exact = inertial_cantilever_frequency()
     checks.append(Check("inertial cantilever damped frequency", w_sim, w_exact, 0.02, "rad/s"))
+    checks.extend(finite_re_checks())
+    checks.extend(hydrodynamics_checks())
     return checks
+
+
+def finite_re_checks() -> list[Check]:
+    """drag.model = 'finite_re': the cylinder drag curve against the experimental data."""
+    from bathprint.core.effects._drag_laws import cd_cylinder
+
+    return [
+        Check(
+            f"finite_re cylinder C_D at Re = {re:g} vs experiment",
+            float(cd_cylinder(re)[0]),
+            cylinder_drag_data(re),
+            0.10,
+            "-",
+        )
+        for re in (0.1, 1.0, 10.0, 100.0)
+    ]
+
+
+def hydro_onset_beta() -> tuple[float, float]:
+    """(simulated, predicted) onset beta = mu_s v L^3 / B of the extruded rod (L/r = 20) with
+    hydrodynamics, mu_s Cox's of the rod's length; predicted: the linear theory with the
+    tangential and normal drag of a slender cylinder (Tirado & Garcia de la Torre) in place
+    of mu_s and 2 mu_s (the next order in 1/ln(L/r))."""
+    extra = {
+        "effects": ["elasticity", "drag", "hydrodynamics"],
+        "drag.model": "cox",
+        "drag.length_scale_mm": 10.0,
+    }
+    lo, hi = 3.6, 4.2
+    s_lo = extruded_rod_growth_rate_for(lo, extra=extra)[0]
+    s_hi = extruded_rod_growth_rate_for(hi, extra=extra)[0]
+    onset = lo + (hi - lo) * (-s_lo) / (s_hi - s_lo)
+    zeta_t, zeta_n = cylinder_drag_tirado(10.0, 1.0, 1.0)
+    mu_s = 2.0 * math.pi / math.log(20.0)
+    return onset, beta_critical_for_ratio(zeta_n / zeta_t) * mu_s / zeta_t
+
+
+def hydrodynamics_checks() -> list[Check]:
+    """The hydrodynamics effect: rigid slender bodies in Stokes flow, the sedimenting filament,
+    the extruded rod's onset."""
+    mu = 1e-3
+    checks = []
+    rods = (
+        ("cylinder L/d = 50", hydro_rod(50, 100), cylinder_drag_tirado(50, mu, 10e-3), "Tirado"),
+        (
+            "spheroid a/b = 50",
+            spheroid_rod(50, 100),
+            spheroid_drag_exact(5e-3, 0.1e-3, mu),
+            "exact",
+        ),
+    )
+    for body, sim, exact, source in rods:
+        for label, vel, axis, ref in (
+            ("along", (0.0, 0.0, 1e-3), 2, exact[0]),
+            ("across", (1e-3, 0.0, 0.0), 0, exact[1]),
+        ):
+            force = -rigid_body_drag(sim, vel)[axis] / 1e-3
+            name = f"hydro: {body} drag {label} vs {source}"
+            checks.append(Check(name, force, ref, 0.03, "N s/m"))
+    broad, edge = ring_drag(0.03)
+    jw_broad, jw_edge = torus_drag_johnson_wu(1e-3, 0.03, mu)
+    checks.append(
+        Check("hydro: ring eps = 0.03 broadside vs Johnson & Wu", broad, jw_broad, 0.03, "N s/m")
+    )
+    checks.append(
+        Check("hydro: ring eps = 0.03 edgewise vs Johnson & Wu", edge, jw_edge, 0.03, "N s/m")
+    )
+    sed = sedimenting_filament(aspect=50.0, deflection_scale=0.2, n_segments=60)
+    checks.append(
+        Check(
+            "hydro: sedimenting filament speed vs rigid rod",
+            sed["speed"],
+            sed["rigid_speed_tirado"],
+            0.01,
+            "m/s",
+        )
+    )
+    lag = sed["lag"]
+    checks.append(
+        Check(
+            "hydro: sedimenting filament end lag vs Xu & Nadim",
+            0.5 * float(lag[0] + lag[-1]),
+            float(xu_nadim_shape(np.array([1.0]))[0]) * sed["D"],
+            0.20,
+            "m (leading order in 1/ln kappa)",
+        )
+    )
+    onset, predicted = hydro_onset_beta()
+    checks.append(
+        Check("hydro: extruded rod onset vs corrected linear theory", onset, predicted, 0.05, "-")
+    )
+    return checks
+
+
+# ---- finite_re: the cylinder drag curve ---------------------------------------------------
+
+# Experimental C_D of circular cylinders in cross-flow, as (log10 Re, log10 C_D): the points
+# within +-0.25 to 0.4 decades of each Re of the compilation figure "drag coefficient of a
+# circular cylinder" in Panton, Incompressible Flow (Wiley), as digitised by P. Sharpe
+# (github.com/peterdsharpe/CylinderDragFits, Fig_from_incompressible_flow_wiley.csv). The
+# figure combines several experiments (Tritton 1959, J. Fluid Mech. 6:547, for 0.5 < Re < 100,
+# and Wieselsberger 1921 above); the points scatter by about +-15% between experiments.
+CYLINDER_DRAG_DATA = {
+    0.1: [
+        (-0.93402, 1.69914),
+        (-0.92636, 1.73283),
+        (-0.8369, 1.62958),
+        (-0.75482, 1.55104),
+        (-0.73572, 1.6229),
+        (-0.67249, 1.52189),
+        (-0.6353, 1.46353),
+    ],
+    1.0: [
+        (-0.24628, 1.29084),
+        (-0.20852, 1.34476),
+        (-0.20199, 1.15165),
+        (-0.17948, 1.15615),
+        (-0.14217, 1.12024),
+        (-0.1346, 1.13372),
+        (-0.11213, 1.12924),
+        (-0.10477, 1.1023),
+        (-0.08219, 1.12028),
+        (-0.05985, 1.08885),
+        (-0.02952, 1.15623),
+        (0.01488, 1.03949),
+        (0.05228, 1.02155),
+        (0.06002, 1.07095),
+        (0.08961, 0.99013),
+        (0.10447, 0.96319),
+        (0.11953, 0.97668),
+        (0.14941, 0.95424),
+        (0.18683, 0.94079),
+        (0.21676, 0.92733),
+        (0.23918, 0.91387),
+    ],
+    10.0: [
+        (0.75538, 0.68512),
+        (0.8, 0.61329),
+        (0.81498, 0.6088),
+        (0.85983, 0.58188),
+        (0.86717, 0.55045),
+        (0.89714, 0.54598),
+        (0.92713, 0.54599),
+        (0.94951, 0.52355),
+        (0.9571, 0.54152),
+        (0.98671, 0.46519),
+        (0.98695, 0.51459),
+        (1.02435, 0.49665),
+        (1.04675, 0.47869),
+        (1.05414, 0.45624),
+        (1.07652, 0.4338),
+        (1.09161, 0.45177),
+        (1.10644, 0.42034),
+        (1.13643, 0.42036),
+        (1.14384, 0.4024),
+        (1.16634, 0.40241),
+        (1.17388, 0.4114),
+        (1.18881, 0.39794),
+    ],
+    100.0: [
+        (1.76491, 0.15574),
+        (1.83976, 0.12884),
+        (1.98208, 0.10197),
+        (2.01986, 0.16038),
+        (2.06453, 0.09753),
+        (2.11726, 0.14696),
+        (2.19958, 0.11557),
+    ],
+}
+
+
+def cylinder_drag_data(re: float) -> float:
+    """The experimental C_D at re (0.1, 1, 10 or 100) from a local log-log straight line
+    through the points of its window of :data:`CYLINDER_DRAG_DATA`."""
+    pts = np.array(CYLINDER_DRAG_DATA[re])
+    slope, intercept = np.polyfit(pts[:, 0], pts[:, 1], 1)
+    return 10.0 ** (slope * math.log10(re) + intercept)
 
 
 # ---- hydrodynamics: rigid slender bodies in Stokes flow ------------------------------------
