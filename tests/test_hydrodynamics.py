@@ -222,6 +222,7 @@ def test_implicit_operator_is_r_m_w_inverse_j_other() -> None:
         "drag_coiling_22G",
         {
             "effects": ["elasticity", "drag", "gravity", "hydrodynamics"],
+            "hydrodynamics.coupling": "implicit",
             "initial.length_mm": 6.0,
             "flow.q_outer_ml_min": 0.0,
             "initial.perturbation_mm": 0.5,

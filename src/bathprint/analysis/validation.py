@@ -516,6 +516,7 @@ def hydro_rod(
             "flow.q_outer_ml_min": 0.0,
             "numerics.node_spacing_mm": length_mm / n_segments,
             "hydrodynamics.cutoff_radii": cutoff_radii,
+            "hydrodynamics.coupling": "implicit",  # (rigid_body_drag evaluates its kernel)
             "bath.viscosity_pa_s": 1e-3,
             "drag.model": drag_model,
         },

@@ -191,11 +191,12 @@ class Hydrodynamics:
     drag law on the window |s' - s| < a) and the flow of the Stokeslet segments beyond it."""
 
     coupling: str = field(
-        default="implicit",
+        default="lagged",
         metadata={
             "choices": HYDRO_COUPLINGS,
-            "doc": "implicit: the nonlocal flow inside Newton (GMRES); lagged: from the step's "
-            "start, with its error estimated",
+            "doc": "lagged: the nonlocal flow from the step's start, its error added to the "
+            "estimate (cheaper at equal accuracy in coiling runs); implicit: inside Newton "
+            "(GMRES), second order",
         },
     )
     cutoff_radii: float = _num(
