@@ -14,7 +14,8 @@ filament of N segments relaxing with hydrodynamics at a fixed step, wall time pe
 evaluations per step for each coupling; larger N extrapolated from the evaluations per step
 and (1). (3) coiling: drag_coiling_22G for 6 s with drag cox, constant and finite_re, and
 with hydrodynamics (both couplings with cox, the lagged one with finite_re): wall time,
-steps, evaluations, nodes, and the ratio to the local-drag run. (4) workprec: the error of
+steps, evaluations, nodes, the coil's radius and pitch (analysis.measure), and the ratio
+to the local-drag run. (4) workprec: the error of
 lagging against the step size (fixed steps), and error against wall time for both couplings
 at adaptive tolerances (the relaxing filament and drag_coiling_22G for 0.5 s, against a
 reference at tolerance 1e-9 with the implicit coupling). Results: benchmarks/results/hydro_*.csv.
@@ -32,6 +33,7 @@ from _common import best_of, write_csv
 
 from bathprint import Simulation
 from bathprint.analysis import validation as V
+from bathprint.analysis.measure import coil_pitch, coil_radius
 from bathprint.core.effects import _stokeslet
 
 MU = 1e-3
@@ -269,7 +271,9 @@ def coiling_costs(duration: float, only: list[str] | None) -> list[dict]:
         base = base if base is not None else wall
         c = sim.counts()
         x = sim.centerline()
-        radius = float(np.median(np.linalg.norm(x[:, :2] - x[:, :2].mean(axis=0), axis=1)))
+        tip, axis = sim.model.needle[0, 1:4], sim.model.needle[0, 4:7]
+        radius = coil_radius(x, tip, axis)
+        pitch = coil_pitch(x, tip, axis)[0]
         rows.append(
             {
                 "variant": label,
@@ -282,7 +286,8 @@ def coiling_costs(duration: float, only: list[str] | None) -> list[dict]:
                 "krylov": c["krylov_iterations"],
                 "evaluations": c["hydro_evaluations"],
                 "nodes": sim.n_nodes,
-                "median_radius_mm": 1e3 * radius,
+                "coil_radius_mm": 1e3 * radius if radius else "",
+                "coil_pitch_mm": 1e3 * pitch if pitch else "",
                 "status": status,
             }
         )

@@ -336,6 +336,10 @@ def test_unlisted_hydrodynamics_costs_nothing() -> None:
         ({"hydrodynamics.cutoff_radii": 1.2}, "hydrodynamics.cutoff_radii"),
         ({"hydrodynamics.coupling": "picard"}, "hydrodynamics.coupling"),
         ({"hydrodynamics.fmm_min_nodes": -1}, "hydrodynamics.fmm_min_nodes"),
+        (
+            {"hydrodynamics.fmm_min_nodes": 10, "drag.model": "finite_re"},
+            "hydrodynamics.fmm_min_nodes",
+        ),
         ({"bath.viscosity_pa_s": -1.0}, "bath.viscosity_pa_s"),
         ({"bath.density_kg_m3": 0.0}, "bath.density_kg_m3"),
     ],

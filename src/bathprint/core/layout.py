@@ -242,6 +242,7 @@ HYDRO_FIELDS: tuple[tuple[str, str, str], ...] = (
     ("mu", "f8", "Pa s, the bath's viscosity (what the operator needs of the model)"),
     ("cutoff", "f8", "m, the arclength a of the split"),
     ("blob", "f8", "m, the regularisation eps"),
+    ("screening", "?", "the Stokeslets are screened beyond the Oseen length (finite_re)"),
     ("fmm_nodes", "i8", "-, segments from which the FMM sums (0: never)"),
     ("fmm_precision", "f8", "-"),
     ("evaluations", "i8", "-, evaluations of the nonlocal flow (direct: O(N^2) each)"),

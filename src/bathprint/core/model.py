@@ -188,6 +188,12 @@ def _hydrodynamics(scene: Scene, p: np.record, radius: float) -> None:
     p.hydro_fmm_nodes = h.fmm_min_nodes
     p.hydro_fmm_precision = h.fmm_precision
     if "hydrodynamics" in scene.effects and h.fmm_min_nodes > 0:
+        if scene.drag.model == "finite_re":
+            raise SceneError(
+                f"hydrodynamics.fmm_min_nodes = {h.fmm_min_nodes!r} with drag.model = "
+                "'finite_re': the FMM sums unscreened Stokeslets, finite_re screens them beyond "
+                "the Oseen length; allowed: 0 (direct sums) with finite_re"
+            )
         try:
             import fmm3dpy  # noqa: F401
         except ImportError as exc:

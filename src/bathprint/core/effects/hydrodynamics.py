@@ -178,7 +178,7 @@ def flow(pos, node_s, n_targets: int, n_seg: int, hyd, out_vel) -> None:
     screening; one Python call in objmode). Counts the evaluation."""
     mem = hyd.memory[0]
     mem.evaluations += 1
-    if 0 < mem.fmm_nodes <= n_seg and hyd.screen[0] >= 1e300:
+    if 0 < mem.fmm_nodes <= n_seg and not mem.screening:
         mu, eps, a_cut, prec = mem.mu, mem.blob, mem.cutoff, mem.fmm_precision
         f_seg = hyd.f_seg
         with objmode():
@@ -198,6 +198,7 @@ def remember(model, hyd) -> None:
     mem.mu = p.bath_viscosity
     mem.cutoff = p.hydro_cutoff
     mem.blob = p.hydro_blob
+    mem.screening = p.hydro_screening
     mem.fmm_nodes = p.hydro_fmm_nodes
     mem.fmm_precision = p.hydro_fmm_precision
 
