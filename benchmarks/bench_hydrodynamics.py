@@ -25,11 +25,12 @@ Single-threaded numba; the machine is shared, so wall times carry ~30% noise.
 from __future__ import annotations
 
 import argparse
+import csv
 import math
 import time
 
 import numpy as np
-from _common import best_of, write_csv
+from _common import RESULTS, best_of, write_csv
 
 from bathprint import Simulation
 from bathprint.analysis import validation as V
@@ -253,9 +254,14 @@ COILING_VARIANTS = {
 def coiling_costs(duration: float, only: list[str] | None) -> list[dict]:
     rows = []
     base = None
+    previous = {}
+    path = RESULTS / "hydro_coiling.csv"
+    if only and path.exists():  # a partial rerun replaces its variants' rows, keeps the rest
+        with path.open() as f:
+            previous = {r["variant"]: r for r in csv.DictReader(f)}
     for label, extra in COILING_VARIANTS.items():
-        if only and not any(o in label for o in only):
-            continue
+        if only and label != "cox (local)" and not any(o in label for o in only):
+            continue  # (the local-drag run is the base of the ratios: always run)
         over = dict(extra)
         if "hydrodynamics" in label:
             over["effects"] = ["elasticity", "drag", "gravity", "hydrodynamics"]
@@ -292,8 +298,11 @@ def coiling_costs(duration: float, only: list[str] | None) -> list[dict]:
             }
         )
         print(rows[-1], flush=True)
-        write_csv("hydro_coiling", rows)  # (each run is long: keep what is done)
-    return rows
+        done = {r["variant"] for r in rows}
+        kept = [r for v, r in previous.items() if v not in done]
+        write_csv("hydro_coiling", kept + rows)  # (each run is long: keep what is done)
+    done = {r["variant"] for r in rows}
+    return [r for v, r in previous.items() if v not in done] + rows
 
 
 def work_precision() -> tuple[list[dict], list[dict]]:

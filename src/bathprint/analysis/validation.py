@@ -20,6 +20,7 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
+import scipy.linalg
 from scipy.optimize import brentq
 from scipy.special import hyp0f1
 
@@ -530,8 +531,8 @@ def rigid_body_drag(sim: Simulation, velocity: tuple[float, float, float]) -> np
     (m/s), with the scene's drag law and hydrodynamics: the resistance problem solved with the
     effect's own kernel. Its force is F + F_drag(v; F) with F the other effects' force (the
     sources of the nonlocal flow), affine in F; the applied force that holds the filament at
-    v solves F + F_drag = 0 (a dense solve of 3N unknowns), and the drag is minus its total.
-    (With drag.model = 'finite_re' it is affine only at speeds where the law is linear.)"""
+    v solves F + F_drag = 0 (a dense solve of 3N unknowns, then chord iterations for the
+    finite_re law, which is not affine), and the drag is minus its total."""
     from bathprint.core.effects import hydrodynamics
 
     if sim.clamped:
@@ -552,14 +553,20 @@ def rigid_body_drag(sim: Simulation, velocity: tuple[float, float, float]) -> np
     base = total(np.zeros(nd))
     matrix = np.empty((nd, nd))
     unit = np.zeros(nd)
-    # columns from forces of the size of the drag itself: the finite_re law is affine only
-    # while the flow they make stays small against the speed
-    scale = float(np.abs(base).max())
+    # columns from forces small against the drag (the finite_re law is not affine), then
+    # chord iterations on the nonlinear residual (one for a linear law)
+    scale = 1e-3 * float(np.abs(base).max())
     for k in range(nd):
         unit[k] = scale
         matrix[:, k] = (total(unit) - base) / scale
         unit[k] = 0.0
-    applied = np.linalg.solve(matrix, -base)
+    lu = scipy.linalg.lu_factor(matrix)
+    applied = scipy.linalg.lu_solve(lu, -base)
+    for _ in range(30):
+        residual = total(applied)
+        if np.abs(residual).max() <= 1e-11 * np.abs(base).max():
+            break
+        applied -= scipy.linalg.lu_solve(lu, residual)
     return -applied.reshape(n, 3).sum(axis=0)
 
 

@@ -254,6 +254,6 @@ HYDRO_FIELDS: tuple[tuple[str, str, str], ...] = (
     ("next_nodes", "i8", ""),
     ("lag_error", "f8", "-, lagged: the last step's lag error estimate (error-norm units)"),
     ("reynolds_max", "f8", "-, largest Re_d = |u| d / nu of the last evaluation"),
-    ("oseen_min", "f8", "m, smallest Oseen length 4 sqrt(e) nu / |u| of the last evaluation"),
+    ("oseen_min", "f8", "m, smallest Oseen length 2 nu / |u| of the last evaluation"),
 )
 HYDRO_DTYPE = np.dtype([(name, kind) for name, kind, _ in HYDRO_FIELDS])

@@ -29,8 +29,8 @@ delta = r sqrt(e)/2 (Cox's mu_s and ``drag.length_scale_mm`` are not used: the r
 length enters through the nonlocal part). ``drag.model = "finite_re"``: the finite-Reynolds
 law with the window's lengths L_n = r e^(Lam/2 + 1), L_t = r e^(Lam/2) in its logarithms (its
 zero-speed limit is then the same window resistance), and the Stokeslets screened beyond the
-Oseen length l_O = 4 sqrt(e) nu / |u| of each source segment (a factor exp(-R / l_O); the
-constant makes a long straight rod in cross-flow at Re_d << 1 feel Lamb's drag). Where
+Oseen length l_O = 2 nu / |u| of each source segment (a factor exp(-R / l_O); the constant
+makes a long straight rod in cross-flow at Re_d << 1 feel Lamb's drag). Where
 l_O < a the nonlocal part vanishes and the local finite_re law is what remains. ``constant``
 is refused.
 
@@ -67,7 +67,11 @@ from bathprint.core.effects._stokeslet import (
 from bathprint.core.layout import DRAG_FINITE_RE, HYDRO_IMPLICIT, KL, KU, MAT_RADIUS
 from bathprint.core.topology import filament_segments, free_nodes
 
-OSEEN_FACTOR = 4.0 * math.sqrt(math.e)  # l_O = OSEEN_FACTOR nu / |u| (Lamb's constant)
+# l_O = OSEEN_FACTOR nu / |u|: with it the window (Lam = 2 ln(a/delta)) and the screened
+# Stokeslets of a long straight rod in cross-flow give 8 pi mu U = 2 f [1 + ln(l_O/delta) -
+# gamma] (the nonlocal integral is 2 E1(a/l_O) ~ 2 (ln(l_O/a) - gamma)), which is Lamb's
+# 8 pi mu U = 2 f ln(7.4055/Re_d) exactly when l_O = 2 nu / U
+OSEEN_FACTOR = 2.0
 
 
 @njit(cache=True)
