@@ -505,6 +505,11 @@ def _check_tables(scene: Scene) -> None:
             f"bath.density_bottom_kg_m3 = {scene.bath.density_bottom_kg_m3!r}; allowed: 0 "
             "(uniform bath) or a number in [500, 3000]"
         )
+    if 0.0 < scene.material.radius_mm < 1e-3:  # (r^4 of 1e-311 mm underflows to 0)
+        raise SceneError(
+            f"material.radius_mm = {scene.material.radius_mm!r}; allowed: 0 (d / 2) or a "
+            "number in [0.001, 20]"
+        )
     if 0.0 < scene.initial.length_mm < 1e-3:
         raise SceneError(
             f"initial.length_mm = {scene.initial.length_mm!r}; allowed: 0 (a stub of two node "

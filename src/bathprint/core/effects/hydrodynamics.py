@@ -56,7 +56,6 @@ import numpy as np
 from numba import njit, objmode
 
 from bathprint.core.banded import band_matvec
-from bathprint.core.effects._band import add_block
 from bathprint.core.effects._drag_laws import law
 from bathprint.core.effects._stokeslet import (
     fmm_flow,
@@ -64,6 +63,7 @@ from bathprint.core.effects._stokeslet import (
     window_coefficients,
     window_lengths,
 )
+from bathprint.core.effects.drag import add_law_share
 from bathprint.core.layout import DRAG_FINITE_RE, HYDRO_IMPLICIT, KL, KU, MAT_RADIUS
 from bathprint.core.topology import filament_segments, free_nodes
 
@@ -269,28 +269,12 @@ def accumulate(model, rod, stage, out) -> float:
             for a in range(3):
                 force[3 * i + a] += half * f3[a]
             if stage.jac:
-                _add_share(out, n_free, i, j, half, tt, f3, du, dt, cx, cv)
+                add_law_share(out, n_free, i, j, half, tt, f3, du, dt, cx, cv)
             if keep:
                 for a in range(3):
                     for b in range(3):
                         hyd.resist[i, a, b] -= half * du[a, b]
     return power
-
-
-@njit(cache=True, inline="always")
-def _add_share(out, n_free, i, j, half, tt, force3, du, dt, cx, cv) -> None:
-    """Node i's share of segment j's window law in the Jacobian (as drag.add_law_share)."""
-    blk = out.scratch.blk_a
-    for a in range(3):
-        for b in range(3):
-            blk[a, b] = -half * du[a, b]
-    add_block(out.band, n_free, i, i, blk, cv)
-    for a in range(3):
-        dtt = dt[a, 0] * tt[0] + dt[a, 1] * tt[1] + dt[a, 2] * tt[2]
-        for b in range(3):
-            blk[a, b] = -0.5 * (dt[a, b] - dtt * tt[b] + force3[a] * tt[b])
-    add_block(out.band, n_free, i, j + 1, blk, cx)
-    add_block(out.band, n_free, i, j, blk, -cx)
 
 
 @njit(cache=True)
