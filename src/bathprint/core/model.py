@@ -83,7 +83,8 @@ class Model:
 
 
 def slender_body_coefficient(scene: Scene, radius: float) -> float:
-    """mu_s (Pa s): Cox's 2 pi mu / ln(L/r), or the scene's constant."""
+    """mu_s (Pa s): Cox's 2 pi mu / ln(L/r), or the scene's constant (finite_re: Cox's, its
+    limit at zero speed)."""
     mu = scene.bath.viscosity_pa_s
     if scene.drag.model == "constant":
         return scene.drag.coefficient_pa_s or mu
@@ -198,6 +199,32 @@ def _gel_surface(scene: Scene, p: np.record) -> None:
     p.gel_front_lambda = neumann_lambda(gel.bath_calcium_mol_m3 / gel.binding_capacity_mol_m3)
 
 
+def _hydrodynamics(scene: Scene, p: np.record, radius: float) -> None:
+    """The hydrodynamics parameters (cutoff, coupling, regularisation, FMM)."""
+    h = scene.hydrodynamics
+    p.hydro_cutoff = h.cutoff_radii * radius
+    p.hydro_coupling = L.HYDRO_COUPLINGS.index(h.coupling)
+    p.hydro_blob = h.regularization_radii * radius
+    p.hydro_screening = scene.drag.model == "finite_re"
+    p.hydro_fmm_nodes = h.fmm_min_nodes
+    p.hydro_fmm_precision = h.fmm_precision
+    if "hydrodynamics" in scene.effects and h.fmm_min_nodes > 0:
+        if scene.drag.model == "finite_re":
+            raise SceneError(
+                f"hydrodynamics.fmm_min_nodes = {h.fmm_min_nodes!r} with drag.model = "
+                "'finite_re': the FMM sums unscreened Stokeslets, finite_re screens them beyond "
+                "the Oseen length; allowed: 0 (direct sums) with finite_re"
+            )
+        try:
+            import fmm3dpy  # noqa: F401
+        except ImportError as exc:
+            raise SceneError(
+                f"hydrodynamics.fmm_min_nodes = {h.fmm_min_nodes!r} needs fmm3dpy, which is not "
+                "installed (pip install 'bathprint[hydro]'); allowed: 0 (direct sums) "
+                "without it"
+            ) from exc
+
+
 def compile_model(scene: Scene) -> Model:
     """Turn a validated scene into the arrays of a :class:`Model`."""
     params = records.new_params()
@@ -267,6 +294,10 @@ def compile_model(scene: Scene) -> Model:
     p.initial_age = scene.initial.age_s
     p.integrator = L.INTEGRATOR_NAMES.index(scene.numerics.integrator)
     p.krylov_tolerance = scene.numerics.krylov_tolerance
+    p.drag_model = L.DRAG_FINITE_RE if scene.drag.model == "finite_re" else L.DRAG_MU_S
+    p.bath_viscosity = scene.bath.viscosity_pa_s
+    p.drag_length = scene.drag.length_scale_mm * MM
+    _hydrodynamics(scene, p, radius)
     c = scene.contact
     p.contact_stiffness = c.stiffness_pa
     p.contact_distance_factor = c.distance_factor
