@@ -914,6 +914,64 @@ def headline() -> str:
     )
 
 
+def contact_scaling() -> str:
+    path = RESULTS / "contact_scaling.csv"
+    rows = [
+        [
+            "apart (1.5 δ)" if float(r["pitch_over_contact_distance"]) > 1 else "pressed (0.98 δ)",
+            r["nodes"],
+            _g(r["us_per_step_none"]),
+            _g(r["us_per_step_contact"]),
+            f"{_g(r['ratio'], 3)}×",
+            _g(r["ns_per_node_step_contact"]),
+            _g(r["newton_per_step_contact"], 2),
+            _g(r["krylov_per_newton"], 2),
+            _g(r["near_per_segment"], 2),
+        ]
+        for r in _csv(path)
+    ]
+    head = [
+        "turns",
+        "nodes",
+        "µs/step without",
+        "µs/step with",
+        "ratio",
+        "ns per node-step with",
+        "Newton per step",
+        "Krylov per Newton",
+        "near pairs per segment",
+    ]
+    return _table(head, rows) + "\n\n" + provenance(path)
+
+
+def contact_scenes() -> str:
+    path = RESULTS / "contact_scenes.csv"
+    rows = [
+        [
+            f"`{r['scene']}`",
+            _g(r["duration_s"]),
+            _g(r["wall_s_none"]),
+            _g(r["wall_s_contact"]),
+            f"{_g(r['ratio'], 3)}×",
+            _g(r["krylov_per_newton"], 2),
+            _g(r["min_gap_none"], 2),
+            _g(r["min_gap_contact"], 3),
+        ]
+        for r in _csv(path)
+    ]
+    head = [
+        "scene",
+        "simulated (s)",
+        "wall without (s)",
+        "wall with (s)",
+        "ratio",
+        "Krylov per Newton",
+        "smallest gap / δ without",
+        "with",
+    ]
+    return _table(head, rows) + "\n\n" + provenance(path)
+
+
 TABLES: dict[str, Callable[[], str]] = {
     "scene-keys": scene_keys,
     "builtin-scenes": builtin_scenes,
@@ -937,6 +995,8 @@ TABLES: dict[str, Callable[[], str]] = {
     "paper-constants": paper_constants,
     "fig1c-regimes": fig1c_regimes,
     "fig3-settling": fig3_settling,
+    "contact-scaling": contact_scaling,
+    "contact-scenes": contact_scenes,
 }
 
 
