@@ -698,6 +698,16 @@ def _reproduce() -> dict[str, Any]:
 
 
 def _reproduce_source(*names: str) -> str:
+    """Provenance of files of benchmarks/results/reproduce: reproduce.meta.json's, or its
+    ``files`` entry where one file was rewritten alone (``bathprint reproduce NAME``)."""
+    meta = json.loads((REPRODUCE / "reproduce.meta.json").read_text())
+    alone = meta.get("files", {})
+    if len(names) == 1 and names[0] in alone:
+        m = {**meta, **alone[names[0]]}
+        return (
+            f"*Source: `benchmarks/results/reproduce/{names[0]}`, written by `{m['command']}` "
+            f"on {m['date']} (commit {m['commit']}); machine: {m['machine']}.*"
+        )
     return provenance(REPRODUCE / "reproduce.json").replace(
         "`benchmarks/results/reproduce/reproduce.json`",
         ", ".join(f"`benchmarks/results/reproduce/{n}`" for n in names or ("reproduce.json",)),
@@ -972,6 +982,24 @@ def contact_scenes() -> str:
     return _table(head, rows) + "\n\n" + provenance(path)
 
 
+ABLATION = RESULTS / "ablation"
+
+
+def ablation() -> str:
+    """The summary tables of the ablation study, as the study wrote them (ablation.md, up to
+    its list of every run), with their headings as bold lines."""
+    path = ABLATION / "ablation.md"
+    if not path.is_file():
+        raise RenderError(f"{_rel(path)} does not exist (run bathprint reproduce ablation)")
+    text = path.read_text(encoding="utf-8")
+    start = text.index("## Relative change")
+    end = text.index("## Every run")
+    lines = []
+    for line in text[start:end].strip().splitlines():
+        lines.append(f"**{line[3:].strip()}**" if line.startswith("## ") else line)
+    return "\n".join(lines) + "\n\n" + provenance(ABLATION / "ablation.csv")
+
+
 TABLES: dict[str, Callable[[], str]] = {
     "scene-keys": scene_keys,
     "builtin-scenes": builtin_scenes,
@@ -997,6 +1025,7 @@ TABLES: dict[str, Callable[[], str]] = {
     "fig3-settling": fig3_settling,
     "contact-scaling": contact_scaling,
     "contact-scenes": contact_scenes,
+    "ablation": ablation,
 }
 
 
