@@ -1000,6 +1000,31 @@ def ablation() -> str:
     return "\n".join(lines) + "\n\n" + provenance(ABLATION / "ablation.csv")
 
 
+GRAVITY = RESULTS / "gravity"
+
+
+def gravity() -> str:
+    """The gravity study's fits (reproduce.json of ``bathprint reproduce gravity``)."""
+    path = GRAVITY / "reproduce.json"
+    if not path.is_file():
+        raise RenderError(f"{_rel(path)} does not exist (run bathprint reproduce gravity)")
+    fits = json.loads(path.read_text())["gravity"]["result"]["fits"]
+    labels = {"buckled_length_m": "buckled length l", "coil_radius_m": "coil radius R"}
+    rows = []
+    for quantity, by_scale in fits.items():
+        u, d = by_scale["universal_scale_m"], by_scale["drag_scale_m"]
+        rows.append(
+            [
+                labels.get(quantity, quantity),
+                f"{_g(u['slope'])}, {_g(u['log_rms'], 2)}",
+                f"{_g(d['slope'])}, {_g(d['log_rms'], 2)}",
+                str(u["points"]),
+            ]
+        )
+    head = ["quantity", "universal scale: slope, log-RMS", "drag scale: slope, log-RMS", "runs"]
+    return _table(head, rows) + "\n\n" + provenance(GRAVITY / "gravity.csv")
+
+
 TABLES: dict[str, Callable[[], str]] = {
     "scene-keys": scene_keys,
     "builtin-scenes": builtin_scenes,
@@ -1026,6 +1051,7 @@ TABLES: dict[str, Callable[[], str]] = {
     "contact-scaling": contact_scaling,
     "contact-scenes": contact_scenes,
     "ablation": ablation,
+    "gravity": gravity,
 }
 
 
