@@ -71,8 +71,11 @@ OWN_KEYS = (
     "checkpoint_freq",
     "torch_threads",
     "time_budget_s",
+    "vec_env",
     "wrapper",
 )
+#: vector environments (``vec_env``): one process stepping them in turn, or one each
+VEC_ENVS = ("dummy", "subproc")
 #: keys read by bathprint itself; everything else is passed to the SB3 algorithm
 RUN_KEYS = ZOO_RUN_KEYS + OWN_KEYS
 #: replay buffer classes a file may name (rl-zoo3 evaluates the string)
@@ -393,6 +396,10 @@ def validate_hyperparams(algo: str, hp: Any, where: str, env_id: str | None = No
             value = hp[key]
             if not (isinstance(value, int) and not isinstance(value, bool) and value >= 1):
                 raise ConfigError(f"{where}: {key} = {value!r}; allowed: an integer >= 1")
+    if "vec_env" in hp and hp["vec_env"] not in VEC_ENVS:
+        raise ConfigError(
+            f"{where}: vec_env = {hp['vec_env']!r}; allowed: " + ", ".join(VEC_ENVS)
+        )
     policy = hp.get("policy", "MlpPolicy")
     if not isinstance(policy, str) or policy not in cls.policy_aliases:
         raise ConfigError(

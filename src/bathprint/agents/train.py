@@ -79,10 +79,13 @@ def make_vec(
     env_kwargs: dict[str, Any],
     monitor_dir: Path | None = None,
     wrapper: dict[str, Any] | None = None,
+    vec_env: str = "subproc",
 ) -> Any:
     """``n_envs`` copies (a :class:`~bathprint.agents.vecenv.QuietSubprocVecEnv` with
-    forkserver when more than one), Monitor-wrapped and then wrapped by ``wrapper`` (see
-    :mod:`bathprint.agents.wrappers`)."""
+    forkserver when more than one and ``vec_env="subproc"``; a DummyVecEnv stepping them in
+    turn in this process otherwise), Monitor-wrapped and then wrapped by ``wrapper`` (see
+    :mod:`bathprint.agents.wrappers`). Several environments in one process batch the
+    policy's forward pass, which costs about as much as an environment step for one."""
     from stable_baselines3.common.env_util import make_vec_env
     from stable_baselines3.common.vec_env import DummyVecEnv
 
@@ -92,7 +95,7 @@ def make_vec(
 
     if n_envs < 1:
         raise ConfigError(f"n_envs = {n_envs!r}; must be >= 1")
-    sub = n_envs > 1
+    sub = n_envs > 1 and vec_env == "subproc"
     return make_vec_env(
         functools.partial(make, env_id),
         n_envs=n_envs,
@@ -494,7 +497,8 @@ def train(
         callbacks: list[Any] = []
         try:
             venv = make_vec(
-                env_id, n_envs, seed, env_kwargs, run_dir / "monitor", run.get("wrapper")
+                env_id, n_envs, seed, env_kwargs, run_dir / "monitor", run.get("wrapper"),
+                str(run.get("vec_env", "subproc")),
             )
             if ckpt is not None:
                 d = run_dir / "checkpoints"
