@@ -102,7 +102,7 @@ def test_return_is_minus_the_final_squared_error(env_id: str) -> None:
     acts = rng.uniform(-1, 1, (200, env.action_space.shape[0])).astype(np.float32)
     rewards, info, _ = episode(env, acts, seed=1)
     assert info["scored_fraction"] == 1.0
-    assert math.isclose(sum(rewards), -info["metric"] ** 2, rel_tol=1e-9, abs_tol=1e-12)
+    assert math.isclose(sum(rewards), -(info["metric"] ** 2), rel_tol=1e-9, abs_tol=1e-12)
     assert math.isclose(info["scored_squared_error"], info["metric"] ** 2, rel_tol=1e-9)
     # no constant progress term: the first rewards (nothing scored yet) are exactly 0
     assert rewards[0] == 0.0
@@ -123,7 +123,7 @@ def test_a_diverged_episode_returns_minus_the_squared_error_with_missing_samples
     _, r, term, trunc, info = env.step(np.zeros(1, np.float32))
     assert trunc and not term and "forced" in info["sim_error"]
     # the samples never scored count missing_error: the return is -M^2 of the diverged print
-    assert math.isclose(total + r, -info["metric"] ** 2, rel_tol=1e-9)
+    assert math.isclose(total + r, -(info["metric"] ** 2), rel_tol=1e-9)
     assert info["metric"] > info["shape_rms_mm"] / 3  # the missing samples are in M
     assert info["is_success"] is False
 
@@ -136,8 +136,10 @@ def test_the_three_target_sets_are_fixed_and_disjoint_by_key(env_id: str) -> Non
     assert fam.uses_sets_file()  # the shipped file matches the spec
     keys = {}
     for name in ("validation", "test"):
-        keys[name] = [make(env_id, target_set=name).unwrapped.fixed_set_target(name, k).key
-                      for k in range(fam.sizes[name])]
+        keys[name] = [
+            make(env_id, target_set=name).unwrapped.fixed_set_target(name, k).key
+            for k in range(fam.sizes[name])
+        ]
         assert len(set(keys[name])) == fam.sizes[name]
     # the whole training pool's keys, from the parameters (start state drawn, first attempt)
     train = {E.targets.params_key(fam.draw(s)[0]) for s in range(fam.train_pool)}
@@ -170,8 +172,10 @@ def test_target_set_arguments_are_refused_with_the_argument_named() -> None:
         ({"needle_velocity": np.array([1, 0])}, "needle_velocity = array"),
         ({"spec_overrides": {"target": {"eval_size": 4}}}, "target.eval_size"),
         ({"spec_overrides": {"control": {"q_outer_scale": "cubic"}}}, "q_outer_scale"),
-        ({"spec_overrides": {"target": {"params": {"q_outer": {"kind": "walk"}}}}},
-         "target.params.q_outer"),
+        (
+            {"spec_overrides": {"target": {"params": {"q_outer": {"kind": "walk"}}}}},
+            "target.params.q_outer",
+        ),
     ]
     for kwargs, needle in cases:
         with pytest.raises(ConfigError, match=None) as exc:
@@ -269,8 +273,9 @@ def test_the_oil_flow_follows_its_command_with_the_lag() -> None:
     sl = u.obs_slices()["inner_fraction_now"]
     phi = q / (u._controls["q_outer_ml_min"] + q)
     p_lo, p_hi = u.inner_fraction_range
-    assert math.isclose(float(u._last_obs[sl][0]), 2 * (phi - p_lo) / (p_hi - p_lo) - 1,
-                        rel_tol=1e-6)
+    assert math.isclose(
+        float(u._last_obs[sl][0]), 2 * (phi - p_lo) / (p_hi - p_lo) - 1, rel_tol=1e-6
+    )
 
 
 def test_the_observation_shows_both_bounds_of_the_density_band() -> None:

@@ -158,3 +158,54 @@ def test_bending_gradient_and_hessian_match_finite_differences() -> None:
     np.testing.assert_allclose(g, g_fd, rtol=1e-6, atol=1e-8)
     np.testing.assert_allclose(h, h_fd.T, rtol=1e-5, atol=1e-7)
     np.testing.assert_allclose(h, h.T, atol=1e-12)
+
+
+def _check_against_finite_differences(sim: Simulation, which: str, vel_scale: float) -> None:
+    n = sim.n_nodes
+    nd = 3 * (n - 2)
+    pos, vel = sim.pos.copy(), sim.vel.copy() * vel_scale
+    acc = np.zeros_like(vel)
+    coeff = {"x": (1.0, 0.0, 0.0), "v": (0.0, 1.0, 0.0)}[which]
+    jac = _dense_jacobian(sim, pos, vel, acc, *coeff)
+    target = {"x": pos, "v": vel}[which]
+    step = {"x": 1e-8, "v": 1e-7 * vel_scale}[which]
+    fd = np.zeros((nd, nd))
+    for k in range(nd):
+        saved = target[k]
+        target[k] = saved + step
+        fp = _force(sim, pos, vel, acc)
+        target[k] = saved - step
+        fm = _force(sim, pos, vel, acc)
+        target[k] = saved
+        fd[:, k] = -(fp - fm) / (2 * step)
+    scale = np.abs(fd).max() + 1e-30
+    np.testing.assert_allclose(jac, fd, atol=2e-6 * scale, rtol=0)
+
+
+@pytest.mark.parametrize(
+    "extra",
+    [
+        {"drag.model": "finite_re"},
+        {"effects": ["drag", "hydrodynamics"], "hydrodynamics.coupling": "lagged"},
+        {
+            "effects": ["drag", "hydrodynamics"],
+            "hydrodynamics.coupling": "lagged",
+            "drag.model": "finite_re",
+        },
+    ],
+    ids=["finite_re", "hydrodynamics_cox", "hydrodynamics_finite_re"],
+)
+@pytest.mark.parametrize("vel_scale", [1e-2, 1.0])  # Re_d ~ 0.1 (Lamb, blend) and ~ 10
+@pytest.mark.parametrize("which", ["x", "v"])
+def test_drag_law_jacobians_match_finite_differences(extra: dict, vel_scale: float, which: str):
+    """The finite-Reynolds law (nonlinear in the speed) and the hydrodynamics effect's local
+    window law: exact Jacobians in x (through the tangent and the length) and v. With the
+    lagged coupling the nonlocal flow of the step is fixed (here a random one), so the band
+    is the whole Jacobian. (Drag alone: the other effects' forces add only round-off to the
+    differences.)"""
+    effects = extra.get("effects", ["drag"])
+    sim = _random_rod(effects, **{k: v for k, v in extra.items() if k != "effects"})
+    if "hydrodynamics" in effects:
+        n3 = 3 * sim.n_nodes
+        sim.ws.hydro.u_nl[:n3] = np.random.default_rng(7).normal(scale=3e-3 * vel_scale, size=n3)
+    _check_against_finite_differences(sim, which, vel_scale)

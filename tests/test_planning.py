@@ -66,23 +66,29 @@ def test_the_oracle_improves_on_the_constant_policy_on_a_cheap_target(tmp_path) 
 
 def test_the_oracle_cache_is_written_per_target_and_resumed(tmp_path) -> None:
     s = planning.CEMSettings(samples=2, iterations=1, elites=1)
-    data = planning.run_oracle(ENV, "validation", "draft", s, [0], directory=tmp_path,
-                               progress=False)
+    data = planning.run_oracle(
+        ENV, "validation", "draft", s, [0], directory=tmp_path, progress=False
+    )
     path = planning.oracle_path(ENV, "draft", tmp_path)
     assert path.is_file() and len(data["targets"]) == 1
     stamp = path.stat().st_mtime_ns
     planning.run_oracle(ENV, "validation", "draft", s, [0], directory=tmp_path, progress=False)
     assert path.stat().st_mtime_ns == stamp  # nothing recomputed
-    data = planning.run_oracle(ENV, "validation", "draft", s, [0, 1], directory=tmp_path,
-                               progress=False)
+    data = planning.run_oracle(
+        ENV, "validation", "draft", s, [0, 1], directory=tmp_path, progress=False
+    )
     assert len(data["targets"]) == 2
     rec = next(iter(json.loads(path.read_text())["targets"].values()))
     assert {"metric", "metric_constant", "actions", "cpu_s", "data"} <= set(rec)
 
 
 def test_normalised_score_is_zero_for_the_constant_and_one_for_the_oracle(tmp_path) -> None:
-    data = {"targets": {"a": {"metric_constant": 0.4, "metric": 0.1},
-                        "b": {"metric_constant": 0.2, "metric": 0.0}}}
+    data = {
+        "targets": {
+            "a": {"metric_constant": 0.4, "metric": 0.1},
+            "b": {"metric_constant": 0.2, "metric": 0.0},
+        }
+    }
     planning._save_oracle(planning.oracle_path(ENV, "draft", tmp_path), data)
     score = planning.normalised_score
     assert score({"a": 0.4, "b": 0.2}, ENV, "draft", tmp_path)["normalised_score"] == 0.0
@@ -94,8 +100,7 @@ def test_normalised_score_is_zero_for_the_constant_and_one_for_the_oracle(tmp_pa
 
 def test_mpc_branches_from_the_current_state_and_beats_the_constant() -> None:
     env = make(target_set="validation", target_index=1)
-    settings = planning.MPCSettings(horizon_mm=24, replan_mm=8, samples=6, iterations=2,
-                                    elites=2)
+    settings = planning.MPCSettings(horizon_mm=24, replan_mm=8, samples=6, iterations=2, elites=2)
     mpc = planning.MPCPolicy(env, ENV, settings)
     obs, _ = env.reset(seed=0)
     done = False

@@ -19,19 +19,41 @@ PATH = Path(__file__).with_name("v0_episodes.npz")
 #: (name, env id, make kwargs, reset seed, reset options, action seed, steps)
 CASES: tuple[tuple[str, str, dict, int, dict, int, int], ...] = (
     ("coil_train", "bathprint/CoilRadius-v0", {}, 0, {}, 1, 80),
-    ("coil_eval_needle", "bathprint/CoilRadius-v0",
-     {"target_set": "eval", "needle_velocity": True}, 5, {"target_index": 3}, 2, 40),
+    (
+        "coil_eval_needle",
+        "bathprint/CoilRadius-v0",
+        {"target_set": "eval", "needle_velocity": True},
+        5,
+        {"target_index": 3},
+        2,
+        40,
+    ),
     ("shape_train", "bathprint/WriteShape-v0", {}, 1, {}, 3, 60),
-    ("shape_eval_needle", "bathprint/WriteShape-v0",
-     {"target_set": "eval", "needle_velocity": "xy"}, 2, {"target_index": 7}, 4, 40),
+    (
+        "shape_eval_needle",
+        "bathprint/WriteShape-v0",
+        {"target_set": "eval", "needle_velocity": "xy"},
+        2,
+        {"target_index": 7},
+        4,
+        40,
+    ),
     ("layers_train", "bathprint/BuoyantLayers-v0", {}, 3, {}, 5, 63),
-    ("layers_eval", "bathprint/BuoyantLayers-v0", {"target_set": "eval"}, 4,
-     {"target_index": 2}, 6, 30),
+    (
+        "layers_eval",
+        "bathprint/BuoyantLayers-v0",
+        {"target_set": "eval"},
+        4,
+        {"target_index": 2},
+        6,
+        30,
+    ),
 )
 
 
-def run_case(env_id: str, kwargs: dict, seed: int, options: dict, action_seed: int,
-             steps: int) -> dict[str, np.ndarray]:
+def run_case(
+    env_id: str, kwargs: dict, seed: int, options: dict, action_seed: int, steps: int
+) -> dict[str, np.ndarray]:
     """Observations (steps + 1, obs_dim), rewards, metrics and the actions of one episode."""
     import bathprint.envs as E
 

@@ -145,8 +145,9 @@ def rollout(env: Any, actions: np.ndarray, seed: int, options: dict[str, Any]) -
     return {"metric": float(info["metric"]), "return": ret, "steps": k, "truncated": bool(trunc)}
 
 
-def policy_actions(env: Any, policy: Any, seed: int, options: dict[str, Any]
-                   ) -> tuple[float, np.ndarray]:
+def policy_actions(
+    env: Any, policy: Any, seed: int, options: dict[str, Any]
+) -> tuple[float, np.ndarray]:
     """Run a policy for one episode; its final metric and the actions it took."""
     obs, _ = env.reset(seed=seed, options=options)
     acts = []
@@ -342,7 +343,10 @@ def run_oracle_files(
     want = dataclasses.asdict(settings)
     path = oracle_path(env_id, accuracy, directory)
     data = load_oracle(env_id, accuracy, directory) or {
-        "env_id": env_id, "accuracy": accuracy, "settings": want, "targets": {},
+        "env_id": env_id,
+        "accuracy": accuracy,
+        "settings": want,
+        "targets": {},
     }
     bar = tqdm(list(files), desc=f"oracle {env_id} files", disable=not progress)
     for f in bar:
@@ -352,8 +356,15 @@ def run_oracle_files(
         rec = data["targets"].get(target.key)
         if rec is None or rec.get("settings") != want or rec.get("seed") != seed:
             rec = optimise_target(env, env_id, seed, {}, settings, bar)
-            rec.update({"target_set": "file", "file": Path(f).name, "index": -1, "seed": seed,
-                        "settings": want})
+            rec.update(
+                {
+                    "target_set": "file",
+                    "file": Path(f).name,
+                    "index": -1,
+                    "seed": seed,
+                    "settings": want,
+                }
+            )
             data["targets"][target.key] = rec
             _save_oracle(path, data)
         env.close()
@@ -364,8 +375,13 @@ class OraclePolicy:
     """Replays the oracle's cached action sequence of the episode's target (computing and
     caching it first if it is missing: minutes)."""
 
-    def __init__(self, env: Any, env_id: str, settings: CEMSettings | None = None,
-                 directory: Path | None = None) -> None:
+    def __init__(
+        self,
+        env: Any,
+        env_id: str,
+        settings: CEMSettings | None = None,
+        directory: Path | None = None,
+    ) -> None:
         self.env = env.unwrapped
         self.env_id = env_id
         self.settings = settings or CEMSettings()
@@ -383,18 +399,33 @@ class OraclePolicy:
             planner = make(self.env_id, **u.init_kwargs)
             options = {"target": u.target, "start_state": u._start_index}
             rec = optimise_target(planner, self.env_id, 0, options, self.settings)
-            rec.update({"target_set": u.target_set, "index": u._target_index, "seed": 0,
-                        "settings": dataclasses.asdict(self.settings)})
+            rec.update(
+                {
+                    "target_set": u.target_set,
+                    "index": u._target_index,
+                    "seed": 0,
+                    "settings": dataclasses.asdict(self.settings),
+                }
+            )
             if not data:
-                data = {"env_id": self.env_id, "accuracy": u.accuracy,
-                        "settings": dataclasses.asdict(self.settings), "targets": {}}
+                data = {
+                    "env_id": self.env_id,
+                    "accuracy": u.accuracy,
+                    "settings": dataclasses.asdict(self.settings),
+                    "targets": {},
+                }
             data["targets"][u._target_key] = rec
             _save_oracle(oracle_path(self.env_id, u.accuracy, self.directory), data)
             planner.close()
         return np.asarray(rec["actions"], np.float32)
 
-    def predict(self, observation: Any, state: Any = None, episode_start: Any = None,
-                deterministic: bool = True) -> tuple[np.ndarray, Any]:
+    def predict(
+        self,
+        observation: Any,
+        state: Any = None,
+        episode_start: Any = None,
+        deterministic: bool = True,
+    ) -> tuple[np.ndarray, Any]:
         u = self.env
         if u._steps == 0 or self._key != u._target_key:
             self._key = u._target_key
@@ -419,8 +450,15 @@ class MPCSettings:
     seed: int = 0
 
     def cem(self) -> CEMSettings:
-        return CEMSettings(self.samples, self.iterations, self.elites, self.block_mm,
-                           self.init_std, self.min_std, self.seed)
+        return CEMSettings(
+            self.samples,
+            self.iterations,
+            self.elites,
+            self.block_mm,
+            self.init_std,
+            self.min_std,
+            self.seed,
+        )
 
     def __post_init__(self) -> None:
         self.cem()  # checks the search settings
@@ -482,15 +520,22 @@ class MPCPolicy:
         self._plan_step = u._steps
         self.plans += 1
 
-    def predict(self, observation: Any, state: Any = None, episode_start: Any = None,
-                deterministic: bool = True) -> tuple[np.ndarray, Any]:
+    def predict(
+        self,
+        observation: Any,
+        state: Any = None,
+        episode_start: Any = None,
+        deterministic: bool = True,
+    ) -> tuple[np.ndarray, Any]:
         u = self.env
         every = max(1, int(round(self.settings.replan_mm / u.control_length_mm)))
         if u._steps == 0:
             self._plan = None
-        if self._plan is None or (u._steps - self._plan_step) % every == 0 or (
-            u._steps - self._plan_step
-        ) >= len(self._plan):
+        if (
+            self._plan is None
+            or (u._steps - self._plan_step) % every == 0
+            or (u._steps - self._plan_step) >= len(self._plan)
+        ):
             self._replan()
         assert self._plan is not None
         return self._plan[u._steps - self._plan_step].copy(), state
@@ -516,8 +561,9 @@ def parse_options(spec: str, cls: type) -> Any:
 
 
 # ------------------------------------------------------------------------------ scores
-def normalised_score(metrics: dict[str, float], env_id: str, accuracy: str,
-                     directory: Path | None = None) -> dict[str, Any]:
+def normalised_score(
+    metrics: dict[str, float], env_id: str, accuracy: str, directory: Path | None = None
+) -> dict[str, Any]:
     """(M_constant - M) / (M_constant - M_oracle) from the oracle cache, for the episodes
     whose target it holds: the means over those episodes (aggregate), and per target.
     ``metrics``: target key -> the policy's final metric."""
@@ -542,8 +588,9 @@ def normalised_score(metrics: dict[str, float], env_id: str, accuracy: str,
 
 
 # ------------------------------------------------------------------------------ tables
-def reference_table(env_id: str, eval_dir: str | Path, accuracy: str = "draft",
-                    directory: Path | None = None) -> str:
+def reference_table(
+    env_id: str, eval_dir: str | Path, accuracy: str = "draft", directory: Path | None = None
+) -> str:
     """Markdown table of the reference scores: the policies of a ``bathprint evaluate``
     output directory (its table.json) and the oracle's CEM search from its cache."""
     rows = json.loads((Path(eval_dir) / "table.json").read_text())
@@ -593,8 +640,10 @@ def main(argv: Sequence[str] | None = None) -> int:
     [--accuracy draft] [--samples 32 --iterations 20 --block-mm 4] [--indices 0 1 ...]
     [--target-files F ...]``; ``... table --env ENV --eval-dir DIR`` prints the reference
     table of a ``bathprint evaluate`` output and the oracle cache."""
-    ap = argparse.ArgumentParser(prog="python -m bathprint.agents.planning",
-                                 description="Fill the oracle cache of a version-1 environment.")
+    ap = argparse.ArgumentParser(
+        prog="python -m bathprint.agents.planning",
+        description="Fill the oracle cache of a version-1 environment.",
+    )
     ap.add_argument("action", choices=("oracle", "table"))
     ap.add_argument("--eval-dir", default=None, help="table: a bathprint evaluate output")
     ap.add_argument("--env", required=True)
@@ -605,8 +654,12 @@ def main(argv: Sequence[str] | None = None) -> int:
     ap.add_argument("--elites", type=int, default=CEMSettings.elites)
     ap.add_argument("--block-mm", type=float, default=CEMSettings.block_mm)
     ap.add_argument("--indices", type=int, nargs="*", default=None)
-    ap.add_argument("--target-files", nargs="*", default=None,
-                    help="target files (e.g. envs/targets/showcase/*.csv) instead of a set")
+    ap.add_argument(
+        "--target-files",
+        nargs="*",
+        default=None,
+        help="target files (e.g. envs/targets/showcase/*.csv) instead of a set",
+    )
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--out", default=None, help="cache directory (default agents/results/oracle)")
     ap.add_argument("--quiet", action="store_true")
@@ -617,37 +670,61 @@ def main(argv: Sequence[str] | None = None) -> int:
             return 2
         from bathprint.envs import resolve_id
 
-        print(reference_table(resolve_id(args.env), args.eval_dir, args.accuracy,
-                              Path(args.out) if args.out else None), end="")
+        print(
+            reference_table(
+                resolve_id(args.env),
+                args.eval_dir,
+                args.accuracy,
+                Path(args.out) if args.out else None,
+            ),
+            end="",
+        )
         return 0
     try:
         settings = CEMSettings(args.samples, args.iterations, args.elites, args.block_mm)
         if args.target_files:
             data = run_oracle_files(
-                args.env, args.target_files, args.accuracy, settings, args.seed,
-                Path(args.out) if args.out else None, progress=not args.quiet,
+                args.env,
+                args.target_files,
+                args.accuracy,
+                settings,
+                args.seed,
+                Path(args.out) if args.out else None,
+                progress=not args.quiet,
             )
             for rec in data["targets"].values():
                 if rec.get("target_set") == "file":
-                    print(f"{rec['file']}: constant {rec['metric_constant']:.4f}, feedforward "
-                          f"{rec['metric_feedforward']:.4f}, CEM {rec['metric_cem']:.4f} "
-                          f"({rec['cpu_s']:.0f} CPU s)")
+                    print(
+                        f"{rec['file']}: constant {rec['metric_constant']:.4f}, feedforward "
+                        f"{rec['metric_feedforward']:.4f}, CEM {rec['metric_cem']:.4f} "
+                        f"({rec['cpu_s']:.0f} CPU s)"
+                    )
             return 0
         data = run_oracle(
-            args.env, args.target_set, args.accuracy, settings, args.indices, args.seed,
-            Path(args.out) if args.out else None, progress=not args.quiet,
+            args.env,
+            args.target_set,
+            args.accuracy,
+            settings,
+            args.indices,
+            args.seed,
+            Path(args.out) if args.out else None,
+            progress=not args.quiet,
         )
     except (ValueError, FileNotFoundError) as exc:
         print(f"bathprint planning: {exc}", file=sys.stderr)
         return 2
     recs = [r for r in data["targets"].values() if r.get("target_set") == args.target_set]
     if recs:
-        mean = {k: float(np.mean([r[k] for r in recs if k in r]))
-                for k in ("metric_constant", "metric_feedforward", "metric_cem", "metric")}
+        mean = {
+            k: float(np.mean([r[k] for r in recs if k in r]))
+            for k in ("metric_constant", "metric_feedforward", "metric_cem", "metric")
+        }
         cost = float(np.mean([r["cpu_s"] for r in recs]))
-        print(f"{data['env_id']} {args.target_set} ({len(recs)} targets, {args.accuracy}): "
-              + ", ".join(f"{k} {v:.4f}" for k, v in mean.items())
-              + f"; {cost:.0f} CPU s per target")
+        print(
+            f"{data['env_id']} {args.target_set} ({len(recs)} targets, {args.accuracy}): "
+            + ", ".join(f"{k} {v:.4f}" for k, v in mean.items())
+            + f"; {cost:.0f} CPU s per target"
+        )
     return 0
 
 

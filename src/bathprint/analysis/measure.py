@@ -24,6 +24,13 @@ Quantities (all plain floats in SI units or ``None`` when undefined):
   centreline curvature (1/m^2).
 - plume opening angle theta (:func:`plume_angle`): full opening angle (rad) of the cone
   fitted to the lateral envelope of the filament vs depth.
+- other definitions of l (:func:`buckling_length_definitions`): where the filament first
+  departs from the needle axis by one diameter 2r, by a quarter of its largest excursion,
+  and where the coil reaches its full radius (0.9 R); omega in Hz besides rad/s, and the
+  kinematic check omega R / v (about 1 for a helix laid on a slow stack; the paper's fits
+  give 0.44).
+- self-contact (:func:`min_gap_ratio`): the smallest distance between non-adjacent
+  segments over the frames, in contact distances 2r (below 1 the tubes overlap).
 - regime (:func:`classify_regime`) and everything at once (:func:`measure_all`).
 
 Nothing here raises on odd input (too few nodes, NaN rows, degenerate geometry): the
@@ -40,6 +47,9 @@ from dataclasses import dataclass
 from typing import Any, Literal, TypeVar
 
 import numpy as np
+from numba import njit
+
+from bathprint.core.effects._segment_geometry import segment_distance
 
 __all__ = [
     "REGIMES",
@@ -54,6 +64,8 @@ __all__ = [
     "plume_angle",
     "classify_regime",
     "measure_all",
+    "buckling_length_definitions",
+    "min_gap_ratio",
 ]
 
 REGIMES = ("straight", "rope_coiling", "drag_coiling", "period_doubling", "chaotic_crumpling")
@@ -65,6 +77,12 @@ MEASURE_KEYS = (
     "coil_frequency_rad_s",
     "curvature_variance_1_m2",
     "plume_opening_angle_rad",
+    "buckling_length_2r_m",
+    "buckling_length_quarter_m",
+    "buckling_length_full_radius_m",
+    "coil_frequency_hz",
+    "omega_r_over_v",
+    "min_gap_ratio",
 )
 
 # Classification / measurement constants (documented in classify_regime).
@@ -81,6 +99,8 @@ PD_AMPLITUDE = 0.1  # |mean(even turns) - mean(odd turns)| / mean pitch
 N_VOTE = 5  # classify_regime: majority over the last N_VOTE frames
 GROWTH_RTOL = 1e-9  # relative arclength growth over the frame window below which nothing grows
 ROUNDOFF_RTOL = 1e-9  # lengths below this fraction of their scale (R, extent) are round-off
+FULL_RADIUS_FRACTION = 0.9  # "full radius": the lateral distance first reaches this x R
+GAP_RATIO_CAP = 2.0  # min_gap_ratio searches pairs within this many contact distances
 
 _DOWN = np.array([0.0, 0.0, -1.0])
 _T = TypeVar("_T")
@@ -768,6 +788,98 @@ def _track_probe(
     return abs(float(np.polyfit(ts_a, ang, 1)[0]))
 
 
+# --------------------------------------------------------------------------- definitions
+
+
+@_never_raise(lambda: dict.fromkeys(("two_radii", "quarter", "full_radius"), None))
+def buckling_length_definitions(
+    frame: np.ndarray,
+    needle_pos: Any = None,
+    needle_dir: Any = None,
+    *,
+    radius: float | None = None,
+    coil_radius: float | None = None,
+) -> dict[str, float | None]:
+    """The buckling length l (m, depth along the needle axis) under three definitions, each
+    the first tip-first point whose lateral distance from the needle axis exceeds a threshold:
+
+    - ``two_radii``: one filament diameter, 2 ``radius`` (the first visible departure);
+    - ``quarter``: a quarter of the frame's largest lateral distance;
+    - ``full_radius``: ``FULL_RADIUS_FRACTION`` (0.9) x ``coil_radius`` R, where the coil
+      has reached its full radius (0.9 rather than 1: per-turn radii scatter by a few
+      percent, and a coil off the axis by c swings by +-c about R).
+
+    A definition is None when its input is missing (``radius``, ``coil_radius``) or the
+    filament never departs that far. :func:`buckling_length` with ``rel_threshold`` is the
+    general form.
+    """
+    r = _float(radius)
+    big_r = _float(coil_radius)
+    return {
+        "two_radii": buckling_length(frame, needle_pos, needle_dir, 2.0 * r)
+        if r is not None and r > 0
+        else None,
+        "quarter": buckling_length(frame, needle_pos, needle_dir, None, rel_threshold=0.25),
+        "full_radius": buckling_length(frame, needle_pos, needle_dir, FULL_RADIUS_FRACTION * big_r)
+        if big_r is not None and big_r > 0
+        else None,
+    }
+
+
+@njit(cache=True)
+def _min_pair_distance(pos: np.ndarray, pairs: np.ndarray) -> float:
+    """Smallest distance (m) between the segment pairs (i, j) of the flat positions."""
+    best = np.inf
+    for k in range(pairs.shape[0]):
+        i = pairs[k, 0]
+        j = pairs[k, 1]
+        best = min(best, segment_distance(pos, i, i + 1, j, j + 1))
+    return best
+
+
+def _frame_gap(f: np.ndarray, delta: float) -> float | None:
+    """Smallest distance between non-adjacent segments of one frame / delta, capped at
+    GAP_RATIO_CAP (pairs further apart are not searched)."""
+    from scipy.spatial import cKDTree
+
+    from bathprint.core.effects.contact import min_separation_for
+
+    if len(f) < 4:
+        return None
+    seg = np.linalg.norm(np.diff(f, axis=0), axis=1)
+    if not np.all(seg > 0):
+        return None
+    min_sep = min_separation_for(delta, float(np.median(seg)))
+    mid = 0.5 * (f[1:] + f[:-1])
+    # two segments closer than c have midpoints closer than c + (l_i + l_j) / 2
+    reach = GAP_RATIO_CAP * delta + float(seg.max())
+    pairs = cKDTree(mid).query_pairs(reach, output_type="ndarray")
+    if len(pairs):
+        pairs = pairs[np.abs(pairs[:, 1] - pairs[:, 0]) > min_sep]
+    if not len(pairs):
+        return GAP_RATIO_CAP
+    d = _min_pair_distance(np.ascontiguousarray(f).ravel(), pairs.astype(np.int64))
+    return min(d / delta, GAP_RATIO_CAP)
+
+
+@_never_raise(lambda: None)
+def min_gap_ratio(frames: Sequence[np.ndarray], radius: float | None) -> float | None:
+    """Smallest distance between non-adjacent segments over all frames, divided by the
+    contact distance 2 ``radius`` (m): below 1 the two tubes overlap, near 0 the centrelines
+    cross. Pairs closer along the filament than about pi r of arclength are adjacent
+    (:func:`bathprint.core.effects.contact.min_separation_for`), so a straight filament
+    gives about 1.6-1.8 (its nearest pair that is not adjacent) and a value there means no
+    turn comes near another; it saturates at GAP_RATIO_CAP (2) when no pair comes within
+    that. Segments are straight between the nodes, as in the contact effect. None without a
+    radius or a frame of >= 4 nodes."""
+    r = _float(radius)
+    if r is None or r <= 0:
+        return None
+    fr, _ = _valid_frames(frames, None)
+    gaps = [g for g in (_frame_gap(f, 2.0 * r) for f in fr) if g is not None]
+    return _float(min(gaps)) if gaps else None
+
+
 # --------------------------------------------------------------------------- regimes
 
 
@@ -944,11 +1056,18 @@ def measure_all(
       ``coil_frequency_rad_s`` (only when R exists: probe at the departure arclength + R/2,
       or 2 pi v / turn length if tracking fails and ``v`` (m/s) is given); plume angle None.
 
+    Other definitions (:func:`buckling_length_definitions`), None where the regime has no
+    such quantity as above: ``buckling_length_2r_m``, ``buckling_length_quarter_m`` (not
+    straight), ``buckling_length_full_radius_m`` (with R); ``coil_frequency_hz`` = omega /
+    2 pi; ``omega_r_over_v`` = omega R / v with ``v`` if given, else the growth rate of the
+    filament's arclength over the last frames (None when it does not grow). Always (even
+    straight): ``min_gap_ratio`` (:func:`min_gap_ratio`, with ``radius``).
+
     Values are plain floats, None or str; never NaN.
     """
     out: dict[str, str | float | None] = dict.fromkeys(MEASURE_KEYS, None)
     out["regime"] = "straight"
-    fr, _ = _valid_frames(frames, times)
+    fr, tt = _valid_frames(frames, times)
     if not fr:
         return out
     last = fr[-1]
@@ -956,6 +1075,7 @@ def measure_all(
     regime = classify_regime(frames, times, o, d, radius=radius, z_floor=z_floor)
     out["regime"] = regime
     out["curvature_variance_1_m2"] = curvature_variance(last, spacing)
+    out["min_gap_ratio"] = min_gap_ratio(fr, radius)
     if regime == "straight" or len(last) < 2:
         return out
     _, rho = _axial(last[::-1], o, d)
@@ -977,4 +1097,30 @@ def measure_all(
             out["coil_frequency_rad_s"] = coil_frequency(
                 frames, times, o, d, probe_arclength=s_dep + 0.5 * r, v=v, threshold=thr
             )
+    _other_definitions(out, fr, tt, o, d, radius, v)
     return {k: (val if isinstance(val, str) else _float(val)) for k, val in out.items()}
+
+
+def _other_definitions(
+    out: dict[str, Any],
+    frames: list[np.ndarray],
+    times: np.ndarray | None,
+    o: np.ndarray,
+    d: np.ndarray,
+    radius: float | None,
+    v: float | None,
+) -> None:
+    """measure_all's keys from buckling_length_2r_m on (see there), into ``out``; ``frames``
+    are the valid frames and ``times`` theirs (or None)."""
+    big_r = _float(out["coil_radius_m"])
+    ells = buckling_length_definitions(frames[-1], o, d, radius=radius, coil_radius=big_r)
+    out["buckling_length_2r_m"] = ells["two_radii"]
+    out["buckling_length_quarter_m"] = ells["quarter"]
+    out["buckling_length_full_radius_m"] = ells["full_radius"]
+    omega = _float(out["coil_frequency_rad_s"])
+    if omega is None:
+        return
+    out["coil_frequency_hz"] = omega / (2.0 * math.pi)
+    speed = abs(_float(v) or 0.0) or (_length_rate(frames, times) if times is not None else None)
+    if big_r is not None and speed:
+        out["omega_r_over_v"] = omega * big_r / speed

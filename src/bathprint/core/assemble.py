@@ -2,7 +2,8 @@
 
 Every effect is called through the same signature, ``accumulate(model, rod, stage, out)``;
 an effect whose ``enabled`` flag is 0 is never called (``calls`` counts the calls of each,
-which tests and benchmarks read).
+which tests and benchmarks read). With hydrodynamics listed, drag's law runs inside it, after
+the other effects (whose forces drive the nonlocal flow).
 """
 
 from __future__ import annotations
@@ -11,7 +12,16 @@ import numpy as np
 from numba import njit
 
 from bathprint.core.banded import band_clear
-from bathprint.core.effects import contact, drag, elasticity, end_load, floor, gravity, inertia
+from bathprint.core.effects import (
+    contact,
+    drag,
+    elasticity,
+    end_load,
+    floor,
+    gravity,
+    hydrodynamics,
+    inertia,
+)
 from bathprint.core.freezing import accumulate_tail
 from bathprint.core.layout import (
     E_CONTACT,
@@ -20,6 +30,7 @@ from bathprint.core.layout import (
     E_END_LOAD,
     E_FLOOR,
     E_GRAVITY,
+    E_HYDRODYNAMICS,
     E_INERTIA,
 )
 from bathprint.core.topology import free_nodes
@@ -40,7 +51,7 @@ def assemble(model, rod, stage, out, calls: np.ndarray, energies: np.ndarray) ->
     if enabled[E_ELASTICITY]:
         calls[E_ELASTICITY] += 1
         energies[E_ELASTICITY] = elasticity.accumulate(model, rod, stage, out)
-    if enabled[E_DRAG]:
+    if enabled[E_DRAG] and not enabled[E_HYDRODYNAMICS]:
         calls[E_DRAG] += 1
         energies[E_DRAG] = drag.accumulate(model, rod, stage, out)
     if enabled[E_GRAVITY]:
@@ -58,5 +69,9 @@ def assemble(model, rod, stage, out, calls: np.ndarray, energies: np.ndarray) ->
     if enabled[E_CONTACT]:
         calls[E_CONTACT] += 1
         energies[E_CONTACT] = contact.accumulate(model, rod, stage, out)
+    if enabled[E_HYDRODYNAMICS]:  # the drag law with the nonlocal flow, which the forces
+        calls[E_DRAG] += 1  # above drive: after them
+        calls[E_HYDRODYNAMICS] += 1
+        energies[E_DRAG] = hydrodynamics.accumulate(model, rod, stage, out)
     if out.tail[0].on:  # a frozen tail (numerics.freeze_beyond_mm): part of the drag
         energies[E_DRAG] += accumulate_tail(model, rod, stage, out)

@@ -23,7 +23,9 @@ import numpy as np
 from numba import njit
 
 from bathprint.core.composite import stiffness_factors
+from bathprint.core.effects.gelation import set_material
 from bathprint.core.layout import (
+    GEL_SURFACE,
     MAT_BEND_FACTOR,
     MAT_BIRTH_TIME,
     MAT_DENSITY,
@@ -218,7 +220,8 @@ def material_row(
     """Material record of gel with inner fraction phi born at ``birth`` (s), seen at t_now.
 
     ``direction`` is the needle's unit direction at birth (for the offset's plane).
-    Pure gel unless the inclusions effect is on; modulus from the gelation law if it is on.
+    Pure gel unless the inclusions effect is on; modulus from the gelation law if it is on
+    (with gelation's surface model, also the shell's stiffness factors).
     ``p`` is the model's parameter record.
     """
     for c in range(N_MAT):
@@ -241,6 +244,8 @@ def material_row(
     row[MAT_STRETCH_FACTOR] = stretch
     row[MAT_INCLUSION_SIZE] = n * r
     row[MAT_INCLUSION_SPACING] = m * r
+    if p.gelation and p.gel_model == GEL_SURFACE:  # a set shell around a liquid core
+        set_material(row, t_now - birth, p)
     mag = p.curvature_coefficient * p.inclusion_offset * phi / r
     if mag != 0.0:
         d0, d1, d2 = direction[0], direction[1], direction[2]

@@ -32,7 +32,7 @@ from numba import njit
 
 from bathprint.core import solver
 from bathprint.core.assemble import assemble
-from bathprint.core.effects import contact, gelation
+from bathprint.core.effects import _hydro_lag, contact, gelation
 from bathprint.core.extrusion import (
     extruded_length,
     flow_rate,
@@ -55,6 +55,7 @@ from bathprint.core.layout import (
     E_FLOOR,
     E_GELATION,
     E_GRAVITY,
+    E_HYDRODYNAMICS,
     E_INCLUSIONS,
     INTEGRATOR_EXPLICIT,
     INTEGRATOR_IMPLICIT_EULER,
@@ -144,7 +145,16 @@ def _out(state, ws, band, cpl) -> Out:
     whole = active_rod(state, ws, 0)
     start = ws.vecs[V_POS0]
     return Out(
-        ws.vecs[V_FORCE], band, ws.tail, ws.scratch, cpl, ws.contact, whole, state.ints[2], start
+        ws.vecs[V_FORCE],
+        band,
+        ws.tail,
+        ws.scratch,
+        cpl,
+        ws.contact,
+        whole,
+        state.ints[2],
+        start,
+        ws.hydro,
     )
 
 
@@ -582,6 +592,9 @@ def _attempt(model, state, ws, h: float) -> tuple[float, int]:
     contact_on = model.enabled[E_CONTACT] > 0
     if contact_on and not contact.prepare(model, active_rod(state, ws, 0), frozen, ws.contact):
         return -1.0, CAUSE_CAPACITY
+    hydro_on = model.enabled[E_HYDRODYNAMICS] > 0
+    if hydro_on:  # lagged coupling: the nonlocal flow at the step's start
+        _hydro_lag.prepare(model, rod, _out(state, ws, ws.band2, ws.cpl_drop), state)
     pos0 = ws.vecs[V_POS0]
     vel0 = ws.vecs[V_VEL0]
     for k in range(3 * rod.n_nodes):
@@ -602,6 +615,12 @@ def _attempt(model, state, ws, h: float) -> tuple[float, int]:
                 cause = CAUSE_STRAIN
                 state.info[1] = seg + frozen
             err = max(err, 16.0 * jump)
+    if err >= 0.0 and hydro_on:  # lagged coupling: the lag's error joins the estimate
+        lag = _hydro_lag.check(
+            model, rod, _out(state, ws, ws.band2, ws.cpl_drop), state, h, ws.solver[0].norm_extra
+        )
+        if p.fixed_step <= 0.0:
+            err += lag
     if err >= 0.0 and contact_on:
         whole = active_rod(state, ws, 0)
         ratio = contact.check(model, whole, pos0, frozen, ws.contact)

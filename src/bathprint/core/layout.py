@@ -98,6 +98,22 @@ PARAMS_FIELDS: tuple[tuple[str, str, str], ...] = (
     ("contact_friction_velocity", "f8", "m/s, regularisation of that friction"),
     ("krylov_tolerance", "f8", "-, GMRES residual relative to the right-hand side"),
     ("contact_exact_hessian", "?", "contact's Newton matrix: exact Hessian (else Gauss-Newton)"),
+    ("gel_model", "i8", "-, one of GEL_* (gelation's material model)"),
+    ("gel_diffusivity", "f8", "m^2/s, Ca2+ diffusivity D in the gel (surface model)"),
+    ("gel_bath_calcium", "f8", "mol/m^3, Ca2+ concentration c0 of the bath (surface model)"),
+    ("gel_binding_capacity", "f8", "mol/m^3, Ca2+ bound per volume of set gel c_b"),
+    ("gel_front_lambda", "f8", "-, Neumann constant: the front is 2 lambda sqrt(D t) deep early"),
+    ("gel_shell_modulus", "f8", "Pa, E of the set gel shell (surface model)"),
+    ("gel_core_modulus", "f8", "Pa, E of the ungelled core (surface model; > 0)"),
+    ("drag_model", "i8", "-, DRAG_MU_S (cox, constant: mu_s) or DRAG_FINITE_RE"),
+    ("bath_viscosity", "f8", "Pa s, dynamic viscosity of the bath"),
+    ("drag_length", "f8", "m, L of the slender-body logarithm ln(L/r) (finite_re's cut-off)"),
+    ("hydro_cutoff", "f8", "m, arclength a splitting slender-body flow into local and nonlocal"),
+    ("hydro_coupling", "i8", "-, HYDRO_IMPLICIT or HYDRO_LAGGED"),
+    ("hydro_blob", "f8", "m, regularisation eps of the nonlocal Stokeslets (0: singular)"),
+    ("hydro_screening", "?", "nonlocal Stokeslets screened beyond the Oseen length (finite_re)"),
+    ("hydro_fmm_nodes", "i8", "-, active nodes from which the FMM sums the far field (0: never)"),
+    ("hydro_fmm_precision", "f8", "-, requested relative precision of the FMM"),
 )
 PARAMS_DTYPE = np.dtype([(name, kind) for name, kind, _ in PARAMS_FIELDS])
 
@@ -111,7 +127,8 @@ E_END_LOAD = 5
 E_GELATION = 6  # a material effect: updates modulus and natural curvature after each step
 E_INCLUSIONS = 7  # a material effect: composite properties of material at its birth
 E_CONTACT = 8  # self-contact between non-adjacent segments (couplings off the band)
-N_EFFECTS = 9
+E_HYDRODYNAMICS = 9  # nonlocal slender-body flow (the drag's local law with a nonlocal part)
+N_EFFECTS = 10
 
 EFFECT_NAMES = (
     "elasticity",
@@ -123,7 +140,20 @@ EFFECT_NAMES = (
     "gelation",
     "inclusions",
     "contact",
+    "hydrodynamics",
 )
+
+# --- gelation's material models (``p.gel_model``) -------------------------------------
+GEL_BULK = 0  # modulus from the material's age (first-order crosslinking)
+GEL_SURFACE = 1  # a set shell growing inward by Ca2+ diffusion around a liquid core
+GEL_MODEL_NAMES = ("bulk", "surface")
+# --- drag laws and the coupling of the nonlocal flow ------------------------------------
+DRAG_MU_S = 0  # cox or constant: -mu_s (2 u_perp + u_par)
+DRAG_FINITE_RE = 1  # the finite-Reynolds-number law (effects/_drag_laws.py)
+DRAG_MODELS = ("cox", "constant", "finite_re")
+HYDRO_IMPLICIT = 0  # the nonlocal flow inside Newton: its Jacobian's action in the GMRES solve
+HYDRO_LAGGED = 1  # the nonlocal flow from the step's start (Tornberg & Shelley 2004)
+HYDRO_COUPLINGS = ("implicit", "lagged")
 
 # --- integrators ----------------------------------------------------------------------
 INTEGRATOR_IMPLICIT = 0  # SDIRK2, Newton on the banded Jacobian
@@ -220,3 +250,28 @@ CONTACT_FIELDS: tuple[tuple[str, str, str], ...] = (
     ("builds", "i8", "spatial-hash builds so far"),
 )
 CONTACT_DTYPE = np.dtype([(name, kind) for name, kind, _ in CONTACT_FIELDS])
+
+# --- what the hydrodynamics effect remembers: one record (``ws.hydro.memory[0]``) ----------
+HYDRO_FIELDS: tuple[tuple[str, str, str], ...] = (
+    ("linearized", "?", "implicit: the Newton matrix has a nonlocal part (GMRES applies it)"),
+    ("lin_nodes", "i8", "active nodes of that linearisation"),
+    ("lin_free", "i8", "... its free nodes"),
+    ("lin_seg", "i8", "... its filament segments"),
+    ("mu", "f8", "Pa s, the bath's viscosity (what the operator needs of the model)"),
+    ("cutoff", "f8", "m, the arclength a of the split"),
+    ("blob", "f8", "m, the regularisation eps"),
+    ("screening", "?", "the Stokeslets are screened beyond the Oseen length (finite_re)"),
+    ("fmm_nodes", "i8", "-, segments from which the FMM sums (0: never)"),
+    ("fmm_precision", "f8", "-"),
+    ("evaluations", "i8", "-, evaluations of the nonlocal flow (direct: O(N^2) each)"),
+    ("u_valid", "?", "lagged: u_nl is the flow at the state of u_time with u_nodes nodes"),
+    ("u_time", "f8", "s"),
+    ("u_nodes", "i8", ""),
+    ("next_valid", "?", "lagged: u_next is the flow at the end of the last attempted step"),
+    ("next_time", "f8", "s"),
+    ("next_nodes", "i8", ""),
+    ("lag_error", "f8", "-, lagged: the last step's lag error estimate (error-norm units)"),
+    ("reynolds_max", "f8", "-, largest Re_d = |u| d / nu of the last evaluation"),
+    ("oseen_min", "f8", "m, smallest Oseen length 2 nu / |u| of the last evaluation"),
+)
+HYDRO_DTYPE = np.dtype([(name, kind) for name, kind, _ in HYDRO_FIELDS])

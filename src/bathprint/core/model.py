@@ -83,7 +83,8 @@ class Model:
 
 
 def slender_body_coefficient(scene: Scene, radius: float) -> float:
-    """mu_s (Pa s): Cox's 2 pi mu / ln(L/r), or the scene's constant."""
+    """mu_s (Pa s): Cox's 2 pi mu / ln(L/r), or the scene's constant (finite_re: Cox's, its
+    limit at zero speed)."""
     mu = scene.bath.viscosity_pa_s
     if scene.drag.model == "constant":
         return scene.drag.coefficient_pa_s or mu
@@ -176,6 +177,54 @@ def _freeze_beyond(scene: Scene, node_spacing_mm: float) -> float:
     return value
 
 
+def _gel_surface(scene: Scene, p: np.record) -> None:
+    """The surface model's parameters (:mod:`bathprint.core.effects.gelation`); checked only
+    when a listed gelation effect selects it."""
+    from bathprint.core.effects.gelation import neumann_lambda
+
+    gel = scene.gelation
+    p.gel_model = L.GEL_MODEL_NAMES.index(gel.model)
+    p.gel_diffusivity = gel.calcium_diffusivity_m2_s
+    p.gel_bath_calcium = gel.bath_calcium_mol_m3
+    p.gel_binding_capacity = gel.binding_capacity_mol_m3
+    p.gel_shell_modulus = gel.shell_modulus_pa
+    p.gel_core_modulus = gel.core_modulus_pa
+    if "gelation" in scene.effects and gel.model == "surface":
+        if gel.core_modulus_pa >= gel.shell_modulus_pa:
+            raise SceneError(
+                f"gelation.core_modulus_pa = {gel.core_modulus_pa!r} is not below "
+                f"gelation.shell_modulus_pa = {gel.shell_modulus_pa!r}; allowed: a core "
+                "softer than the set shell (the core is ungelled solution)"
+            )
+    p.gel_front_lambda = neumann_lambda(gel.bath_calcium_mol_m3 / gel.binding_capacity_mol_m3)
+
+
+def _hydrodynamics(scene: Scene, p: np.record, radius: float) -> None:
+    """The hydrodynamics parameters (cutoff, coupling, regularisation, FMM)."""
+    h = scene.hydrodynamics
+    p.hydro_cutoff = h.cutoff_radii * radius
+    p.hydro_coupling = L.HYDRO_COUPLINGS.index(h.coupling)
+    p.hydro_blob = h.regularization_radii * radius
+    p.hydro_screening = scene.drag.model == "finite_re"
+    p.hydro_fmm_nodes = h.fmm_min_nodes
+    p.hydro_fmm_precision = h.fmm_precision
+    if "hydrodynamics" in scene.effects and h.fmm_min_nodes > 0:
+        if scene.drag.model == "finite_re":
+            raise SceneError(
+                f"hydrodynamics.fmm_min_nodes = {h.fmm_min_nodes!r} with drag.model = "
+                "'finite_re': the FMM sums unscreened Stokeslets, finite_re screens them beyond "
+                "the Oseen length; allowed: 0 (direct sums) with finite_re"
+            )
+        try:
+            import fmm3dpy  # noqa: F401
+        except ImportError as exc:
+            raise SceneError(
+                f"hydrodynamics.fmm_min_nodes = {h.fmm_min_nodes!r} needs fmm3dpy, which is not "
+                "installed (pip install 'bathprint[hydro]'); allowed: 0 (direct sums) "
+                "without it"
+            ) from exc
+
+
 def compile_model(scene: Scene) -> Model:
     """Turn a validated scene into the arrays of a :class:`Model`."""
     params = records.new_params()
@@ -225,6 +274,7 @@ def compile_model(scene: Scene) -> Model:
     p.gel_final_modulus = gel.final_modulus_pa
     p.gel_rate = gel.rate_1_s
     p.curvature_memory = bool(gel.curvature_memory)
+    _gel_surface(scene, p)
     inc = scene.inclusions
     p.inclusions = "inclusions" in scene.effects
     fluid = INNER_FLUIDS[inc.fluid]
@@ -244,6 +294,10 @@ def compile_model(scene: Scene) -> Model:
     p.initial_age = scene.initial.age_s
     p.integrator = L.INTEGRATOR_NAMES.index(scene.numerics.integrator)
     p.krylov_tolerance = scene.numerics.krylov_tolerance
+    p.drag_model = L.DRAG_FINITE_RE if scene.drag.model == "finite_re" else L.DRAG_MU_S
+    p.bath_viscosity = scene.bath.viscosity_pa_s
+    p.drag_length = scene.drag.length_scale_mm * MM
+    _hydrodynamics(scene, p, radius)
     c = scene.contact
     p.contact_stiffness = c.stiffness_pa
     p.contact_distance_factor = c.distance_factor

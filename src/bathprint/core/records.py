@@ -22,6 +22,8 @@ from typing import NamedTuple
 
 import numpy as np
 
+from bathprint.core.layout import BAND_WIDTH, HYDRO_DTYPE
+
 
 class Model(NamedTuple):
     """The compiled scene (SI)."""
@@ -67,6 +69,9 @@ class Scratch(NamedTuple):
     pair_hess: np.ndarray  # (12, 12) its Hessian
     step_work: np.ndarray  # (3,) scratch of the contact step bound
     pair_x: np.ndarray  # (12,) the four node positions of a segment pair
+    law_force: np.ndarray  # (3,) force per length of a drag law (drag, hydrodynamics)
+    law_du: np.ndarray  # (3, 3) its derivative in the relative velocity
+    law_dt: np.ndarray  # (3, 3) ... and in the tangent
 
 
 class Couplings(NamedTuple):
@@ -106,6 +111,52 @@ class Contact(NamedTuple):
     near: np.ndarray  # (P,) int64: the pairs near enough to touch within the step
 
 
+class Hydro(NamedTuple):
+    """Nonlocal slender-body flow (:mod:`bathprint.core.effects.hydrodynamics`): the flow
+    the filament's forces make at its nodes, and, with the implicit coupling, the Newton
+    matrix's nonlocal part as an operator (the linearisation GMRES applies). Arrays are
+    sized to the state's capacity, or empty when the scene does not list the effect."""
+
+    u_nl: np.ndarray  # (3 cap,) m/s: the nonlocal flow at each active node (lagged: at the
+    # step's start)
+    u_next: np.ndarray  # (3 cap,) m/s: lagged: the same at the end of the last attempted step
+    f_node: np.ndarray  # (3 cap,) N/m: force per length on the fluid at each node
+    f_seg: np.ndarray  # (3 cap,) N/m: ... on each segment (the mean of its two nodes')
+    weight: np.ndarray  # (cap,) m: each node's share of the filament's length
+    sides: np.ndarray  # (2, cap) m: the local window a_-, a_+ of each node
+    screen: np.ndarray  # (cap,) m: each segment's Oseen screening length (inf: none)
+    resist: np.ndarray  # (cap, 3, 3) N s/m: -dF_drag/du of each node (the linearisation)
+    band_other: np.ndarray  # (3 cap, BAND_WIDTH): the Newton matrix of the other effects
+    lin_pos: np.ndarray  # (3 cap,) m: node positions of the linearisation
+    lin_s: np.ndarray  # (cap,) m: their material arclengths
+    work: np.ndarray  # (2, 3 cap): scratch of the operator
+    memory: np.ndarray  # (1,) HYDRO_DTYPE
+
+
+def new_hydro(capacity: int) -> Hydro:
+    """Workspace of the hydrodynamics effect for ``capacity`` nodes (0: the effect is off)."""
+    n = capacity
+    return Hydro(
+        u_nl=np.zeros(3 * n),
+        u_next=np.zeros(3 * n),
+        f_node=np.zeros(3 * n),
+        f_seg=np.zeros(3 * n),
+        weight=np.zeros(n),
+        sides=np.zeros((2, n)),
+        screen=np.full(n, np.inf),
+        resist=np.zeros((n, 3, 3)),
+        band_other=np.zeros((3 * n, BAND_WIDTH)),
+        lin_pos=np.zeros(3 * n),
+        lin_s=np.zeros(n),
+        work=np.zeros((2, 3 * n)),
+        memory=np.zeros(1, dtype=HYDRO_DTYPE),
+    )
+
+
+# what an evaluation without hydrodynamics sees (zero-size arrays; never written)
+NO_HYDRO = new_hydro(0)
+
+
 class Workspace(NamedTuple):
     """Preallocated scratch of the stepper (sized to the state's capacity)."""
 
@@ -120,6 +171,7 @@ class Workspace(NamedTuple):
     cpl_drop: Couplings  # zero capacity: where evaluations that keep only the band write
     krylov: Krylov
     contact: Contact
+    hydro: Hydro
 
 
 class Rod(NamedTuple):
@@ -158,6 +210,7 @@ class Out(NamedTuple):
     frozen: int  # nodes in the frozen tail
     start: np.ndarray  # the active nodes' positions at the step's start (the frozen tail
     # follows the first active node: it is at its start position + that node's displacement)
+    hydro: Hydro = NO_HYDRO  # the nonlocal flow (hydrodynamics); zero-size when off
 
 
 def new_params() -> np.ndarray:
@@ -185,6 +238,9 @@ def new_scratch() -> Scratch:
         pair_hess=np.zeros((12, 12)),
         step_work=np.zeros(3),
         pair_x=np.zeros(12),
+        law_force=np.zeros(3),
+        law_du=np.zeros((3, 3)),
+        law_dt=np.zeros((3, 3)),
     )
 
 
@@ -232,9 +288,12 @@ def new_contact(capacity: int, pairs: int) -> Contact:
 KRYLOV_RESTART = 30
 
 
-def new_workspace(capacity: int, n_vecs: int, off_band: bool = False) -> Workspace:
+def new_workspace(
+    capacity: int, n_vecs: int, off_band: bool = False, hydro: bool = False
+) -> Workspace:
     """Scratch for a state of ``capacity`` nodes; ``off_band``: room for couplings off the
-    band (contact), their GMRES workspace and the contact pairs (else zero-size arrays)."""
+    band (contact), their GMRES workspace and the contact pairs (else zero-size arrays);
+    ``hydro``: the hydrodynamics effect's arrays (else zero-size)."""
     from bathprint.core.layout import BAND_WIDTH, SOLVER_DTYPE, TAIL_DTYPE
 
     n_dof = 3 * capacity
@@ -250,4 +309,5 @@ def new_workspace(capacity: int, n_vecs: int, off_band: bool = False) -> Workspa
         cpl_drop=new_couplings(0),
         krylov=new_krylov(n_dof, KRYLOV_RESTART) if off_band else new_krylov(0, 0),
         contact=new_contact(capacity, 8 * capacity) if off_band else new_contact(0, 0),
+        hydro=new_hydro(capacity if hydro else 0),
     )

@@ -22,7 +22,13 @@ from pathlib import Path
 from typing import Any
 
 from bathprint.core.composite import INNER_FLUIDS
-from bathprint.core.layout import EFFECT_NAMES, INTEGRATOR_NAMES
+from bathprint.core.layout import (
+    DRAG_MODELS,
+    EFFECT_NAMES,
+    GEL_MODEL_NAMES,
+    HYDRO_COUPLINGS,
+    INTEGRATOR_NAMES,
+)
 from bathprint.errors import SceneError
 
 # accuracy presets: (tolerance, max_inlet_growth, node spacing factor); "custom" uses the
@@ -111,12 +117,41 @@ class Flow:
 
 @dataclass
 class Gelation:
-    """Modulus growing with material age; optional curvature memory (effect 'gelation')."""
+    """The gel setting (effect 'gelation'), with optional curvature memory.
+
+    ``model = "bulk"``: the modulus grows with material age (initial_modulus_pa,
+    final_modulus_pa, rate_1_s). ``model = "surface"``: a set shell grows inward from the
+    surface as Ca2+ diffuses in from the bath, around a liquid core (the keys below the
+    model's; docs/physics/gelation.md gives the sources of their defaults).
+    """
 
     initial_modulus_pa: float = _num(300.0, 1.0, 1e7, lo_open=True, doc="E at age 0")
     final_modulus_pa: float = _num(30000.0, 1.0, 1e8, lo_open=True, doc="E of set gel")
     rate_1_s: float = _num(1.0 / 60.0, 1e-6, 1e4, lo_open=True, doc="crosslinking rate k")
     curvature_memory: bool = True
+    model: str = field(
+        default="bulk",
+        metadata={
+            "choices": GEL_MODEL_NAMES,
+            "doc": "bulk: modulus from the age law; surface: a set shell growing inward by "
+            "Ca2+ diffusion around a liquid core",
+        },
+    )
+    calcium_diffusivity_m2_s: float = _num(
+        0.7e-9, 1e-13, 1e-6, lo_open=True, doc="Ca2+ diffusivity D in the gel (surface)"
+    )
+    bath_calcium_mol_m3: float = _num(
+        150.0, 1e-3, 1e4, doc="Ca2+ in the bath, mol/m^3 = mM (surface)"
+    )
+    binding_capacity_mol_m3: float = _num(
+        53.0, 1e-3, 1e4, doc="Ca2+ bound per volume of set gel (surface)"
+    )
+    shell_modulus_pa: float = _num(
+        30000.0, 1.0, 1e8, lo_open=True, doc="E of the set shell (surface)"
+    )
+    core_modulus_pa: float = _num(
+        30.0, 0.0, 1e8, lo_open=True, doc="E of the ungelled core, a viscous liquid (surface)"
+    )
 
 
 @dataclass
@@ -140,10 +175,14 @@ class Inclusions:
 
 @dataclass
 class Drag:
-    """Slender-body drag: mu_s = 2 pi mu / ln(L/r) (Cox) or a constant."""
+    """Slender-body drag: mu_s = 2 pi mu / ln(L/r) (Cox), a constant, or the finite-Reynolds
+    law (finite_re: cylinder drag curve across the axis, laminar boundary layer along it, from
+    the bath's viscosity and density and the local relative velocity)."""
 
-    model: str = field(default="cox", metadata={"choices": ("cox", "constant")})
-    length_scale_mm: float = _num(20.0, 0.1, 1e5, lo_open=True, doc="L in Cox's ln(L/r)")
+    model: str = field(default="cox", metadata={"choices": DRAG_MODELS})
+    length_scale_mm: float = _num(
+        20.0, 0.1, 1e5, lo_open=True, doc="L in Cox's ln(L/r) (finite_re: its length cut-off)"
+    )
     coefficient_pa_s: float = _num(
         0.0, 0.0, 1e3, doc="mu_s for model = 'constant'; 0 means the bath viscosity"
     )
@@ -185,6 +224,39 @@ class Contact:
             "doc": "Newton matrix of the penalty: the exact Hessian, or its Gauss-Newton part "
             "P'' grad d grad d^T (positive semi-definite; Newton then converges linearly)",
         },
+    )
+
+
+@dataclass
+class Hydrodynamics:
+    """Nonlocal slender-body flow (effect 'hydrodynamics'): Lighthill's slender-body theory
+    split at an arclength a = cutoff_radii x the filament radius into the local drag (the
+    drag law on the window |s' - s| < a) and the flow of the Stokeslet segments beyond it."""
+
+    coupling: str = field(
+        default="lagged",
+        metadata={
+            "choices": HYDRO_COUPLINGS,
+            "doc": "lagged: the nonlocal flow from the step's start, its error added to the "
+            "estimate (cheaper at equal accuracy in coiling runs); implicit: inside Newton "
+            "(GMRES), second order",
+        },
+    )
+    cutoff_radii: float = _num(
+        3.0, 1.7, 100.0, doc="a / r: the window of the local part (>= 1.7: a > 2 delta)"
+    )
+    regularization_radii: float = _num(
+        0.0, 0.0, 10.0, doc="Cortez's blob eps / r of the nonlocal Stokeslets (0: singular)"
+    )
+    fmm_min_nodes: int = field(
+        default=0,
+        metadata={
+            "range": (0, 10**9),
+            "doc": "active nodes from which fmm3dpy sums the far field (0: always direct)",
+        },
+    )
+    fmm_precision: float = _num(
+        1e-6, 1e-12, 1e-2, doc="requested relative precision of the FMM (fmm3dpy eps)"
     )
 
 
@@ -305,6 +377,7 @@ class Scene:
     initial: Initial = field(default_factory=Initial)
     numerics: Numerics = field(default_factory=Numerics)
     outputs: Outputs = field(default_factory=Outputs)
+    hydrodynamics: Hydrodynamics = field(default_factory=Hydrodynamics)
 
     def to_dict(self) -> dict[str, Any]:
         """Plain nested dict (TOML-serialisable)."""
@@ -450,6 +523,8 @@ def _check_tables(scene: Scene) -> None:
             f"effects = {scene.effects!r}: an overdamped scene needs 'drag' "
             "(without drag or inertia the equations of motion are singular)"
         )
+    if "hydrodynamics" in scene.effects:
+        _check_hydrodynamics(scene)
     if "contact" in scene.effects and "elasticity" not in scene.effects:
         raise SceneError(
             f"effects = {scene.effects!r}: 'contact' needs 'elasticity' (a filament without "
@@ -473,6 +548,11 @@ def _check_tables(scene: Scene) -> None:
             f"bath.density_bottom_kg_m3 = {scene.bath.density_bottom_kg_m3!r}; allowed: 0 "
             "(uniform bath) or a number in [500, 3000]"
         )
+    if 0.0 < scene.material.radius_mm < 1e-3:  # (r^4 of 1e-311 mm underflows to 0)
+        raise SceneError(
+            f"material.radius_mm = {scene.material.radius_mm!r}; allowed: 0 (d / 2) or a "
+            "number in [0.001, 20]"
+        )
     if 0.0 < scene.initial.length_mm < 1e-3:
         raise SceneError(
             f"initial.length_mm = {scene.initial.length_mm!r}; allowed: 0 (a stub of two node "
@@ -494,6 +574,28 @@ def _check_tables(scene: Scene) -> None:
             f"numerics.node_spacing_mm = {scene.numerics.node_spacing_mm!r} is below 0.2 times "
             f"the filament radius ({source} mm); allowed: numerics.node_spacing_mm >= "
             f"{0.2 * r_mm:g} (a rod model needs segments at least that long)"
+        )
+
+
+def _check_hydrodynamics(scene: Scene) -> None:
+    """What the hydrodynamics effect needs: the drag effect (whose law it uses locally), a
+    law from slender-body theory (not a constant), and no frozen tail."""
+    if "drag" not in scene.effects:
+        raise SceneError(
+            f"effects = {scene.effects!r}: 'hydrodynamics' needs 'drag' (it evaluates the drag "
+            "law on its local window and adds the nonlocal flow); allowed: add 'drag'"
+        )
+    if scene.drag.model == "constant":
+        raise SceneError(
+            "drag.model = 'constant' with the hydrodynamics effect: the local drag then comes "
+            "from slender-body theory on the window, not from a constant; allowed: "
+            "drag.model = 'cox' or 'finite_re'"
+        )
+    if scene.numerics.freeze_beyond_mm > 0.0:
+        raise SceneError(
+            f"numerics.freeze_beyond_mm = {scene.numerics.freeze_beyond_mm!r} with the "
+            "hydrodynamics effect: the frozen tail is a lumped load, not a source of flow; "
+            "allowed: 0 with hydrodynamics"
         )
 
 

@@ -118,13 +118,17 @@ class Simulation:
         self.seg_rest = np.zeros(cap)
         self.seg_mat = np.zeros((cap, L.N_MAT))
         old = getattr(self, "ws", None)
-        self.ws = records.new_workspace(cap, N_VECS, off_band=self._off_band())
+        hydro = bool(self.model.enabled[L.E_HYDRODYNAMICS])
+        self.ws = records.new_workspace(cap, N_VECS, off_band=self._off_band(), hydro=hydro)
         if old is not None:  # what the stepper remembers survives a grow, but not the LU
             self.ws.solver[:] = old.solver
             self.ws.solver[0]["lu_valid"] = False
             self.ws.tail[:] = old.tail
             self.ws.contact.memory[:] = old.contact.memory
             self.ws.contact.memory[0]["built_nodes"] = -1  # its pairs are not carried over
+            self.ws.hydro.memory[:] = old.hydro.memory  # (its flows are gone: re-evaluated)
+            for flag in ("linearized", "u_valid", "next_valid"):
+                self.ws.hydro.memory[0][flag] = False
         if not hasattr(self, "istate"):
             self.istate = np.zeros(3, dtype=np.int64)  # n_nodes, n_splits, n_frozen
             self.fstate = np.zeros(2)  # t, next step
@@ -134,8 +138,11 @@ class Simulation:
             self.info = np.zeros(3)
 
     def _off_band(self) -> bool:
-        """The scene lists an effect that couples distant nodes (contact)."""
-        return bool(self.model.enabled[L.E_CONTACT])
+        """The scene lists an effect that couples distant nodes (contact, or hydrodynamics
+        with the implicit coupling: GMRES with a nonlocal operator)."""
+        m = self.model
+        hydro = m.enabled[L.E_HYDRODYNAMICS] and m.p.hydro_coupling == L.HYDRO_IMPLICIT
+        return bool(m.enabled[L.E_CONTACT] or hydro)
 
     def _grow_off_band(self) -> None:
         """Double the room for couplings off the band and for contact pairs."""
@@ -366,7 +373,8 @@ class Simulation:
     def counts(self) -> dict[str, int]:
         """Steps, rejected steps, Newton iterations, node births, Newton failures, Jacobian
         factorisations, GMRES iterations and stalls (couplings off the band only) and steps
-        retried by the self-contact bound so far."""
+        retried by the self-contact bound, and evaluations of the nonlocal flow
+        (hydrodynamics) so far."""
         c = self.counters
         return {
             "steps": int(c[L.C_STEPS]),
@@ -378,6 +386,7 @@ class Simulation:
             "krylov_iterations": int(c[L.C_KRYLOV_ITERATIONS]),
             "krylov_failures": int(c[L.C_KRYLOV_FAILURES]),
             "contact_rejections": int(c[L.C_CONTACT_REJECTIONS]),
+            "hydro_evaluations": int(self.ws.hydro.memory[0]["evaluations"]),
         }
 
     def effect_calls(self) -> dict[str, int]:
@@ -406,6 +415,7 @@ class Simulation:
             rod,
             0,
             self.pos,
+            self.ws.hydro,
         )
         stage = records.Stage(self.t, 1.0, 0.0, 0.0, False)
         assemble(self.model.record, rod, stage, out, calls, energies)
@@ -444,6 +454,7 @@ class Simulation:
             rod,
             0,
             self.pos,
+            self.ws.hydro,
         )
         return self.model.record, rod, records.Stage(self.t, cx, cv, ca, jacobian), out
 

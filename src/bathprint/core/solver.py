@@ -16,6 +16,10 @@ Steihaug 1982), so a solve stops at a residual ``numerics.krylov_tolerance`` (de
 of its right-hand side. One that does not get there in ``KRYLOV_MAX_RESTARTS`` cycles
 returns False; the integrator treats it as a Newton failure (a shorter step), never passes
 it on.
+
+The hydrodynamics effect with its implicit coupling makes the Newton matrix dense: A = B +
+R M_nl W^-1 J_other, whose second part :func:`matvec` applies matrix-free (one evaluation of
+the nonlocal flow per GMRES iteration); the preconditioner is still the banded LU of B.
 """
 
 from __future__ import annotations
@@ -26,6 +30,7 @@ import numpy as np
 from numba import njit
 
 from bathprint.core.banded import band_lu, band_matvec, band_solve
+from bathprint.core.effects.hydrodynamics import apply_nonlocal
 from bathprint.core.layout import C_KRYLOV_FAILURES, C_KRYLOV_ITERATIONS, KL, KU
 
 KRYLOV_MAX_RESTARTS = 10  # restarts of KRYLOV_RESTART iterations each before a solve stalls
@@ -33,8 +38,9 @@ KRYLOV_MAX_RESTARTS = 10  # restarts of KRYLOV_RESTART iterations each before a 
 
 @njit(cache=True, inline="always")
 def off_band(ws) -> bool:
-    """True when the last assembled Newton matrix has blocks off the band."""
-    return ws.cpl.count[0] > 0
+    """True when the last assembled Newton matrix has blocks off the band (or a nonlocal
+    part: hydrodynamics with the implicit coupling)."""
+    return ws.cpl.count[0] > 0 or ws.hydro.memory[0].linearized
 
 
 @njit(cache=True)
@@ -67,7 +73,9 @@ def damping_times(ws, nd: int, x: np.ndarray, y: np.ndarray) -> None:
 
 @njit(cache=True)
 def matvec(ws, nd: int, x: np.ndarray, y: np.ndarray) -> None:
-    """y = A x, A = the unfactored band (``ws.krylov.band_a``) plus the off-band blocks."""
+    """y = A x, A = the unfactored band (``ws.krylov.band_a``) plus the off-band blocks (and
+    the nonlocal part of hydrodynamics, :func:`bathprint.core.effects.hydrodynamics.
+    apply_nonlocal`)."""
     band_matvec(ws.krylov.band_a, nd, KL, KU, x, y)
     cpl = ws.cpl
     for k in range(min(cpl.count[0], cpl.row.shape[0])):
@@ -76,6 +84,8 @@ def matvec(ws, nd: int, x: np.ndarray, y: np.ndarray) -> None:
         blk = cpl.block[k]
         for a in range(3):
             y[r + a] += blk[a, 0] * x[c] + blk[a, 1] * x[c + 1] + blk[a, 2] * x[c + 2]
+    if ws.hydro.memory[0].linearized:  # the nonlocal flow's part, matrix-free
+        apply_nonlocal(ws, nd, x, y)
 
 
 @njit(cache=True)

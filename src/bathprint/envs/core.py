@@ -250,7 +250,6 @@ class BathprintEnv(gym.Env[np.ndarray, np.ndarray]):
         self._figure: Any = None
         self._diverged = False
 
-
     # ------------------------------------------------------------------ construction
     def _init_scene(self, accuracy: str, scene_overrides: dict[str, Any] | None) -> None:
         """The scene (spec overrides, accuracy preset, ``scene_overrides``; the flow set to

@@ -53,9 +53,7 @@ def _parser() -> argparse.ArgumentParser:
     )
     ap.add_argument("--target-index", type=int, default=None)
     ap.add_argument("--target-file", default=None)
-    ap.add_argument(
-        "--needle-velocity", default="default", choices=("default", "no", "xy", "xyz")
-    )
+    ap.add_argument("--needle-velocity", default="default", choices=("default", "no", "xy", "xyz"))
     ap.add_argument("--frame-every", type=int, default=2, help="render every Nth step")
     ap.add_argument("--format", default="gif", choices=("gif", "mp4"))
     ap.add_argument("--fps", type=float, default=None)

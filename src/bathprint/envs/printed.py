@@ -132,8 +132,9 @@ def check_generators(params: dict[str, Any], action_names: Sequence[str], where:
                 )
 
 
-def _sections(gen: dict[str, Any], s_mid: np.ndarray, lead: float, length: float,
-              rng: np.random.Generator) -> np.ndarray:
+def _sections(
+    gen: dict[str, Any], s_mid: np.ndarray, lead: float, length: float, rng: np.random.Generator
+) -> np.ndarray:
     lo, hi = (float(x) for x in gen.get("range", [-1.0, 1.0]))
     n_lo, n_hi = (int(x) for x in gen.get("sections", [1, 1]))
     n = int(rng.integers(n_lo, n_hi + 1))
@@ -153,8 +154,9 @@ def _sections(gen: dict[str, Any], s_mid: np.ndarray, lead: float, length: float
     return np.interp(s_mid, knots_s, knots_v)
 
 
-def _knots(gen: dict[str, Any], s_mid: np.ndarray, total: float,
-           rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
+def _knots(
+    gen: dict[str, Any], s_mid: np.ndarray, total: float, rng: np.random.Generator
+) -> tuple[np.ndarray, np.ndarray]:
     lo, hi = (float(x) for x in gen.get("range", [-1.0, 1.0]))
     every = float(gen.get("every_mm", 10.0))
     knot_s = np.arange(int(math.ceil(total / every)) + 1) * every
@@ -188,8 +190,12 @@ def control_sequence(env: BathprintEnvV1, rng: np.random.Generator) -> np.ndarra
     return np.clip(out, -1.0, 1.0).astype(np.float32)
 
 
-def _keep_needle_in_box(env: BathprintEnvV1, out: np.ndarray,
-                        axes: list[tuple[int, np.ndarray, np.ndarray]], s_mid: np.ndarray) -> None:
+def _keep_needle_in_box(
+    env: BathprintEnvV1,
+    out: np.ndarray,
+    axes: list[tuple[int, np.ndarray, np.ndarray]],
+    s_mid: np.ndarray,
+) -> None:
     """Mirror needle-velocity knots whose path would leave 80 % of the box (kinematics of the
     flow sequence, lag and ramps ignored: a heuristic; the environment clips anyway)."""
     dt = np.array([env.step_duration_s(a) for a in out])
@@ -333,8 +339,7 @@ class PrintedTargets:
             f"{self.env_id}: the target of seed {seed} diverged in {MAX_ATTEMPTS} attempts"
         )
 
-    def build(self, params: dict, pts: np.ndarray, rho: np.ndarray, actions: np.ndarray
-              ) -> Target:
+    def build(self, params: dict, pts: np.ndarray, rho: np.ndarray, actions: np.ndarray) -> Target:
         """A target from printed samples: the centreline, its curvature and torsion, and a
         density band (the printed density +- band_kg_m3 where the metric scores density)."""
         env = self.printer()
@@ -397,8 +402,9 @@ class PrintedTargets:
         if path is None:
             raise ConfigError(f"{self.env_id}: target.sets_file is not set")
         seeds = self.seeds("validation") + self.seeds("test")
-        targets = [self.print(s) for s in tqdm(seeds, desc=f"print {self.env_id}",
-                                                disable=not progress)]
+        targets = [
+            self.print(s) for s in tqdm(seeds, desc=f"print {self.env_id}", disable=not progress)
+        ]
         path.parent.mkdir(parents=True, exist_ok=True)
         np.savez_compressed(
             path,
@@ -469,8 +475,11 @@ def main(argv: Sequence[str] | None = None) -> int:
     """``python -m bathprint.envs.printed build ENV [ENV ...]``: print the validation and
     test targets of each version-1 environment into its sets file;
     ``... train ENV --count N``: print (and cache on disk) the first N training targets."""
-    ap = argparse.ArgumentParser(prog="python -m bathprint.envs.printed", description=__doc__,
-                                 formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap = argparse.ArgumentParser(
+        prog="python -m bathprint.envs.printed",
+        description=__doc__,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
     ap.add_argument("action", choices=("build", "train"))
     ap.add_argument("envs", nargs="+")
     ap.add_argument("--count", type=int, default=None, help="training targets (train)")

@@ -78,11 +78,13 @@ def conical_helix() -> np.ndarray:
 def trefoil() -> np.ndarray:
     """A trefoil knot scaled to 60 mm of arclength (3D)."""
     t = np.linspace(0.0, 2 * math.pi, 4000)
-    p = np.column_stack([
-        np.sin(t) + 2 * np.sin(2 * t),
-        np.cos(t) - 2 * np.cos(2 * t),
-        -np.sin(3 * t),
-    ])
+    p = np.column_stack(
+        [
+            np.sin(t) + 2 * np.sin(2 * t),
+            np.cos(t) - 2 * np.cos(2 * t),
+            -np.sin(3 * t),
+        ]
+    )
     length = float(np.sum(np.linalg.norm(np.diff(p, axis=0), axis=1)))
     return p * (60.0 / length) + np.array([0.0, 0.0, -20.0])
 

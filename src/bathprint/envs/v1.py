@@ -105,8 +105,14 @@ class BathprintEnvV1(BathprintEnv):
         _printer: bool = False,
     ) -> None:
         self._check_kwargs(
-            render_mode, accuracy, needle_velocity, target_set, target_index, target_file,
-            goal_conditioned, scene_overrides,
+            render_mode,
+            accuracy,
+            needle_velocity,
+            target_set,
+            target_index,
+            target_file,
+            goal_conditioned,
+            scene_overrides,
         )
         if spec_file is not None and not isinstance(spec_file, str | os.PathLike):
             raise ConfigError(f"spec_file = {spec_file!r}; allowed: None or a path to a spec")
@@ -177,8 +183,14 @@ class BathprintEnvV1(BathprintEnv):
     # ------------------------------------------------------------------ construction
     @staticmethod
     def _check_kwargs(
-        render_mode: Any, accuracy: Any, needle_velocity: Any, target_set: Any,
-        target_index: Any, target_file: Any, goal_conditioned: Any, scene_overrides: Any,
+        render_mode: Any,
+        accuracy: Any,
+        needle_velocity: Any,
+        target_set: Any,
+        target_index: Any,
+        target_file: Any,
+        goal_conditioned: Any,
+        scene_overrides: Any,
     ) -> None:
         modes = BathprintEnv.metadata["render_modes"]
         if render_mode is not None and not (isinstance(render_mode, str) and render_mode in modes):
@@ -241,8 +253,7 @@ class BathprintEnvV1(BathprintEnv):
             raise ConfigError(f"{name} = {index!r}; allowed: an integer")
         if self.target_set not in ("validation", "test") or self.printed is None:
             raise ConfigError(
-                f"{name} = {index!r} selects a fixed target: use target_set='validation' or "
-                "'test'"
+                f"{name} = {index!r} selects a fixed target: use target_set='validation' or 'test'"
             )
         n = self.printed.sizes[self.target_set]
         if not 0 <= index < n:
@@ -258,9 +269,7 @@ class BathprintEnvV1(BathprintEnv):
         self.q_outer_log = ctl.get("q_outer_scale", "linear") == "log"
         self.inner_as_fraction = ctl.get("q_inner_as", "flow") == "fraction"
         self.q_inner_range = tuple(float(x) for x in ctl.get("q_inner_ml_min", [0.0, 0.0]))
-        self.inner_fraction_range = tuple(
-            float(x) for x in ctl.get("inner_fraction", [0.0, 0.0])
-        )
+        self.inner_fraction_range = tuple(float(x) for x in ctl.get("inner_fraction", [0.0, 0.0]))
         self.inner_lag_s = float(ctl.get("inner_lag_s", 0.0))
         self.offset_range = tuple(float(x) for x in ctl.get("inclusion_offset", [0.0, 0.0]))
         base = list(ctl["actions"])
@@ -313,9 +322,7 @@ class BathprintEnvV1(BathprintEnv):
         layout.append(("progress", 2 if self.goal_conditioned else 4))
         self.obs_layout: tuple[tuple[str, int], ...] = tuple(layout)
         size = sum(n for _, n in layout)
-        self._obs_dens_off = (
-            np.array(DENS_OFFSETS_MM) if self.observes_density else np.zeros(0)
-        )
+        self._obs_dens_off = np.array(DENS_OFFSETS_MM) if self.observes_density else np.zeros(0)
         self._obs_scales = np.array(
             [
                 OBS_LENGTH_MM,
@@ -335,11 +342,15 @@ class BathprintEnvV1(BathprintEnv):
         n = self.n_target_samples
         self.goal_size = (3 * n if self.scores_shape else 0) + (2 * n if self.scores_density else 0)
         self.goal_size += 2
-        low, high = self._goal_vector(
-            np.full((n, 3), -GOAL_POSITION_MM), np.zeros(n), np.zeros(n), 0, 0
-        ), self._goal_vector(
-            np.full((n, 3), GOAL_POSITION_MM), np.full(n, FREE_DENSITY[1]),
-            np.full(n, FREE_DENSITY[1]), n, n,
+        low, high = (
+            self._goal_vector(np.full((n, 3), -GOAL_POSITION_MM), np.zeros(n), np.zeros(n), 0, 0),
+            self._goal_vector(
+                np.full((n, 3), GOAL_POSITION_MM),
+                np.full(n, FREE_DENSITY[1]),
+                np.full(n, FREE_DENSITY[1]),
+                n,
+                n,
+            ),
         )
         goal = spaces.Box(low, high, dtype=np.float64)
         self.compute_reward = self.goal_reward  # the goal-environment interface
@@ -374,8 +385,10 @@ class BathprintEnvV1(BathprintEnv):
 
         lo, hi = self.q_outer_range
         f = unit("q_outer")
-        qo = math.exp(math.log(lo) + f * (math.log(hi) - math.log(lo))) if self.q_outer_log else (
-            lo + f * (hi - lo)
+        qo = (
+            math.exp(math.log(lo) + f * (math.log(hi) - math.log(lo)))
+            if self.q_outer_log
+            else (lo + f * (hi - lo))
         )
         qi = 0.0
         if "q_inner" in index:
@@ -687,8 +700,9 @@ class BathprintEnvV1(BathprintEnv):
             ]
         n = tgt.n_samples
         tfeat = np.stack(cols, axis=1) if cols else np.zeros((n, 0))
-        self._target_features = np.ascontiguousarray(tfeat if not self.goal_conditioned
-                                                     else np.zeros((n, 0)), np.float64)
+        self._target_features = np.ascontiguousarray(
+            tfeat if not self.goal_conditioned else np.zeros((n, 0)), np.float64
+        )
         self._prepared_metric = prepare(tgt, self.metric_params, self.bath_range)
         self._episode_length_mm = self.episode_length_mm
         self._target_key = tgt.key
@@ -711,8 +725,15 @@ class BathprintEnvV1(BathprintEnv):
         self._n_scored_prev = self._n_scored
         if j > self._n_scored:
             record_samples(
-                self._u, self._x, self._rho, self._origin_mm, self.target.spacing_mm,
-                self._n_scored, j, self._rec_pts, self._rec_rho,
+                self._u,
+                self._x,
+                self._rho,
+                self._origin_mm,
+                self.target.spacing_mm,
+                self._n_scored,
+                j,
+                self._rec_pts,
+                self._rec_rho,
             )
             self._n_scored = j
 
@@ -726,9 +747,7 @@ class BathprintEnvV1(BathprintEnv):
         measurements), with the recorded densities; the metric and the reward use
         :meth:`recorded_samples`."""
         j = self._n_scored
-        pts, _ = printed_at(
-            self._u, self._x, self._rho, self._origin_mm, self.target.spacing_mm, j
-        )
+        pts, _ = printed_at(self._u, self._x, self._rho, self._origin_mm, self.target.spacing_mm, j)
         return PrintedSamples(pts, self._rec_rho[:j].copy())
 
     def _evaluate(self) -> MetricValue:
@@ -777,10 +796,22 @@ class BathprintEnvV1(BathprintEnv):
                 math.sqrt(recent / (j - lo)) / miss if j > lo else 0.0,
             ]
         return observe_v1(
-            self._x, self._v, self._u, self._rho, _OBS_QUERY_MM, len(TIP_OFFSETS_MM),
-            len(VEL_OFFSETS_MM), _OBS_CURV_INDEX, self._obs_dens_off, self._obs_scales,
-            self._target_features, self._obs_tgt_off, self._printed_mm - self.lead_in_mm,
-            tgt.spacing_mm, np.array(extra), OBS_CLIP,
+            self._x,
+            self._v,
+            self._u,
+            self._rho,
+            _OBS_QUERY_MM,
+            len(TIP_OFFSETS_MM),
+            len(VEL_OFFSETS_MM),
+            _OBS_CURV_INDEX,
+            self._obs_dens_off,
+            self._obs_scales,
+            self._target_features,
+            self._obs_tgt_off,
+            self._printed_mm - self.lead_in_mm,
+            tgt.spacing_mm,
+            np.array(extra),
+            OBS_CLIP,
         )
 
     def target_ahead(self, obs: np.ndarray, lead_mm: float = 0.0) -> dict[str, float]:
@@ -792,8 +823,12 @@ class BathprintEnvV1(BathprintEnv):
         col = TARGET_OFFSETS_MM.index(lead_mm)
         nf = len(self.target_feature_names)
         row = np.asarray(obs, np.float64)[self.obs_slices()["target"]].reshape(-1, nf)[col]
-        out = {"curvature_1_mm": 0.0, "torsion_1_mm": 0.0,
-               "density_lo_kg_m3": FREE_DENSITY[0], "density_hi_kg_m3": FREE_DENSITY[1]}
+        out = {
+            "curvature_1_mm": 0.0,
+            "torsion_1_mm": 0.0,
+            "density_lo_kg_m3": FREE_DENSITY[0],
+            "density_hi_kg_m3": FREE_DENSITY[1],
+        }
         for name, value in zip(self.target_feature_names, row, strict=True):
             if name in ("curvature", "torsion"):
                 out[f"{name}_1_mm"] = float(value) / OBS_CURVATURE_MM
@@ -802,8 +837,9 @@ class BathprintEnvV1(BathprintEnv):
         return out
 
     # ------------------------------------------------------------------ goals
-    def _goal_vector(self, pts: np.ndarray, lo: np.ndarray, hi: np.ndarray, n: int,
-                     n_prev: int) -> np.ndarray:
+    def _goal_vector(
+        self, pts: np.ndarray, lo: np.ndarray, hi: np.ndarray, n: int, n_prev: int
+    ) -> np.ndarray:
         """[points (N x 3) mm | density lo (N) | density hi (N) | n | n_prev], N = the spec's
         samples, padded with zeros; points only if shape is scored, the band only if density
         is."""
@@ -841,8 +877,16 @@ class BathprintEnvV1(BathprintEnv):
             hi = np.ascontiguousarray(g[k + size : k + 2 * size])
         return pts, lo, hi, int(round(g[-2])), int(round(g[-1]))
 
-    def _goal_sse(self, a_pts: np.ndarray, a_rho: np.ndarray, n: int, d_pts: np.ndarray,
-                  d_lo: np.ndarray, d_hi: np.ndarray, n_d: int) -> float:
+    def _goal_sse(
+        self,
+        a_pts: np.ndarray,
+        a_rho: np.ndarray,
+        n: int,
+        d_pts: np.ndarray,
+        d_lo: np.ndarray,
+        d_hi: np.ndarray,
+        n_d: int,
+    ) -> float:
         """Sum of squared errors of the first n achieved samples against the desired goal's
         first n_d samples (the metric of the environment)."""
         mp = self.metric_params
@@ -851,19 +895,37 @@ class BathprintEnvV1(BathprintEnv):
         k = max(1, int(round(mp.curvature_span_mm / h)))
         tpts = np.ascontiguousarray(d_pts[:n_d])
         tcurv = discrete_curvature(tpts, k) if mp.w_curvature > 0 else np.zeros(0)
-        w = np.array([mp.w_shape, mp.w_curvature, mp.w_density, mp.length_scale_mm,
-                      mp.density_scale_kg_m3, mp.missing_error**2])
+        w = np.array(
+            [
+                mp.w_shape,
+                mp.w_curvature,
+                mp.w_density,
+                mp.length_scale_mm,
+                mp.density_scale_kg_m3,
+                mp.missing_error**2,
+            ]
+        )
         b_lo, b_hi = (-math.inf, math.inf) if self.bath_range is None else self.bath_range
         j = min(n, n_d)
         errors = metric_errors(
-            np.ascontiguousarray(a_pts[:j]), np.ascontiguousarray(a_rho[:j]), tpts, tcurv,
-            np.ascontiguousarray(d_lo[:n_d]), np.ascontiguousarray(d_hi[:n_d]), half, k, w,
-            bool(mp.allow_reflection), float(b_lo), float(b_hi),
+            np.ascontiguousarray(a_pts[:j]),
+            np.ascontiguousarray(a_rho[:j]),
+            tpts,
+            tcurv,
+            np.ascontiguousarray(d_lo[:n_d]),
+            np.ascontiguousarray(d_hi[:n_d]),
+            half,
+            k,
+            w,
+            bool(mp.allow_reflection),
+            float(b_lo),
+            float(b_hi),
         )[0]
         return squared_sum(errors, j)
 
-    def goal_reward(self, achieved_goal: np.ndarray, desired_goal: np.ndarray,
-                    info: Any = None) -> np.ndarray | float:
+    def goal_reward(
+        self, achieved_goal: np.ndarray, desired_goal: np.ndarray, info: Any = None
+    ) -> np.ndarray | float:
         """The reward of reaching ``achieved_goal`` (the step's) for ``desired_goal``: the
         decrease of the sum of squared errors of the scored samples (from the achieved
         goal's previous count to its count) over the desired goal's number of samples.

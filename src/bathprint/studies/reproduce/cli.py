@@ -1,4 +1,7 @@
-"""``bathprint reproduce fig1c|fig2|fig3|stability|coils|all --out DIR [--quick]``.
+"""``bathprint reproduce fig1c|fig2|fig3|stability|coils|all|ablation|gravity --out DIR [--quick]``.
+
+``all`` runs the paper's figures; the studies (``ablation``: which effect moves which
+quantity; ``gravity``: the universal scaling with gravity) run by name.
 
 Options are checked before anything runs (exit code 2). Ctrl-C and SIGTERM stop the run
 cleanly (exit 130 / 143): the figures finished so far stay in ``reproduce.json``, the
@@ -21,14 +24,18 @@ from bathprint.errors import OptionError
 from bathprint.interrupt import atomic, exit_code, signals_interrupt
 
 FIGURES = ("stability", "fig3", "coils", "fig2", "fig1c")
+STUDIES = ("ablation", "gravity")  # not part of "all"
+SIMULATION_RUNS = ("fig2", "fig1c", *STUDIES)  # their finished runs are kept when interrupted
 MARKER = "reproduce.interrupted.json"  # what an interrupted run had finished
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument(
         "figure",
-        choices=(*FIGURES, "all"),
-        help="coils: steady coiling over 20+ turns, with and without gelation",
+        choices=(*FIGURES, "all", *STUDIES),
+        help="coils: steady coiling over 20+ turns, with and without gelation; all: the "
+        "figures; ablation: the effects switched on one at a time and together at the Fig. 1B "
+        "points and over the Fig. 2 range; gravity: l against (B/(mu v + drho g r^2))^(1/3)",
     )
     p.add_argument("--out", default="runs/reproduce", help="output directory")
     p.add_argument("--quick", action="store_true", help="small grids: every figure, roughly")
@@ -110,7 +117,8 @@ def run_args(args: argparse.Namespace) -> int:
             return 0
         except KeyboardInterrupt as exc:  # Ctrl-C or SIGTERM
             _write_json(marker_path, {"run": run_key, "done": done})
-            runs = " (its finished simulation runs are kept)" if current in FIGURES[3:] else ""
+            kept = current in SIMULATION_RUNS
+            runs = " (its finished simulation runs are kept)" if kept else ""
             print(
                 f"bathprint reproduce: interrupted ({signal.Signals(exit_code(exc) - 128).name}) "
                 f"during {current or 'the write-up'}{runs}; done: {', '.join(done) or 'none'}; "
@@ -121,8 +129,12 @@ def run_args(args: argparse.Namespace) -> int:
 
 
 def _run_figure(name: str, out: Path, args: argparse.Namespace) -> dict:
-    from bathprint.studies.reproduce import coils, fig1c, fig2, fig3, stability
+    from bathprint.studies.reproduce import ablation, coils, fig1c, fig2, fig3, gravity, stability
 
+    if name == "ablation":
+        return ablation.run(out, args.quick, args.workers, args.scheduler)
+    if name == "gravity":
+        return gravity.run(out, args.quick, args.workers, args.scheduler)
     if name == "stability":
         return stability.run(out, args.quick)
     if name == "fig3":

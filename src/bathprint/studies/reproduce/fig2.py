@@ -25,6 +25,45 @@ def _slope(x: np.ndarray, y: np.ndarray) -> float:
     return float(np.sum(x * y) / np.sum(x * x)) if len(x) else float("nan")
 
 
+def law_row(overrides: dict, result: dict | None) -> dict:
+    """One run's Fig. 2 quantities and the paper's scales (B from the theory modulus)."""
+    res = result or {}
+    d = overrides["needle.inner_diameter_mm"] * 1e-3
+    v = theory.exit_speed(overrides["flow.q_outer_ml_min"] * 1e-6 / 60, d)
+    b = theory.bending_stiffness(E_THEORY, d / 2)
+    return {
+        "diameter_mm": overrides["needle.inner_diameter_mm"],
+        "q_outer_ml_min": overrides["flow.q_outer_ml_min"],
+        "regime": res.get("measurements.regime"),
+        "buckling_length_m": res.get("measurements.buckling_length_m"),
+        "coil_radius_m": res.get("measurements.coil_radius_m"),
+        "coil_frequency_rad_s": res.get("measurements.coil_frequency_rad_s"),
+        "scale_B_mu_v_m": theory.buckling_length_scale(b, MU, v),
+        "scale_omega_rad_s": v ** (4 / 3) * (MU / b) ** (1 / 3),
+    }
+
+
+def law_columns(table: list[dict], *keys: str) -> list[np.ndarray]:
+    """The columns ``keys`` of the rows where all of them are measured."""
+    ok = [r for r in table if all(r.get(k) is not None for k in keys)]
+    return [np.array([r[k] for r in ok], dtype=float) for k in keys]
+
+
+def fit_laws(table: list[dict]) -> dict:
+    """The paper's three fits redone on rows of :func:`law_row`: slopes through the origin of
+    l against R, R against (B/(mu v))^(1/3) and omega against v^(4/3) (mu/B)^(1/3), and the
+    number of points in each (NaN slopes without points)."""
+    l_, r_ = law_columns(table, "buckling_length_m", "coil_radius_m")
+    r2, s2 = law_columns(table, "coil_radius_m", "scale_B_mu_v_m")
+    w3, s3 = law_columns(table, "coil_frequency_rad_s", "scale_omega_rad_s")
+    return {
+        "l_over_R": _slope(r_, l_),
+        "R_prefactor": _slope(s2, r2),
+        "omega_prefactor": _slope(s3, w3),
+        "points": {"l_R": len(l_), "R": len(r2), "omega": len(w3)},
+    }
+
+
 def run(
     out_dir: str | Path,
     quick: bool = False,
@@ -49,42 +88,17 @@ def run(
     )
     table = []
     for row in rows:
-        o = row["overrides"]
-        res = row.get("result") or {}
-        d = o["needle.inner_diameter_mm"] * 1e-3
-        v = theory.exit_speed(o["flow.q_outer_ml_min"] * 1e-6 / 60, d)
-        b = theory.bending_stiffness(E_THEORY, d / 2)
-        table.append(
-            {
-                "diameter_mm": o["needle.inner_diameter_mm"],
-                "q_outer_ml_min": o["flow.q_outer_ml_min"],
-                "status": row["status"],
-                "regime": res.get("measurements.regime"),
-                "buckling_length_m": res.get("measurements.buckling_length_m"),
-                "coil_radius_m": res.get("measurements.coil_radius_m"),
-                "coil_frequency_rad_s": res.get("measurements.coil_frequency_rad_s"),
-                "scale_B_mu_v_m": theory.buckling_length_scale(b, MU, v),
-                "scale_omega_rad_s": v ** (4 / 3) * (MU / b) ** (1 / 3),
-            }
-        )
+        law = law_row(row["overrides"], row.get("result"))
+        table.append({**{k: law[k] for k in list(law)[:2]}, "status": row["status"], **law})
     with (out / "fig2.csv").open("w", newline="") as f:
         w = csv.DictWriter(f, fieldnames=list(table[0]))
         w.writeheader()
         w.writerows(table)
 
-    def cols(*keys: str) -> list[np.ndarray]:
-        ok = [r for r in table if all(r[k] is not None for k in keys)]
-        return [np.array([r[k] for r in ok], dtype=float) for k in keys]
-
-    l_, r_ = cols("buckling_length_m", "coil_radius_m")
-    r2, s2 = cols("coil_radius_m", "scale_B_mu_v_m")
-    w3, s3 = cols("coil_frequency_rad_s", "scale_omega_rad_s")
-    slopes = {
-        "l_over_R": _slope(r_, l_),
-        "R_prefactor": _slope(s2, r2),
-        "omega_prefactor": _slope(s3, w3),
-        "points": {"l_R": len(l_), "R": len(r2), "omega": len(w3)},
-    }
+    l_, r_ = law_columns(table, "buckling_length_m", "coil_radius_m")
+    r2, s2 = law_columns(table, "coil_radius_m", "scale_B_mu_v_m")
+    w3, s3 = law_columns(table, "coil_frequency_rad_s", "scale_omega_rad_s")
+    slopes = fit_laws(table)
     fig, axes = plt.subplots(1, 3, figsize=(13, 4))
     for ax, (x, y, key, xl, yl, scale) in zip(
         axes,

@@ -1,0 +1,390 @@
+"""What hydrodynamics costs, and how accurate each coupling is for its cost.
+
+    python benchmarks/bench_hydrodynamics.py eval      # one nonlocal evaluation vs N
+    python benchmarks/bench_hydrodynamics.py step      # one step vs N, both couplings
+    python benchmarks/bench_hydrodynamics.py coiling   # drag_coiling_22G, 6 s, each drag model
+    python benchmarks/bench_hydrodynamics.py workprec  # error vs step and vs wall time
+    python benchmarks/bench_hydrodynamics.py all
+
+(1) eval: the nonlocal flow of a coil (node spacing 0.5 mm, radius 1.5 mm, pitch 0.9 mm,
+r = 0.2 mm, a = 0.6 mm) of N nodes, by the direct numba sum and by fmm3dpy (precision 1e-3
+and 1e-6); direct sums beyond ``--max-direct`` are extrapolated as (ns per pair) x N^2 and
+flagged; the crossover is the smallest N where the FMM is faster. (2) step: a bent free
+filament of N segments relaxing with hydrodynamics at a fixed step, wall time per step and
+evaluations per step for each coupling; larger N extrapolated from the evaluations per step
+and (1). (3) coiling: drag_coiling_22G for 6 s with drag cox, constant and finite_re, and
+with hydrodynamics (both couplings with cox, the lagged one with finite_re): wall time,
+steps, evaluations, nodes, the coil's radius and pitch (analysis.measure), and the ratio
+to the local-drag run. (4) workprec: the error of
+lagging against the step size (fixed steps), and error against wall time for both couplings
+at adaptive tolerances (the relaxing filament and drag_coiling_22G for 0.5 s, against a
+reference at tolerance 1e-9 with the implicit coupling). Results: benchmarks/results/hydro_*.csv.
+Single-threaded numba; the machine is shared, so wall times carry ~30% noise.
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import math
+import time
+
+import numpy as np
+from _common import RESULTS, best_of, write_csv
+
+from bathprint import Simulation
+from bathprint.analysis import validation as V
+from bathprint.analysis.measure import coil_pitch, coil_radius
+from bathprint.core.effects import _stokeslet
+
+MU = 1e-3
+A_CUT = 0.6e-3
+
+
+def coil(n: int, h: float = 0.5e-3) -> tuple[np.ndarray, np.ndarray]:
+    radius, pitch = 1.5e-3, 0.9e-3
+    c = math.sqrt(radius**2 + (pitch / (2 * math.pi)) ** 2)
+    th = h * np.arange(n) / c
+    x = np.stack([radius * np.cos(th), radius * np.sin(th), pitch * th / (2 * math.pi)], 1)
+    s = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(x, axis=0), axis=1))])
+    return x.ravel().copy(), s
+
+
+def _fmm_available() -> bool:
+    try:
+        import fmm3dpy  # noqa: F401
+    except ImportError:
+        return False
+    return True
+
+
+def evaluation_costs(max_direct: int, max_fmm: int) -> list[dict]:
+    rng = np.random.default_rng(0)
+    sizes = [100, 300, 1_000, 3_000, 10_000, 30_000, 100_000]
+    pos, s = coil(50)
+    _stokeslet.nonlocal_flow(
+        pos,
+        s,
+        50,
+        pos,
+        s,
+        49,
+        np.ones(147),
+        np.full(50, np.inf),
+        MU,
+        0.0,
+        A_CUT,
+        0.0,
+        np.zeros(150),
+    )
+    rows = []
+    per_pair = None
+    direct: dict[int, float] = {}
+    for n in sizes:
+        pos, s = coil(n)
+        f = rng.normal(size=3 * (n - 1))
+        out = np.zeros(3 * n)
+        screen = np.full(n, np.inf)
+        if n <= max_direct:
+
+            def call(pos=pos, s=s, n=n, f=f, screen=screen, out=out) -> None:
+                _stokeslet.nonlocal_flow(
+                    pos, s, n, pos, s, n - 1, f, screen, MU, 0.0, A_CUT, 0.0, out
+                )
+
+            t = best_of(call, 3 if n < 10_000 else 1)
+            per_pair = t / n**2
+            direct[n] = t
+            rows.append(
+                {"N": n, "method": "direct", "precision": "", "wall_s": t, "extrapolated": False}
+            )
+        else:
+            rows.append(
+                {
+                    "N": n,
+                    "method": "direct",
+                    "precision": "",
+                    "wall_s": per_pair * n**2,
+                    "extrapolated": True,
+                }
+            )
+        print(
+            f"direct N = {n:>6}: {rows[-1]['wall_s']:.3e} s"
+            + (" (extrapolated)" if rows[-1]["extrapolated"] else ""),
+            flush=True,
+        )
+        if not _fmm_available() or n < 1_000 or n > max_fmm:
+            continue
+        for prec in (1e-3, 1e-6):
+            ref = np.zeros(3 * n)
+            _stokeslet.fmm_flow(pos, s, n, n - 1, f, MU, 0.0, A_CUT, prec, ref)  # warm-up
+
+            def fcall(pos=pos, s=s, n=n, f=f, prec=prec, out=out) -> None:
+                _stokeslet.fmm_flow(pos, s, n, n - 1, f, MU, 0.0, A_CUT, prec, out)
+
+            t = best_of(fcall, 2 if n < 30_000 else 1)
+            diff = ""
+            if n in direct:
+                _stokeslet.nonlocal_flow(
+                    pos, s, n, pos, s, n - 1, f, screen, MU, 0.0, A_CUT, 0.0, ref
+                )
+                diff = float(np.max(np.abs(out - ref)) / np.max(np.abs(ref)))
+            rows.append(
+                {
+                    "N": n,
+                    "method": "fmm",
+                    "precision": prec,
+                    "wall_s": t,
+                    "extrapolated": False,
+                    "max_rel_diff_vs_direct": diff,
+                }
+            )
+            print(f"   fmm {prec:g}: {t:.3e} s  (max rel. diff. vs direct {diff})", flush=True)
+    for r in rows:
+        r.setdefault("max_rel_diff_vs_direct", "")
+    for prec in (1e-3, 1e-6):
+        cross = [
+            r["N"]
+            for r in rows
+            if r["method"] == "fmm"
+            and r["precision"] == prec
+            and r["wall_s"]
+            < next(d["wall_s"] for d in rows if d["method"] == "direct" and d["N"] == r["N"])
+        ]
+        print(f"crossover (precision {prec:g}): FMM faster from N = {min(cross) if cross else '-'}")
+    return rows
+
+
+def _relaxing(n_segments: int, coupling: str, fmm_nodes: int = 0, **extra) -> Simulation:
+    """A bent free filament with hydrodynamics (V.hydro_fixed_step_errors' problem), N
+    segments at 0.3 mm."""
+    length_mm = 0.3 * n_segments
+    return Simulation(
+        "paper_simulation",
+        {
+            "effects": ["elasticity", "drag", "hydrodynamics"],
+            "needle.inner_diameter_mm": 0.4,
+            "needle.direction": [1.0, 0.0, 0.0],
+            "needle.imperfection_um": 0.0,
+            "needle.release_s": 1e-12,
+            "initial.length_mm": length_mm,
+            "initial.perturbation_mm": 0.05 * length_mm,
+            "flow.q_outer_ml_min": 0.0,
+            "material.youngs_modulus_pa": 5e4,
+            "numerics.node_spacing_mm": 0.3,
+            "numerics.time_step_s": 1e-4,
+            "hydrodynamics.coupling": coupling,
+            "hydrodynamics.fmm_min_nodes": fmm_nodes,
+            "duration_s": 10.0,
+            **extra,
+        },
+    )
+
+
+def step_costs(max_n: int, fmm_n: int) -> list[dict]:
+    rows = []
+    for coupling in ("lagged", "implicit"):
+        _relaxing(20, coupling).advance(2e-4)  # compile
+        for n in (100, 300, 1_000, 3_000):
+            if n > max_n:
+                break
+            sim = _relaxing(n, coupling)
+            sim.advance(1e-4)  # the first step (lagged: the flow at the start is evaluated)
+            e0 = sim.counts()["hydro_evaluations"]
+            steps = 3 if n >= 1_000 else 10
+            t0 = time.perf_counter()
+            sim.advance((1 + steps) * 1e-4)
+            wall = (time.perf_counter() - t0) / steps
+            evals = (sim.counts()["hydro_evaluations"] - e0) / steps
+            rows.append(
+                {
+                    "N": n,
+                    "coupling": coupling,
+                    "method": "direct",
+                    "wall_per_step_s": wall,
+                    "evaluations_per_step": evals,
+                    "extrapolated": False,
+                }
+            )
+            print(
+                f"{coupling:>8} N = {n:>5}: {wall:.3e} s per step, {evals:.1f} evaluations",
+                flush=True,
+            )
+    if _fmm_available():
+        for n in (1_000, 3_000, 10_000):
+            if n > fmm_n:
+                break
+            sim = _relaxing(n, "lagged", fmm_nodes=1, **{"hydrodynamics.fmm_precision": 1e-3})
+            sim.advance(1e-4)
+            e0 = sim.counts()["hydro_evaluations"]
+            t0 = time.perf_counter()
+            sim.advance(3e-4)
+            wall = (time.perf_counter() - t0) / 2
+            evals = (sim.counts()["hydro_evaluations"] - e0) / 2
+            rows.append(
+                {
+                    "N": n,
+                    "coupling": "lagged",
+                    "method": "fmm 1e-3",
+                    "wall_per_step_s": wall,
+                    "evaluations_per_step": evals,
+                    "extrapolated": False,
+                }
+            )
+            print(
+                f"  lagged fmm N = {n:>5}: {wall:.3e} s per step, {evals:.1f} evaluations",
+                flush=True,
+            )
+    return rows
+
+
+COILING_VARIANTS = {
+    "cox (local)": {},
+    "constant (local)": {"drag.model": "constant"},
+    "finite_re (local)": {"drag.model": "finite_re"},
+    "cox + hydrodynamics, lagged": {"hydrodynamics.coupling": "lagged"},
+    "finite_re + hydrodynamics, lagged": {
+        "drag.model": "finite_re",
+        "hydrodynamics.coupling": "lagged",
+    },
+    "cox + hydrodynamics, implicit": {"hydrodynamics.coupling": "implicit"},
+}
+
+
+def coiling_costs(duration: float, only: list[str] | None) -> list[dict]:
+    rows = []
+    base = None
+    previous = {}
+    path = RESULTS / "hydro_coiling.csv"
+    if only and path.exists():  # a partial rerun replaces its variants' rows, keeps the rest
+        with path.open() as f:
+            previous = {r["variant"]: r for r in csv.DictReader(f)}
+    for label, extra in COILING_VARIANTS.items():
+        if only and label != "cox (local)" and not any(o in label for o in only):
+            continue  # (the local-drag run is the base of the ratios: always run)
+        over = dict(extra)
+        if "hydrodynamics" in label:
+            over["effects"] = ["elasticity", "drag", "gravity", "hydrodynamics"]
+        Simulation("drag_coiling_22G", {**over, "duration_s": 0.02}).advance(0.02)  # compile
+        sim = Simulation("drag_coiling_22G", {**over, "duration_s": duration})
+        t0 = time.perf_counter()
+        status = "ok"
+        try:
+            sim.advance(duration)
+        except Exception as exc:  # a failed run is a result too
+            status = f"{type(exc).__name__}: {exc}"[:200]
+        wall = time.perf_counter() - t0
+        base = base if base is not None else wall
+        c = sim.counts()
+        x = sim.centerline()
+        tip, axis = sim.model.needle[0, 1:4], sim.model.needle[0, 4:7]
+        radius = coil_radius(x, tip, axis)
+        pitch = coil_pitch(x, tip, axis)[0]
+        rows.append(
+            {
+                "variant": label,
+                "simulated_s": sim.t,
+                "wall_s": wall,
+                "ratio_to_cox": wall / base,
+                "steps": c["steps"],
+                "rejected": c["rejected_steps"],
+                "newton": c["newton_iterations"],
+                "krylov": c["krylov_iterations"],
+                "evaluations": c["hydro_evaluations"],
+                "nodes": sim.n_nodes,
+                "coil_radius_mm": 1e3 * radius if radius else "",
+                "coil_pitch_mm": 1e3 * pitch if pitch else "",
+                "status": status,
+            }
+        )
+        print(rows[-1], flush=True)
+        done = {r["variant"] for r in rows}
+        kept = [r for v, r in previous.items() if v not in done]
+        write_csv("hydro_coiling", kept + rows)  # (each run is long: keep what is done)
+    done = {r["variant"] for r in rows}
+    return [r for v, r in previous.items() if v not in done] + rows
+
+
+def work_precision() -> tuple[list[dict], list[dict]]:
+    fixed = []
+    factors = (2.0, 1.0, 0.5, 0.25, 0.125)
+    errs = V.hydro_fixed_step_errors(factors)
+    for coupling, values in errs.items():
+        for f, e in zip(factors, values, strict=True):
+            fixed.append({"coupling": coupling, "step_over_T": f / 20.0, "max_error_m": e})
+            print(f"fixed step {f / 20:.4f} T, {coupling:>8}: error {e:.3e} m", flush=True)
+    adaptive = []
+    problems = {
+        "relaxing filament": (lambda extra: _relaxing(30, extra.pop("coupling"), **extra), 1e-3),
+        "drag_coiling_22G 0.5 s": (
+            lambda extra: Simulation(
+                "drag_coiling_22G",
+                {
+                    "effects": ["elasticity", "drag", "gravity", "hydrodynamics"],
+                    "hydrodynamics.coupling": extra.pop("coupling"),
+                    "duration_s": 0.5,
+                    **extra,
+                },
+            ),
+            0.5,
+        ),
+    }
+    for name, (make, t_end) in problems.items():
+
+        def run(coupling: str, tol: float, make=make, t_end=t_end):
+            extra = {"coupling": coupling, "numerics.tolerance": tol, "numerics.time_step_s": 0.0}
+            sim = make(extra)
+            t0 = time.perf_counter()
+            sim.advance(t_end)
+            wall = time.perf_counter() - t0
+            return sim, wall
+
+        run("implicit", 1e-3)  # compile
+        run("lagged", 1e-3)
+        ref, _ = run("implicit", 1e-9)
+        ref_x = ref.newest_material(0.01) if "coiling" in name else ref.centerline()
+        for coupling in ("lagged", "implicit"):
+            for tol in (1e-2, 1e-3, 1e-4, 1e-5, 1e-6):
+                sim, wall = run(coupling, tol)
+                x = sim.newest_material(0.01) if "coiling" in name else sim.centerline()
+                err = float(np.max(np.linalg.norm(x - ref_x, axis=1)))
+                c = sim.counts()
+                adaptive.append(
+                    {
+                        "problem": name,
+                        "coupling": coupling,
+                        "tolerance": tol,
+                        "max_error_m": err,
+                        "wall_s": wall,
+                        "steps": c["steps"],
+                        "evaluations": c["hydro_evaluations"],
+                    }
+                )
+                print(adaptive[-1], flush=True)
+    return fixed, adaptive
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("what", choices=("eval", "step", "coiling", "workprec", "all"))
+    ap.add_argument("--max-direct", type=int, default=10_000)
+    ap.add_argument("--max-fmm", type=int, default=100_000)
+    ap.add_argument("--max-step-n", type=int, default=3_000)
+    ap.add_argument("--fmm-step-n", type=int, default=10_000)
+    ap.add_argument("--duration", type=float, default=6.0)
+    ap.add_argument("--only", nargs="*", help="coiling: variants whose label contains these")
+    args = ap.parse_args()
+    if args.what in ("eval", "all"):
+        print("wrote", write_csv("hydro_eval", evaluation_costs(args.max_direct, args.max_fmm)))
+    if args.what in ("step", "all"):
+        print("wrote", write_csv("hydro_step", step_costs(args.max_step_n, args.fmm_step_n)))
+    if args.what in ("workprec", "all"):
+        fixed, adaptive = work_precision()
+        print("wrote", write_csv("hydro_fixed_step", fixed))
+        print("wrote", write_csv("hydro_work_precision", adaptive))
+    if args.what in ("coiling", "all"):
+        print("wrote", write_csv("hydro_coiling", coiling_costs(args.duration, args.only)))
+
+
+if __name__ == "__main__":
+    main()
