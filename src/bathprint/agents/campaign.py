@@ -231,6 +231,36 @@ def _settings(spec: RunSpec) -> dict[str, Any]:
     return hp
 
 
+def seeds_campaign(
+    algo: str,
+    env_id: str,
+    seeds: Any,
+    out: str | Path | None = None,
+    hyperparams_file: str | None = None,
+    timesteps: int | None = None,
+    n_envs: int | None = None,
+    episodes: int = 16,
+) -> Campaign:
+    """The campaign of ``bathprint train ... --seeds 0-4``: one group, runs in
+    ``OUT/<Env>/<algo>/seed<S>`` (default OUT: runs/<algo>_<Env>), the constant and
+    calibrated feedforward baselines (and, on version 1, the oracle) beside them."""
+    from bathprint.envs import resolve_id
+
+    env_id = resolve_id(env_id)
+    short = env_id.split("/")[-1]
+    out_dir = Path(out or f"runs/{algo}_{short}")
+    v1 = env_id.endswith("-v1")
+    baselines = ["constant", "feedforward_calibrated"] + (["oracle"] if v1 else [])
+    runs = [
+        RunSpec(algo, env_id, algo, s, str(env_dir(out_dir, env_id) / algo / f"seed{s}"),
+                hyperparams_file, timesteps, n_envs)
+        for s in parse_seeds(seeds)
+    ]
+    for spec in runs:
+        _settings(spec)
+    return Campaign(out_dir, episodes, baselines, "feedforward_calibrated", runs)
+
+
 # ----------------------------------------------------------------------- running one
 
 
@@ -304,18 +334,22 @@ def _episodes_file(d: Path) -> Path | None:
 
 def evaluate_one(policy: str, env_id: str, out: Path, episodes: int, seed: int,
                  progress: bool = False) -> Path:
-    """Play ``policy`` on the first ``episodes`` test targets into ``out`` (kept if done)."""
-    from bathprint.agents.evaluate import evaluate_policy_spec
+    """Play ``policy`` on the first ``episodes`` test targets (version 0: the held-out
+    ``eval`` set) into ``out``; an evaluation already there with these settings is kept."""
+    from bathprint.agents.evaluate import default_target_set, evaluate_policy_spec
 
     out = Path(out)
+    where = default_target_set(env_id)
     found = _episodes_file(out)
     if found is not None and (found.parent / "summary.json").is_file():
         summary = json.loads((found.parent / "summary.json").read_text())
-        if summary.get("episodes") == episodes and summary.get("target_set") == "test":
+        if (summary.get("episodes"), summary.get("target_set"), summary.get("seed")) == (
+            episodes, where, seed
+        ):
             return found
         shutil.rmtree(found.parent)
     evaluate_policy_spec(policy, env_id, episodes, seed, out, images=1, animate=False,
-                         progress=progress, target_set="test")
+                         progress=progress, target_set=where)
     found = _episodes_file(out)
     assert found is not None
     return found
@@ -545,7 +579,7 @@ def write_results(camp: Campaign, env_id: str) -> Path:
         rows.append(summ)
     record = {
         "env_id": env_id,
-        "target_set": "test",
+        "target_set": "test" if env_id.endswith("-v1") else "eval",
         "targets": keys,
         "episodes": len(keys),
         "eval_seed": camp.eval_seed,
@@ -581,7 +615,8 @@ def format_results(record: dict[str, Any]) -> str:
     head = ("| policy | runs | steps per run | wall min per run | IQM metric | mean metric "
             "| normalised score | success rate | " + f"− {ref} | gap closed | targets won |")
     lines = [
-        f"{record['env_id']}: {record['episodes']} test targets; 95% stratified-bootstrap "
+        f"{record['env_id']}: {record['episodes']} {record['target_set']} targets; "
+        "95% stratified-bootstrap "
         "intervals over runs and targets in brackets\n",
         head,
         "|---|---|---|---|---|---|---|---|---|---|---|",
