@@ -267,3 +267,29 @@ def test_rl_zoo3_trains_from_the_agents_file(tmp_path):
     assert models, list((tmp_path / "logs").rglob("*"))
     config = next((tmp_path / "logs" / "ppo").glob("*/*/config.yml")).read_text()
     assert "FeedforwardResidual" in config  # the residual wrapper was used
+
+
+# ---------------------------------------------------------------------- tuning
+
+
+def test_the_search_scores_on_validation_and_continues_where_it_stopped(tmp_path):
+    """Two trials, then the same search asked for three: one more runs, the first two are
+    kept (Optuna's journal file); every score is a validation-set metric."""
+    from bathprint.agents.tune import tune
+
+    hp_file = tmp_path / "hp.yml"
+    base = load_hyperparams("ppo", ENV, ROOT / "agents" / "ppo_residual.yml")
+    base.update(TINY, n_envs=1)
+    hp_file.write_text(yaml.safe_dump({ENV: base}))
+    first = tune("ppo", ENV, hp_file, trials=2, timesteps=256, out=tmp_path / "tune")
+    assert first["trials"] == 2
+    second = tune("ppo", ENV, hp_file, trials=3, timesteps=256, out=tmp_path / "tune")
+    assert second["trials"] == 3
+    rows = (tmp_path / "tune" / "trials.csv").read_text().splitlines()
+    assert len(rows) == 4
+    for k in range(3):
+        best = json.loads((tmp_path / "tune" / f"trial_{k:03d}" / "eval" / "best.json")
+                          .read_text())
+        assert best["target_set"] == "validation"
+    values = [float(r.split(",")[1]) for r in rows[1:]]
+    assert second["best_value"] == pytest.approx(min(values), rel=1e-12)
