@@ -17,7 +17,7 @@ import pytest
 import yaml
 
 from bathprint.agents import statistics as st
-from bathprint.agents.campaign import load_campaign, parse_seeds, run_state
+from bathprint.agents.campaign import export, load_campaign, parse_seeds, run_state
 from bathprint.agents.campaign import main as campaign_main
 from bathprint.agents.hyperparams import load_hyperparams
 from bathprint.errors import ConfigError
@@ -201,6 +201,11 @@ def test_a_killed_campaign_resumes_and_ends_in_one_table(tmp_path, capsys, monke
     assert campaign_main([str(path), "--quiet"]) == 0  # all done: nothing trains again
     assert "resuming" not in capsys.readouterr().out
     assert (out / "CoilRadius-v1" / "results.md").read_text() == table
+    kept = export(camp, ENV, tmp_path / "kept")  # what is committed of a campaign
+    assert (kept / "results.json").is_file() and (kept / "tiny" / "seed1" / "run.json").is_file()
+    assert list(kept.glob("tiny/seed*/eval/best_model.zip"))
+    assert list(kept.glob("baselines/oracle/*/episodes.csv"))
+    assert not list(kept.rglob("checkpoints")) and not list(kept.rglob("model_*_steps.zip"))
 
 
 # ------------------------------------------------------------ test set unread

@@ -675,6 +675,36 @@ def plot_curves(camp: Campaign, env_id: str, path: Path) -> Path | None:
     return path
 
 
+#: what :func:`export` copies of a run (relative to its folder): enough to check a result
+#: later (the selected model and its statistics, the curves, the test episodes), no
+#: checkpoints
+EXPORT_FILES = (
+    "run.json", "episodes.csv", "training_curve.png", "eval/evaluations.npz",
+    "eval/best.json", "eval/best_model.zip", "eval/vecnormalize.pkl",
+    "test/*/summary.json", "test/*/episodes.csv",
+)
+
+
+def export(camp: Campaign, env_id: str, dest: str | Path) -> Path:
+    """Copy one environment's results and the small files of its runs and baselines
+    (:data:`EXPORT_FILES`, no checkpoints) into ``dest`` with the campaign's layout."""
+    src = env_dir(camp.out, env_id)
+    dest = Path(dest)
+    dest.mkdir(parents=True, exist_ok=True)
+    for name in ("results.md", "results.json", "runs.csv", "scores.csv", "curves.png"):
+        if (src / name).is_file():
+            shutil.copy2(src / name, dest / name)
+    sources = [Path(r.run_dir) for r in camp.runs if r.env_id == env_id]
+    sources += sorted((src / "baselines").glob("*")) if (src / "baselines").is_dir() else []
+    for d in sources:
+        for pattern in EXPORT_FILES:
+            for f in d.glob(pattern):
+                target = dest / f.relative_to(src)
+                target.parent.mkdir(parents=True, exist_ok=True)
+                shutil.copy2(f, target)
+    return dest
+
+
 # --------------------------------------------------------------------------- command
 
 
@@ -689,6 +719,9 @@ def _parser() -> argparse.ArgumentParser:
                     help="'serial', 'local-dask' or a Dask scheduler address tcp://host:8786")
     ap.add_argument("--report-only", action="store_true",
                     help="only rebuild the results from what is on disk")
+    ap.add_argument("--export", default=None, metavar="DIR",
+                    help="then copy the results and the runs' small files (no checkpoints) "
+                    "into DIR/<Env>-v1/")
     ap.add_argument("--quiet", action="store_true")
     return ap
 
@@ -710,9 +743,12 @@ def main(argv: Sequence[str] | None = None) -> int:
     except RuntimeError as exc:
         print(f"campaign: {exc}", file=sys.stderr)
         return 1
-    for path in written.values():
+    for env_id, path in written.items():
         print(path.read_text())
         print(f"wrote {path.parent}/ (results.md, results.json, runs.csv, scores.csv, curves.png)")
+        if args.export:
+            dest = export(camp, env_id, Path(args.export) / env_id.split("/")[-1])
+            print(f"copied the results and the runs' small files to {dest}/")
     return 0
 
 
