@@ -183,7 +183,9 @@ def test_a_killed_campaign_resumes_and_ends_in_one_table(tmp_path, capsys, monke
     for spec in camp.runs:
         info = json.loads((Path(spec.run_dir) / "run.json").read_text())
         assert info["status"] == "done" and info["timesteps_done"] == 1024
-        assert (Path(spec.run_dir) / "test").is_dir()
+        (summary,) = (Path(spec.run_dir) / "test").glob("*/summary.json")
+        wrapper = json.loads(summary.read_text())["wrapper"]  # played as it was trained
+        assert wrapper["name"] == "feedforward_residual", wrapper
     assert "resuming" in stdout and "tiny" in stdout
     record = json.loads((out / "CoilRadius-v1" / "results.json").read_text())
     rows = {r["policy"]: r for r in record["policies"]}
