@@ -205,7 +205,8 @@ def test_a_killed_campaign_resumes_and_ends_in_one_table(tmp_path, capsys, monke
     assert (out / "CoilRadius-v1" / "results.md").read_text() == table
     kept = export(camp, ENV, tmp_path / "kept")  # what is committed of a campaign
     assert (kept / "results.json").is_file() and (kept / "tiny" / "seed1" / "run.json").is_file()
-    assert list(kept.glob("tiny/seed*/eval/best_model.zip"))
+    assert len(list(kept.glob("tiny/seed*/eval/best_model.zip"))) == 1  # the best on validation
+    assert len(list(kept.glob("tiny/seed*/episodes.csv.gz"))) == 2
     assert list(kept.glob("baselines/oracle/*/episodes.csv"))
     assert not list(kept.rglob("checkpoints")) and not list(kept.rglob("model_*_steps.zip"))
 

@@ -676,32 +676,53 @@ def plot_curves(camp: Campaign, env_id: str, path: Path) -> Path | None:
 
 
 #: what :func:`export` copies of a run (relative to its folder): enough to check a result
-#: later (the selected model and its statistics, the curves, the test episodes), no
-#: checkpoints
+#: later (the curves, the test episodes, the selection), no checkpoints; the training
+#: episode log gzipped
 EXPORT_FILES = (
-    "run.json", "episodes.csv", "training_curve.png", "eval/evaluations.npz",
-    "eval/best.json", "eval/best_model.zip", "eval/vecnormalize.pkl",
+    "run.json", "training_curve.png", "eval/evaluations.npz", "eval/best.json",
     "test/*/summary.json", "test/*/episodes.csv",
 )
+#: the selected model and its statistics: copied for one run per group (see export)
+MODEL_FILES = ("eval/best_model.zip", "eval/vecnormalize.pkl")
 
 
-def export(camp: Campaign, env_id: str, dest: str | Path) -> Path:
+def export(camp: Campaign, env_id: str, dest: str | Path, all_models: bool = False) -> Path:
     """Copy one environment's results and the small files of its runs and baselines
-    (:data:`EXPORT_FILES`, no checkpoints) into ``dest`` with the campaign's layout."""
+    (:data:`EXPORT_FILES`, ``episodes.csv`` as ``episodes.csv.gz``, no checkpoints) into
+    ``dest`` with the campaign's layout, and the selected model with its VecNormalize
+    statistics (:data:`MODEL_FILES`) of every run (``all_models``) or, to keep the copy
+    small, of the run of each group with the best validation metric."""
+    import gzip
+
     src = env_dir(camp.out, env_id)
     dest = Path(dest)
     dest.mkdir(parents=True, exist_ok=True)
     for name in ("results.md", "results.json", "runs.csv", "scores.csv", "curves.png"):
         if (src / name).is_file():
             shutil.copy2(src / name, dest / name)
-    sources = [Path(r.run_dir) for r in camp.runs if r.env_id == env_id]
-    sources += sorted((src / "baselines").glob("*")) if (src / "baselines").is_dir() else []
-    for d in sources:
-        for pattern in EXPORT_FILES:
+    runs = [r for r in camp.runs if r.env_id == env_id]
+    best: dict[str, tuple[float, str]] = {}
+    for r in runs:
+        f = Path(r.run_dir) / "eval" / "best.json"
+        if f.is_file():
+            v = float(json.loads(f.read_text())["mean_metric"])
+            if r.name not in best or v < best[r.name][0]:
+                best[r.name] = (v, r.run_dir)
+    keep = {d for _, d in best.values()}
+    sources = [(Path(r.run_dir), all_models or r.run_dir in keep) for r in runs]
+    if (src / "baselines").is_dir():
+        sources += [(d, False) for d in sorted((src / "baselines").glob("*"))]
+    for d, with_model in sources:
+        for pattern in EXPORT_FILES + (MODEL_FILES if with_model else ()):
             for f in d.glob(pattern):
                 target = dest / f.relative_to(src)
                 target.parent.mkdir(parents=True, exist_ok=True)
                 shutil.copy2(f, target)
+        if (d / "episodes.csv").is_file():
+            target = dest / d.relative_to(src) / "episodes.csv.gz"
+            target.parent.mkdir(parents=True, exist_ok=True)
+            with gzip.GzipFile(target, "wb", mtime=0) as z:
+                z.write((d / "episodes.csv").read_bytes())
     return dest
 
 
