@@ -625,7 +625,7 @@ def format_results(record: dict[str, Any]) -> str:
         steps = r["timesteps_per_run"]
         wall = r["wall_time_s_per_run"]
         steps_s = f"{np.mean(steps) / 1e3:.3g}k" if steps else "–"
-        wall_s = f"{np.mean(wall) / 60:.2g}" if wall else "–"
+        wall_s = f"{np.mean(wall) / 60:.1f}" if wall else "–"
         lines.append(
             f"| {r['policy']} | {r['runs']} | {steps_s} | {wall_s} | {_fmt(r.get('iqm_metric'))} "
             f"| {_fmt(r.get('mean_metric'))} | {_fmt(r.get('normalised_score'), 2)} "
