@@ -20,8 +20,8 @@ the work and splits the wall time of the training steps into
     taskset -c 1 python -m bathprint.agents.profile --env CoilRadius-v1 \\
         --hyperparams agents/ppo_residual.yml --timesteps 20000 --out agents/results/profile
 
-writes ``OUT/<Env>_<algo>.json`` and ``.md`` (seconds, share, microseconds per environment
-step).
+writes ``OUT/<Env>_<name>.json`` and ``.md`` (``name``: the hyperparameter file's, else the
+algorithm's; seconds, share, microseconds per environment step).
 """
 
 from __future__ import annotations
@@ -209,7 +209,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     if args.out:
         out = Path(args.out)
         out.mkdir(parents=True, exist_ok=True)
-        stem = f"{rec['env_id'].split('/')[-1]}_{args.algo}"
+        name = Path(args.hyperparams).stem if args.hyperparams else args.algo
+        stem = f"{rec['env_id'].split('/')[-1]}_{name}"
         (out / f"{stem}.json").write_text(json.dumps(rec, indent=2))
         (out / f"{stem}.md").write_text(text)
     return 0
