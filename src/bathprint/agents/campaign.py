@@ -709,11 +709,15 @@ def export(camp: Campaign, env_id: str, dest: str | Path, all_models: bool = Fal
             if r.name not in best or v < best[r.name][0]:
                 best[r.name] = (v, r.run_dir)
     keep = {d for _, d in best.values()}
-    sources = [(Path(r.run_dir), all_models or r.run_dir in keep) for r in runs]
+    sources = [
+        (Path(r.run_dir), EXPORT_FILES + (MODEL_FILES if all_models or r.run_dir in keep else ()))
+        for r in runs
+    ]
     if (src / "baselines").is_dir():
-        sources += [(d, False) for d in sorted((src / "baselines").glob("*"))]
-    for d, with_model in sources:
-        for pattern in EXPORT_FILES + (MODEL_FILES if with_model else ()):
+        baseline_files = ("*/summary.json", "*/episodes.csv")
+        sources += [(d, baseline_files) for d in sorted((src / "baselines").glob("*"))]
+    for d, patterns in sources:
+        for pattern in patterns:
             for f in d.glob(pattern):
                 target = dest / f.relative_to(src)
                 target.parent.mkdir(parents=True, exist_ok=True)
