@@ -80,9 +80,12 @@ def test_freezing_changes_a_steady_coil_less_than_the_tolerance_does() -> None:
 
 def test_freezing_with_inertia_changes_a_steady_coil_less_than_the_coil_varies() -> None:
     """With inertia (the experiments' regimes need it; the frozen tail carries its mass and
-    added mass): freezing beyond 60 mm changes the draft coil's radius and frequency by less
+    added mass): freezing beyond 100 mm changes the draft coil's radius and frequency by less
     than the coil varies by itself, under a tenfold tolerance or another seed of the needle
-    imperfection (this weakly chaotic coil's frequency moves by 1.5-3.5 % with the seed)."""
+    imperfection (this weakly chaotic coil's frequency moves by 1.5-3.5 % with the seed).
+    At 60 mm, since the jet leaves the needle at its exit speed, R shrinks by 1.1-2.4%
+    (four seeds), twice that spread: an inertial coil needs the tail further away
+    (docs/numerics.md)."""
     base = Simulation(COIL).scene
     effects = [*base.effects, "inertia"]
     draft = {"numerics.accuracy": "draft", "effects": effects}
@@ -93,7 +96,7 @@ def test_freezing_with_inertia_changes_a_steady_coil_less_than_the_coil_varies()
         "effects": effects,
     }
     r0, om0 = coil_run(draft)
-    r_f, om_f = coil_run({**draft, "numerics.freeze_beyond_mm": 60.0})
+    r_f, om_f = coil_run({**draft, "numerics.freeze_beyond_mm": 100.0})
     others = [coil_run(tighter)] + [coil_run({**draft, "seed": k}) for k in (1, 2)]
     spread_r = max(abs(r / r0 - 1) for r, _ in others)
     spread_om = max(abs(om / om0 - 1) for _, om in others)

@@ -192,3 +192,55 @@ def test_rows_are_read_as_lists_and_files_and_types_are_checked(tmp_path) -> Non
         load_scene("paper_simulation", {3: 1.0})  # type: ignore[dict-item]
     with pytest.raises(SceneError, match="overrides"):
         load_scene("paper_simulation", [("seed", 1)])  # type: ignore[arg-type]
+
+
+def test_physics_presets_decide_inertia_contact_hydrodynamics_and_the_drag_law() -> None:
+    from bathprint.core.scene import PHYSICS_PRESETS, PRESET_EFFECTS
+
+    base = {"effects": ["elasticity", "drag", "gravity", "floor", "inertia", "hydrodynamics"]}
+    for name, preset in PHYSICS_PRESETS.items():
+        scene = load_scene({**base, "physics": name})  # a scene file's effects
+        assert scene.physics == name
+        assert scene.drag.model == preset["drag.model"]
+        assert [e for e in scene.effects if e in PRESET_EFFECTS] == list(preset["effects"])
+        assert scene.effects[:4] == ["elasticity", "drag", "gravity", "floor"]  # kept
+        assert load_scene(scene.to_dict()) == scene  # idempotent: written out, read back
+    custom = load_scene(base)
+    assert custom.physics == "custom" and custom.effects == base["effects"]
+
+
+def test_unknown_physics_preset_is_refused_by_name() -> None:
+    with pytest.raises(SceneError, match=r"physics = 'paper'.*'minimal'"):
+        load_scene("paper_simulation", {"physics": "paper"})
+
+
+def test_overridden_effects_that_a_preset_would_change_are_refused() -> None:
+    preset_scene = {"physics": "experiment", "effects": ["elasticity", "drag", "gravity"]}
+    over = {"effects": ["elasticity", "drag", "gravity", "inertia"]}
+    with pytest.raises(SceneError, match=r"physics = 'experiment' decides.*'custom'"):
+        load_scene(preset_scene, over)
+    assert "inertia" in load_scene(preset_scene, {**over, "physics": "custom"}).effects
+    agree = {"effects": ["elasticity", "drag", "gravity", "contact"]}
+    assert load_scene(preset_scene, agree).effects[-1] == "contact"
+    # overriding physics as well applies the preset to the list given
+    both = load_scene(preset_scene, {**over, "physics": "experiment"})
+    assert both.effects == ["elasticity", "drag", "gravity", "contact"]
+
+
+@pytest.mark.parametrize(
+    ("scene", "preset"),
+    [
+        ("drag_coiling_22G", "experiment"),
+        ("period_doubling_22G", "experiment"),
+        ("chaotic_crumpling_22G", "experiment"),
+        ("rope_coiling_18G", "experiment"),
+        ("paper_simulation", "minimal"),
+    ],
+)
+def test_built_in_scenes_are_the_model_their_docs_name(scene: str, preset: str) -> None:
+    # the Fig. 1B scenes are the experiment model, paper_simulation the paper's minimal one:
+    # applying the preset changes nothing else
+    plain = load_scene(scene)
+    with_preset = load_scene(scene, {"physics": preset})
+    assert with_preset.effects == plain.effects
+    assert with_preset.drag == plain.drag

@@ -698,6 +698,16 @@ def _reproduce() -> dict[str, Any]:
 
 
 def _reproduce_source(*names: str) -> str:
+    """Provenance of files of benchmarks/results/reproduce: reproduce.meta.json's, or its
+    ``files`` entry where one file was rewritten alone (``bathprint reproduce NAME``)."""
+    meta = json.loads((REPRODUCE / "reproduce.meta.json").read_text())
+    alone = meta.get("files", {})
+    if len(names) == 1 and names[0] in alone:
+        m = {**meta, **alone[names[0]]}
+        return (
+            f"*Source: `benchmarks/results/reproduce/{names[0]}`, written by `{m['command']}` "
+            f"on {m['date']} (commit {m['commit']}); machine: {m['machine']}.*"
+        )
     return provenance(REPRODUCE / "reproduce.json").replace(
         "`benchmarks/results/reproduce/reproduce.json`",
         ", ".join(f"`benchmarks/results/reproduce/{n}`" for n in names or ("reproduce.json",)),
@@ -914,6 +924,107 @@ def headline() -> str:
     )
 
 
+def contact_scaling() -> str:
+    path = RESULTS / "contact_scaling.csv"
+    rows = [
+        [
+            "apart (1.5 δ)" if float(r["pitch_over_contact_distance"]) > 1 else "pressed (0.98 δ)",
+            r["nodes"],
+            _g(r["us_per_step_none"]),
+            _g(r["us_per_step_contact"]),
+            f"{_g(r['ratio'], 3)}×",
+            _g(r["ns_per_node_step_contact"]),
+            _g(r["newton_per_step_contact"], 2),
+            _g(r["krylov_per_newton"], 2),
+            _g(r["near_per_segment"], 2),
+        ]
+        for r in _csv(path)
+    ]
+    head = [
+        "turns",
+        "nodes",
+        "µs/step without",
+        "µs/step with",
+        "ratio",
+        "ns per node-step with",
+        "Newton per step",
+        "Krylov per Newton",
+        "near pairs per segment",
+    ]
+    return _table(head, rows) + "\n\n" + provenance(path)
+
+
+def contact_scenes() -> str:
+    path = RESULTS / "contact_scenes.csv"
+    rows = [
+        [
+            f"`{r['scene']}`",
+            _g(r["duration_s"]),
+            _g(r["wall_s_none"]),
+            _g(r["wall_s_contact"]),
+            f"{_g(r['ratio'], 3)}×",
+            _g(r["krylov_per_newton"], 2),
+            _g(r["min_gap_none"], 2),
+            _g(r["min_gap_contact"], 3),
+        ]
+        for r in _csv(path)
+    ]
+    head = [
+        "scene",
+        "simulated (s)",
+        "wall without (s)",
+        "wall with (s)",
+        "ratio",
+        "Krylov per Newton",
+        "smallest gap / δ without",
+        "with",
+    ]
+    return _table(head, rows) + "\n\n" + provenance(path)
+
+
+ABLATION = RESULTS / "ablation"
+
+
+def ablation() -> str:
+    """The summary tables of the ablation study, as the study wrote them (ablation.md, up to
+    its list of every run), with their headings as bold lines."""
+    path = ABLATION / "ablation.md"
+    if not path.is_file():
+        raise RenderError(f"{_rel(path)} does not exist (run bathprint reproduce ablation)")
+    text = path.read_text(encoding="utf-8")
+    start = text.index("## Relative change")
+    end = text.index("## Every run")
+    lines = []
+    for line in text[start:end].strip().splitlines():
+        lines.append(f"**{line[3:].strip()}**" if line.startswith("## ") else line)
+    return "\n".join(lines) + "\n\n" + provenance(ABLATION / "ablation.csv")
+
+
+GRAVITY = RESULTS / "gravity"
+
+
+def gravity() -> str:
+    """The gravity study's fits (reproduce.json of ``bathprint reproduce gravity``)."""
+    path = GRAVITY / "reproduce.json"
+    if not path.is_file():
+        raise RenderError(f"{_rel(path)} does not exist (run bathprint reproduce gravity)")
+    fits = json.loads(path.read_text())["gravity"]["result"]["fits"]
+    labels = {"buckled_length_m": "buckled length l", "coil_radius_m": "coil radius R"}
+    rows = []
+    for quantity, by_scale in fits.items():
+        u, d = by_scale["universal_scale_m"], by_scale["drag_scale_m"]
+        rows.append(
+            [
+                labels.get(quantity, quantity),
+                f"{_g(u['slope'])}, {_g(u['log_rms'], 2)}",
+                f"{_g(d['slope'])}, {_g(d['log_rms'], 2)}",
+                str(u["points"]),
+            ]
+        )
+    head = ["quantity", "universal scale: slope, log-RMS", "drag scale: slope, log-RMS", "runs"]
+    return _table(head, rows) + "\n\n" + provenance(GRAVITY / "gravity.csv")
+
+
 TABLES: dict[str, Callable[[], str]] = {
     "scene-keys": scene_keys,
     "builtin-scenes": builtin_scenes,
@@ -937,6 +1048,10 @@ TABLES: dict[str, Callable[[], str]] = {
     "paper-constants": paper_constants,
     "fig1c-regimes": fig1c_regimes,
     "fig3-settling": fig3_settling,
+    "contact-scaling": contact_scaling,
+    "contact-scenes": contact_scenes,
+    "ablation": ablation,
+    "gravity": gravity,
 }
 
 

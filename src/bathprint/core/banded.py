@@ -85,3 +85,15 @@ def band_matvec(band: np.ndarray, n: int, kl: int, ku: int, x: np.ndarray, y: np
         for j in range(max(0, i - kl), min(n, i + ku + 1)):
             s += band[i, j - i + kl] * x[j]
         y[i] = s
+
+
+@njit(cache=True)
+def add_blocks_matvec(cpl, x: np.ndarray, y: np.ndarray) -> None:
+    """y += B x for the off-band 3x3 blocks ``cpl`` (:class:`bathprint.core.records.
+    Couplings`: block k at node block (row[k], col[k]))."""
+    for k in range(min(cpl.count[0], cpl.row.shape[0])):
+        r = 3 * cpl.row[k]
+        c = 3 * cpl.col[k]
+        blk = cpl.block[k]
+        for a in range(3):
+            y[r + a] += blk[a, 0] * x[c] + blk[a, 1] * x[c + 1] + blk[a, 2] * x[c + 2]

@@ -198,11 +198,18 @@ def set_boundary(model, rod, t: float, scratch) -> None:
     tip = rod.n_nodes - 2
     ghost = rod.n_nodes - 1
     dl = prm.node_spacing
+    # with inertia the tip and the ghost carry the material's velocity: the needle's plus
+    # the exit speed (Q_o + Q_i)/A along d, so that nodes born at the inlet leave with the
+    # jet's momentum (at rest, every birth would brake the rod by rho A v^2)
+    u = 0.0
+    if prm.inertial:
+        qo, qi = flow_rate(model.flow, t)
+        u = (qo + qi) / prm.needle_area
     for a in range(3):
         pos[3 * tip + a] = p[a]
         pos[3 * ghost + a] = p[a] - dl * d[a]
-        vel[3 * tip + a] = v[a]
-        vel[3 * ghost + a] = v[a]
+        vel[3 * tip + a] = v[a] + u * d[a]
+        vel[3 * ghost + a] = v[a] + u * d[a]
     s_tip = extruded_length(model.flow, model.flow_cum, prm.needle_area, t)
     node_s[tip] = s_tip
     seg_rest[tip - 1] = s_tip - node_s[tip - 1]

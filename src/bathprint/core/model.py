@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 
@@ -38,10 +39,18 @@ class Model:
     flow_cum: np.ndarray  # (K, 2): extruded length S (m) and inner volume (m^3) at each knot
     needle: np.ndarray  # (M, 7): t_s, position (m), direction
 
-    @property
+    @cached_property
     def p(self) -> np.record:
-        """The parameters by name, as a writable view (``model.p.fixed_step = 1e-3``)."""
+        """The parameters by name, as a writable view (``model.p.fixed_step = 1e-3``); made
+        once (a recarray view costs microseconds, and environments read it every step)."""
         return self.params.view(np.recarray)[0]
+
+    def __getstate__(self) -> dict:
+        """Pickled and copied without the cached view :attr:`p` (a copy of it would no
+        longer write into ``params``)."""
+        state = self.__dict__.copy()
+        state.pop("p", None)
+        return state
 
     @property
     def record(self) -> records.Model:

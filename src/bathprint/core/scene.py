@@ -40,6 +40,35 @@ ACCURACY_PRESETS: dict[str, tuple[float, float, float]] = {
 }
 
 
+# physics presets (``Scene.physics``): which of the effects a preset decides are on, and the
+# drag law; a scene's other effects (floor, gelation, inclusions, end load, ...) stay as
+# listed. "custom" applies nothing. docs/reproduction.md says why each contains what it does.
+PRESET_EFFECTS = ("inertia", "contact", "hydrodynamics")  # the effects a preset decides
+PHYSICS_PRESETS: dict[str, dict[str, Any]] = {
+    # the paper's minimal model: elasticity, local slender-body (Cox) drag, gravity
+    "minimal": {"effects": (), "drag.model": "cox"},
+    # what reproduces the experiments best with no parameter fitted to them (the ablation
+    # study): self-contact between turns on the local Stokes drag
+    "experiment": {"effects": ("contact",), "drag.model": "cox"},
+}
+
+
+def apply_physics_preset(data: dict[str, Any]) -> dict[str, Any]:
+    """``data`` (a raw scene dict, not modified) with its ``physics`` preset applied: the
+    effects of :data:`PRESET_EFFECTS` the preset lists replace those the scene lists, and
+    the preset's keys are set. Idempotent, so a scene written out reads back the same."""
+    name = data.get("physics", "custom")
+    if name == "custom" or not isinstance(name, str) or name not in PHYSICS_PRESETS:
+        return data  # (an unknown name is refused by the field's choices)
+    preset = PHYSICS_PRESETS[name]
+    out = apply_overrides(data, {k: v for k, v in preset.items() if k != "effects"})
+    listed = out.get("effects", ["elasticity", "drag", "gravity"])
+    if isinstance(listed, list):
+        kept = [e for e in listed if e not in PRESET_EFFECTS]
+        out["effects"] = kept + [e for e in PRESET_EFFECTS if e in preset["effects"]]
+    return out
+
+
 def _num(default: float, lo: float, hi: float, *, lo_open: bool = False, doc: str = "") -> Any:
     """A float field with its allowed range [lo, hi] (or (lo, hi] when lo_open)."""
     return field(default=default, metadata={"range": (lo, hi), "lo_open": lo_open, "doc": doc})
@@ -359,6 +388,13 @@ class Scene:
     description: str = ""
     duration_s: float = _num(2.0, 0.0, 1e6, lo_open=True, doc="simulated time")
     seed: int = field(default=0, metadata={"range": (0, 2**31 - 1)})
+    physics: str = field(
+        default="custom",
+        metadata={
+            "choices": ("custom", *PHYSICS_PRESETS),
+            "doc": "a preset decides inertia, contact, hydrodynamics and the drag law",
+        },
+    )
     effects: list = field(
         default_factory=lambda: ["elasticity", "drag", "gravity"],
         metadata={"effects": True, "doc": "what is simulated; nothing else is computed"},
@@ -706,7 +742,7 @@ def _check_path(rows: list) -> None:
 
 def scene_from_dict(data: dict[str, Any]) -> Scene:
     """Build and validate a scene from a nested dict (as read from TOML)."""
-    scene = _build(Scene, data, "")
+    scene = _build(Scene, apply_physics_preset(data), "")
     _check_tables(scene)
     return scene
 
@@ -798,7 +834,28 @@ def load_scene(
             f"scene = {name_or_path!r}; allowed: a built-in scene name, a TOML path, a dict "
             "or a Scene"
         )
-    return scene_from_dict(apply_overrides(data, overrides))
+    merged = apply_overrides(data, overrides)
+    _check_effects_against_preset(merged, overrides)
+    return scene_from_dict(merged)
+
+
+def _check_effects_against_preset(data: dict[str, Any], overrides: dict[str, Any] | None) -> None:
+    """Refuse overridden ``effects`` that the scene's physics preset would change: a preset
+    decides inertia, contact and hydrodynamics, and silently dropping or adding one of them
+    to a list given explicitly would run another model than the one asked for. (Overriding
+    ``physics`` too applies the preset to the list on purpose.)"""
+    name = data.get("physics", "custom")
+    listed = (overrides or {}).get("effects")
+    if name not in PHYSICS_PRESETS or not isinstance(listed, list) or "physics" in overrides:
+        return
+    chosen = sorted(e for e in listed if e in PRESET_EFFECTS)
+    wanted = sorted(PHYSICS_PRESETS[name]["effects"])
+    if chosen != wanted:
+        raise SceneError(
+            f"effects = {listed!r} lists {chosen or 'none'} of {', '.join(PRESET_EFFECTS)}, "
+            f"which physics = {name!r} decides (it has: {wanted or 'none'}); allowed: the "
+            "preset's choice, or physics = 'custom' to choose them yourself"
+        )
 
 
 def scene_to_toml(scene: Scene) -> str:

@@ -94,6 +94,10 @@ class Simulation:
         self.istate[:] = (n_nodes, 0, 0)
         h0 = sc.numerics.time_step_s or min(sc.numerics.max_step_s, 1e-4)
         self.fstate[:] = (0.0, h0)
+        if m.p.inertial:  # the stub leaves the needle with the jet: at the exit speed along d
+            u = (qo + qi) / m.needle_area
+            vel = self.vel.reshape(-1, 3)
+            vel[: n_seg + 1] = v + u * d
         set_boundary(m.record, self._rod(), 0.0, self.ws.scratch)
         if not m.p.inertial:
             self._consistent_velocity()
@@ -231,7 +235,7 @@ class Simulation:
     @property
     def clamped(self) -> bool:
         """True while the filament hangs from the needle; False once released."""
-        return bool(self.model.p.clamped)
+        return bool(self.model.params[0]["clamped"])
 
     @property
     def n_segments(self) -> int:

@@ -29,7 +29,7 @@ import math
 import numpy as np
 from numba import njit
 
-from bathprint.core.banded import band_lu, band_matvec, band_solve
+from bathprint.core.banded import add_blocks_matvec, band_lu, band_matvec, band_solve
 from bathprint.core.effects.hydrodynamics import apply_nonlocal
 from bathprint.core.layout import C_KRYLOV_FAILURES, C_KRYLOV_ITERATIONS, KL, KU
 
@@ -77,13 +77,7 @@ def matvec(ws, nd: int, x: np.ndarray, y: np.ndarray) -> None:
     the nonlocal part of hydrodynamics, :func:`bathprint.core.effects.hydrodynamics.
     apply_nonlocal`)."""
     band_matvec(ws.krylov.band_a, nd, KL, KU, x, y)
-    cpl = ws.cpl
-    for k in range(min(cpl.count[0], cpl.row.shape[0])):
-        r = 3 * cpl.row[k]
-        c = 3 * cpl.col[k]
-        blk = cpl.block[k]
-        for a in range(3):
-            y[r + a] += blk[a, 0] * x[c] + blk[a, 1] * x[c + 1] + blk[a, 2] * x[c + 2]
+    add_blocks_matvec(ws.cpl, x, y)
     if ws.hydro.memory[0].linearized:  # the nonlocal flow's part, matrix-free
         apply_nonlocal(ws, nd, x, y)
 

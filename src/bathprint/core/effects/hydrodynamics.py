@@ -55,7 +55,7 @@ import math
 import numpy as np
 from numba import njit, objmode
 
-from bathprint.core.banded import band_matvec
+from bathprint.core.banded import add_blocks_matvec, band_matvec
 from bathprint.core.effects._drag_laws import law
 from bathprint.core.effects._stokeslet import (
     fmm_flow,
@@ -291,13 +291,7 @@ def apply_nonlocal(ws, nd: int, x: np.ndarray, y: np.ndarray) -> None:
     z = hyd.work[0]
     u = hyd.work[1]
     band_matvec(hyd.band_other, nd, KL, KU, x, z)
-    cpl = ws.cpl
-    for k in range(min(cpl.count[0], cpl.row.shape[0])):
-        r = 3 * cpl.row[k]
-        c = 3 * cpl.col[k]
-        blk = cpl.block[k]
-        for a in range(3):
-            z[r + a] += blk[a, 0] * x[c] + blk[a, 1] * x[c + 1] + blk[a, 2] * x[c + 2]
+    add_blocks_matvec(ws.cpl, x, z)
     f_node = hyd.f_node  # (scratch here: the sources are recomputed at every evaluation)
     for i in range(n_free):
         for a in range(3):

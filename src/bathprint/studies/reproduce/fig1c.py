@@ -1,7 +1,9 @@
 """Fig. 1C of the paper: the regime phase diagram over flow rate and needle diameter.
 
-Each point is a simulated run (the floor 30 mm below the needle, so rope coiling can
-occur) classified by :func:`bathprint.analysis.measure.classify_regime`; the paper's four example
+Each point is a simulated run of the experiment model (``physics = "experiment"``: with
+self-contact between turns; the floor 30 mm below the needle, so rope coiling can occur)
+over the paper's range of flow rates (0.1-20 ml/min) and needle diameters (0.09-1.9 mm),
+classified by :func:`bathprint.analysis.measure.classify_regime`; the paper's four example
 points of Fig. 1B are marked with the regime the paper reports there.
 """
 
@@ -30,6 +32,7 @@ COLORS = {
     None: "black",
 }
 HEIGHT_MM = 30.0
+PHYSICS = "experiment"  # the preset the map is drawn with
 
 
 def run(
@@ -44,8 +47,8 @@ def run(
     if quick:
         points = [(0.84, 0.5), (0.41, 0.5)]
     else:
-        diameters = [0.21, 0.41, 0.84, 1.6]
-        flows = [0.2, 0.5, 2.0, 5.0, 20.0]
+        diameters = [0.09, 0.21, 0.41, 0.84, 1.9]
+        flows = [0.1, 0.5, 2.0, 5.0, 20.0]
         points = sorted(
             {(d, q) for d in diameters for q in flows} | {(d, q) for d, q, _ in PAPER_POINTS}
         )
@@ -58,6 +61,7 @@ def run(
         turns=4.0 if quick else 6.0,
         max_duration_s=1.5 if quick else 6.0,
         max_segments=600.0 if quick else 1500.0,
+        physics=PHYSICS,
     )
     table = []
     for row in rows:
@@ -76,7 +80,7 @@ def run(
         w = csv.DictWriter(f, fieldnames=list(table[0]))
         w.writeheader()
         w.writerows(table)
-    fig, ax = plt.subplots(figsize=(7, 5))
+    fig, ax = plt.subplots(figsize=(8.5, 5))
     for r in table:
         ax.scatter(
             r["q_outer_ml_min"],
@@ -89,8 +93,8 @@ def run(
     for d, q, regime in PAPER_POINTS:
         ax.scatter(q, d, s=320, facecolor="none", edgecolor=COLORS[regime], lw=2.5, zorder=2)
     for name, color in COLORS.items():
-        if name:
-            ax.scatter([], [], color=color, edgecolor="k", label=name.replace("_", " "))
+        label = name.replace("_", " ") if name else "failed (error in fig1c.csv)"
+        ax.scatter([], [], color=color, edgecolor="k", label=label)
     ax.scatter([], [], facecolor="none", edgecolor="k", s=200, lw=2, label="paper's Fig. 1B point")
     ax.set_xscale("log")
     ax.set_yscale("log")
@@ -98,8 +102,8 @@ def run(
     ax.set_ylim(0.08, 2.2)
     ax.set_xlabel("Q_o (ml/min)")
     ax.set_ylabel("needle inner diameter d (mm)")
-    ax.set_title("Fig. 1C: simulated regimes (filled) vs the paper's examples (rings)")
-    ax.legend(fontsize=7, loc="lower right")
+    ax.set_title(f"Fig. 1C, {PHYSICS} model: simulated (filled), paper's examples (rings)")
+    ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0))
     fig.tight_layout()
     fig.savefig(out / "fig1c.png", dpi=110)
     plt.close(fig)

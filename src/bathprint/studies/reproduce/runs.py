@@ -30,8 +30,10 @@ def run_overrides(
     turns: float = 6.0,
     max_duration_s: float = 4.0,
     max_segments: float = 600.0,
+    physics: str = "custom",
 ) -> dict[str, Any]:
-    """Scene overrides for one (d, Q) point of the phase diagram."""
+    """Scene overrides for one (d, Q) point of the phase diagram; ``physics`` a preset of
+    :data:`bathprint.core.scene.PHYSICS_PRESETS` (or "custom": the effects below only)."""
     d = diameter_mm * 1e-3
     r = d / 2
     v = theory.exit_speed(q_ml_min * 1e-6 / 60, d)
@@ -44,6 +46,11 @@ def run_overrides(
     # at most ``max_segments`` segments of filament: fast, thin jets are cut short rather
     # than letting one point of a phase diagram cost minutes
     duration = min(startup + turns * period, max_duration_s, max_segments * spacing / v)
+    # frames 12 per coiling period (60 per run at most), to the microsecond; the fastest jets
+    # of the phase diagram (v ~ 50 m/s) turn faster than that: the scene's smallest interval
+    frame_interval = round(min(duration / 60.0, period / 12.0), 6)
+    if frame_interval <= 1e-6:
+        frame_interval = 2e-6
     over: dict[str, Any] = {
         # the gel sets as in the experiments (coils stay regular instead of unravelling);
         # at the buckling point it is still at E_THEORY, the modulus the scalings use
@@ -57,12 +64,14 @@ def run_overrides(
         "numerics.node_spacing_mm": round(spacing * 1e3, 6),
         "numerics.tolerance": 3e-3,
         "duration_s": round(duration, 4),
-        "outputs.frame_interval_s": round(min(duration / 60.0, period / 12.0), 6),
+        "outputs.frame_interval_s": frame_interval,
         "outputs.plot": False,
     }
     if height_mm is not None:
         over["effects"] = ["elasticity", "drag", "gravity", "floor", "gelation"]
         over["needle.position_mm"] = [0.0, 0.0, -125.0 + height_mm]
+    if physics != "custom":
+        over["physics"] = physics
     return over
 
 
@@ -76,9 +85,13 @@ def run_grid(
     turns: float = 6.0,
     max_duration_s: float = 4.0,
     max_segments: float = 600.0,
+    physics: str = "custom",
 ) -> list[dict]:
     """Run (d_mm, Q_ml_min) points on the drag-coiling scene; return one row per point."""
-    grid = [run_overrides(d, q, height_mm, turns, max_duration_s, max_segments) for d, q in points]
+    grid = [
+        run_overrides(d, q, height_mm, turns, max_duration_s, max_segments, physics)
+        for d, q in points
+    ]
     run_sweep(
         "drag_coiling_22G", grid, results, workers=workers, scheduler=scheduler, progress=progress
     )
