@@ -301,3 +301,28 @@ def test_the_search_scores_on_validation_and_continues_where_it_stopped(tmp_path
         assert best["target_set"] == "validation"
     values = [float(r.split(",")[1]) for r in rows[1:]]
     assert second["best_value"] == pytest.approx(min(values), rel=1e-12)
+
+
+# ------------------------------------------------------------------------ CLI
+
+
+@pytest.mark.parametrize(
+    "argv, needle",
+    [
+        (["--algo", "ppo", "--env", "CoilRadius-v1", "--seeds", "4-0"], "seeds"),
+        (["--algo", "ppo", "--env", "CoilRadius-v1", "--seeds", "0-1", "--seed", "3"], "--seed"),
+        (["--campaign", "missing.yml"], "missing.yml"),
+        (["--campaign", "agents/campaigns/CoilRadius-v1.yml", "--algo", "ppo"], "--algo"),
+        (["--algo", "ppo", "--env", "CoilRadius-v1", "--seeds", "0", "--workers", "0"],
+         "--workers"),
+        (["--env", "CoilRadius-v1"], "--algo"),
+    ],
+)
+def test_many_runs_refusals_are_one_line(argv, needle, capsys, monkeypatch):
+    from bathprint.cli import main as cli_main
+
+    monkeypatch.chdir(ROOT)
+    assert cli_main(["train", *argv, "--out", "/nonexistent/never-written"]) == 2
+    err = capsys.readouterr().err
+    assert len(err.strip().splitlines()) == 1 and needle in err and "Traceback" not in err, err
+    assert not Path("/nonexistent/never-written").exists()
