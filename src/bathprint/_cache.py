@@ -8,6 +8,7 @@ so an edited or upgraded install never runs stale kernels.
 
 from __future__ import annotations
 
+import functools
 import hashlib
 from pathlib import Path
 
@@ -15,10 +16,12 @@ _PACKAGE = Path(__file__).resolve().parent
 _STAMP = _PACKAGE / "__pycache__" / "kernel_sources.sha1"
 
 
+@functools.cache
 def _sources_hash() -> str:
     """Hash of the kernel sources: modules with numba functions, and the index layout
     and the records (their constants and types are compiled into the kernels). Other
-    modules do not invalidate."""
+    modules do not invalidate. Computed once per process (it reads every source file, and
+    the environments' target caches key on it at every reset)."""
     h = hashlib.sha1()
     for path in sorted(_PACKAGE.rglob("*.py")):
         text = path.read_bytes()

@@ -42,14 +42,21 @@ from bathprint.core.layout import (
 
 @njit(cache=True)
 def _interval(table: np.ndarray, t: float) -> int:
-    """Index k of the knot interval [t_k, t_k+1) holding t (-1 before the first knot)."""
+    """Index k of the knot interval [t_k, t_k+1) holding t (-1 before the first knot): the
+    smallest k with t < t_k+1, or the last knot's index; by bisection, since environments
+    append a knot per action and query the table several times per step."""
     n = table.shape[0]
     if t < table[0, 0]:
         return -1
-    for k in range(n - 1):
-        if t < table[k + 1, 0]:
-            return k
-    return n - 1
+    lo = 0
+    hi = n - 1  # (n - 1: no knot after t)
+    while lo < hi:
+        mid = (lo + hi) // 2
+        if t < table[mid + 1, 0]:
+            hi = mid
+        else:
+            lo = mid + 1
+    return lo
 
 
 @njit(cache=True)
