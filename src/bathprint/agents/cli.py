@@ -2,6 +2,8 @@
 
 bathprint train --algo ppo --env bathprint/WriteShape-v0 [--timesteps N] [--n-envs K]
                 [--seed S] [--out DIR] [--resume]
+bathprint train --algo ppo --env ENV --seeds 0-4 [--workers K | --scheduler ADDR]
+bathprint train --campaign agents/campaigns/CoilRadius-v1.yml [--workers K | --scheduler ADDR]
 bathprint evaluate RUN_DIR_OR_POLICY [...] --env ENV [--episodes N] [--seed S] [--out DIR]
 bathprint baselines fit --env ENV [--targets N] [--write]
 
@@ -25,8 +27,8 @@ def _train_parser() -> argparse.ArgumentParser:
     ap = argparse.ArgumentParser(
         prog="bathprint train", description="Train a Stable-Baselines3 agent on an environment."
     )
-    ap.add_argument("--algo", required=True, choices=ALGOS)
-    ap.add_argument("--env", required=True, help="environment id or short name")
+    ap.add_argument("--algo", choices=ALGOS, help="algorithm (required without --campaign)")
+    ap.add_argument("--env", help="environment id or short name (required without --campaign)")
     ap.add_argument("--timesteps", type=int, default=None, help="total environment steps")
     ap.add_argument("--n-envs", type=int, default=None, help="parallel environments")
     ap.add_argument("--seed", type=int, default=None, help="seed (default 0; a resume: the run's)")
@@ -38,12 +40,72 @@ def _train_parser() -> argparse.ArgumentParser:
         help="YAML file of settings (default agents/ALGO.yml), e.g. agents/ppo_residual.yml",
     )
     ap.add_argument("--quiet", action="store_true", help="no progress bar")
+    ap.add_argument(
+        "--seeds",
+        default=None,
+        help="several runs, e.g. 0-4: OUT/<Env>/ALGO/seedS, each scored on the test targets, "
+        "and OUT/<Env>/results.md (rerun to resume)",
+    )
+    ap.add_argument(
+        "--campaign", default=None, help="a campaign file of (env, algo, seeds) runs (YAML)"
+    )
+    ap.add_argument("--workers", type=int, default=1, help="--seeds/--campaign: processes")
+    ap.add_argument(
+        "--scheduler",
+        default=None,
+        help="--seeds/--campaign: 'serial', 'local-dask' or a Dask address tcp://host:8786",
+    )
     return ap
+
+
+def _many(args: argparse.Namespace) -> int:
+    """``--seeds`` and ``--campaign``: see :mod:`bathprint.agents.campaign`."""
+    from bathprint.agents import campaign as cmp
+
+    if args.workers < 1:
+        print(f"bathprint train: --workers = {args.workers}; must be >= 1", file=sys.stderr)
+        return 2
+    try:
+        if args.campaign is not None:
+            for name in ("algo", "env", "seeds", "seed", "timesteps", "n_envs", "hyperparams"):
+                if getattr(args, name) is not None:
+                    raise ValueError(
+                        f"--{name.replace('_', '-')} = {getattr(args, name)!r}; with --campaign "
+                        "the campaign file sets it"
+                    )
+            camp = cmp.load_campaign(args.campaign, args.out)
+        else:
+            if args.seed is not None or args.resume:
+                raise ValueError("--seeds: leave out --seed and --resume (a rerun resumes)")
+            camp = cmp.seeds_campaign(args.algo, args.env, args.seeds, args.out,
+                                      args.hyperparams, args.timesteps, args.n_envs)
+        with SignalStop(deferred=False):
+            written = cmp.run_campaign(camp, args.workers, args.scheduler, not args.quiet)
+    except KeyboardInterrupt as exc:
+        print(_interrupted("train", exc, "rerun the command to resume"), file=sys.stderr)
+        return exit_code(exc)
+    except (ValueError, FileNotFoundError) as exc:
+        print(f"bathprint train: {exc}", file=sys.stderr)
+        return 2
+    except RuntimeError as exc:
+        print(f"bathprint train: {exc}", file=sys.stderr)
+        return 1
+    for path in written.values():
+        print(path.read_text(), end="")
+        print(f"wrote {path.parent}/ (results.md, results.json, runs.csv, scores.csv, curves.png)")
+    return 0
 
 
 def train_main(argv: Sequence[str] | None = None) -> int:
     args = _train_parser().parse_args(argv)
     from bathprint.agents.train import train
+
+    if args.seeds is not None or args.campaign is not None:
+        return _many(args)
+    for name in ("algo", "env"):
+        if getattr(args, name) is None:
+            print(f"bathprint train: --{name} is required (or --campaign FILE)", file=sys.stderr)
+            return 2
 
     for name in ("timesteps", "n_envs"):
         value = getattr(args, name)

@@ -36,6 +36,7 @@ from typing import Any
 import numpy as np
 from tqdm import tqdm
 
+from bathprint.agents.hyperparams import split_hyperparams
 from bathprint.agents.rollout import METRIC_KEYS, Episode, run_episode
 from bathprint.agents.train import read_run_info, trained_files
 from bathprint.errors import ConfigError
@@ -65,7 +66,7 @@ def _run_settings(
         if not isinstance(env_kwargs, dict):
             raise ConfigError(f"{run_json}: env_kwargs = {env_kwargs!r}; expected a mapping")
         kwargs.update(env_kwargs)
-        wrapper = hp.get("wrapper")
+        wrapper = split_hyperparams(hp)[0].get("wrapper")  # env_wrapper or wrapper
     if accuracy is not None:
         kwargs["accuracy"] = accuracy
     kwargs.setdefault("accuracy", "draft")

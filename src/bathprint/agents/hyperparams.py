@@ -1,19 +1,33 @@
-"""Hyperparameter and baseline files of the agents (YAML, in the manner of rl-zoo3).
+"""Hyperparameter and baseline files of the agents (YAML, loadable by rl-zoo3).
 
-``agents/<algo>.yml`` maps an environment id to the settings of that algorithm on it::
+``agents/<algo>.yml`` maps an environment id to the settings of that algorithm on it, in
+rl-zoo3's layout (``python -m rl_zoo3.train --algo ppo --env ENV --gym-packages bathprint
+-conf agents/ppo.yml`` reads the same file unchanged)::
 
-    bathprint/CoilRadius-v0:
+    bathprint/CoilRadius-v1:
       n_timesteps: 300000      # default --timesteps
       n_envs: 2                # default --n-envs
       policy: MlpPolicy
       env_kwargs: {accuracy: draft}
       normalize: {norm_obs: false, norm_reward: true}   # VecNormalize, or false
-      eval_freq: 10000         # environment steps between held-out evaluations
-      eval_episodes: 16
-      checkpoint_freq: 10000   # environment steps between checkpoints
-      wrapper: {name: feedforward_residual, scale: 0.5}   # optional, see agents.wrappers
+      env_wrapper:             # optional: rl-zoo3's form, see bathprint.agents.wrappers
+        - bathprint.agents.wrappers.FeedforwardResidual: {scale: 0.5, calibrated: true}
       learning_rate: 0.0003    # ... every other key goes to the algorithm's constructor
       policy_kwargs: {net_arch: [64, 64]}
+
+    bathprint:                 # bathprint's own keys (rl-zoo3 reads only the entry of the
+      default:                 # environment it trains, so it never sees them)
+        eval_freq: 10000       # environment steps between validation evaluations
+        eval_episodes: 16
+        checkpoint_freq: 10000 # environment steps between checkpoints
+        torch_threads: 1
+        time_budget_s: 600     # wall-time cap of a run (training stops there, "done")
+      bathprint/CoilRadius-v1: {eval_freq: 20000}   # per environment, over the default
+
+:func:`load_hyperparams` merges the environment's entry with the ``bathprint`` section
+(``default``, then the environment's own); a flat entry holding bathprint's keys itself
+(older files) is read too. ``wrapper: {name: feedforward_residual, ...}`` is the older
+spelling of ``env_wrapper``.
 
 ``agents/baselines.yml`` holds what ``bathprint baselines fit`` found per environment: the
 best constant action and the calibrated prefactor of the scaling law.
@@ -43,20 +57,29 @@ import yaml
 from bathprint._resources import shared_dir
 from bathprint.errors import ConfigError
 
-ALGOS = ("ppo", "sac")
-#: keys read by bathprint itself; everything else is passed to the SB3 algorithm
-RUN_KEYS = (
-    "n_timesteps",
-    "n_envs",
-    "policy",
-    "env_kwargs",
-    "normalize",
+ALGOS = ("ppo", "sac", "tqc")
+#: off-policy algorithms (a replay buffer travels with their checkpoints)
+OFF_POLICY = ("sac", "tqc")
+#: the section of a hyperparameter file that holds bathprint's own keys
+BATHPRINT_SECTION = "bathprint"
+#: keys bathprint reads that rl-zoo3 reads too (the environment's entry)
+ZOO_RUN_KEYS = ("n_timesteps", "n_envs", "policy", "env_kwargs", "normalize", "env_wrapper")
+#: keys only bathprint reads (the ``bathprint`` section)
+OWN_KEYS = (
     "eval_freq",
     "eval_episodes",
     "checkpoint_freq",
     "torch_threads",
+    "time_budget_s",
+    "vec_env",
     "wrapper",
 )
+#: vector environments (``vec_env``): one process stepping them in turn, or one each
+VEC_ENVS = ("dummy", "subproc")
+#: keys read by bathprint itself; everything else is passed to the SB3 algorithm
+RUN_KEYS = ZOO_RUN_KEYS + OWN_KEYS
+#: replay buffer classes a file may name (rl-zoo3 evaluates the string)
+REPLAY_BUFFERS = ("HerReplayBuffer", "ReplayBuffer", "DictReplayBuffer")
 #: the algorithm's arguments bathprint sets itself (not allowed in a file)
 RESERVED_KEYS = ("env", "seed", "device", "tensorboard_log", "verbose", "_init_setup_model")
 #: environment arguments bathprint sets itself: training uses the training targets, the
@@ -72,6 +95,7 @@ _POSITIVE_INT = (
     "eval_episodes",
     "checkpoint_freq",
     "torch_threads",
+    "time_budget_s",
 )
 # (low, low inclusive, high, high inclusive) of numbers the algorithms take
 _RANGES: dict[str, tuple[float | None, bool, float | None, bool]] = {
@@ -158,22 +182,51 @@ def load_hyperparams(algo: str, env_id: str, path: str | Path | None = None) -> 
     path = Path(path) if path is not None else agents_dir() / f"{algo}.yml"
     data = _read_yaml(path)
     if env_id not in data:
+        entries = [str(k) for k in data if k != BATHPRINT_SECTION]
         raise ConfigError(
-            f"{path.name} has no entry for {env_id!r}; entries: "
-            + ", ".join(sorted(map(str, data)))
+            f"{path.name} has no entry for {env_id!r}; entries: " + ", ".join(sorted(entries))
         )
     entry = data[env_id]
     if not isinstance(entry, dict):
         raise ConfigError(
             f"{path}: the entry of {env_id} is {entry!r}; expected a mapping of settings"
         )
-    return copy.deepcopy(entry)
+    out = copy.deepcopy(entry)
+    section = data.get(BATHPRINT_SECTION, {})
+    if not isinstance(section, dict):
+        raise ConfigError(
+            f"{path}: {BATHPRINT_SECTION} = {section!r}; expected a mapping of 'default' and "
+            "environment ids to bathprint's own keys"
+        )
+    own: dict[str, Any] = {}
+    for key in ("default", env_id):
+        part = section.get(key, {})
+        if not isinstance(part, dict):
+            raise ConfigError(
+                f"{path}: {BATHPRINT_SECTION}.{key} = {part!r}; expected a mapping of "
+                "bathprint's own keys (" + ", ".join(OWN_KEYS) + ")"
+            )
+        for k in part:
+            if k not in OWN_KEYS:
+                raise _unknown(k, OWN_KEYS, f"{path}: {BATHPRINT_SECTION}.{key}", "key")
+        own.update(copy.deepcopy(part))
+    for k, v in own.items():
+        out.setdefault(k, v)
+    return out
 
 
 def split_hyperparams(hp: dict[str, Any]) -> tuple[dict[str, Any], dict[str, Any]]:
-    """(bathprint's run settings, the algorithm's constructor kwargs)."""
+    """(bathprint's run settings, the algorithm's constructor kwargs). The run settings'
+    ``wrapper`` is the wrapper entry of either spelling (``env_wrapper`` or ``wrapper``;
+    see :func:`bathprint.agents.wrappers.wrapper_spec`)."""
+    from bathprint.agents.wrappers import wrapper_spec
+
     run = {k: hp[k] for k in RUN_KEYS if k in hp}
     algo = {k: v for k, v in hp.items() if k not in RUN_KEYS}
+    spec = wrapper_spec(run.pop("env_wrapper", None)) or run.get("wrapper")
+    run.pop("wrapper", None)
+    if spec:
+        run["wrapper"] = spec
     return run, algo
 
 
@@ -292,10 +345,11 @@ def _parameters(func: Any, drop: tuple[str, ...] = ()) -> dict[str, Any]:
 
 
 def algo_class(algo: str) -> Any:
-    """The Stable-Baselines3 class of ``algo`` (``ppo``, ``sac``)."""
+    """The Stable-Baselines3 class of ``algo`` (``ppo``, ``sac``; ``tqc`` from sb3-contrib)."""
+    from sb3_contrib import TQC
     from stable_baselines3 import PPO, SAC
 
-    classes = {"ppo": PPO, "sac": SAC}
+    classes = {"ppo": PPO, "sac": SAC, "tqc": TQC}
     if algo not in classes:
         raise ConfigError(f"algo = {algo!r}; allowed: {', '.join(classes)}")
     return classes[algo]
@@ -342,12 +396,23 @@ def validate_hyperparams(algo: str, hp: Any, where: str, env_id: str | None = No
             value = hp[key]
             if not (isinstance(value, int) and not isinstance(value, bool) and value >= 1):
                 raise ConfigError(f"{where}: {key} = {value!r}; allowed: an integer >= 1")
+    if "vec_env" in hp and hp["vec_env"] not in VEC_ENVS:
+        raise ConfigError(
+            f"{where}: vec_env = {hp['vec_env']!r}; allowed: " + ", ".join(VEC_ENVS)
+        )
     policy = hp.get("policy", "MlpPolicy")
     if not isinstance(policy, str) or policy not in cls.policy_aliases:
         raise ConfigError(
             f"{where}: policy = {policy!r}; allowed: " + ", ".join(cls.policy_aliases)
         )
     for key, value in hp.items():
+        if key == "replay_buffer_class" and isinstance(value, str):
+            if value not in REPLAY_BUFFERS:
+                raise ConfigError(
+                    f"{where}: replay_buffer_class = {value!r}; allowed: "
+                    + ", ".join(REPLAY_BUFFERS)
+                )
+            continue
         if key in algo_params:
             _check_value(key, value, algo_params[key], where)
     policy_kwargs = hp.get("policy_kwargs") or {}
@@ -391,7 +456,16 @@ def validate_hyperparams(algo: str, hp: Any, where: str, env_id: str | None = No
                 raise _unknown(key, allowed_norm, where, "normalize key")
             _check_value(f"normalize.{key}", value, allowed_norm[key], where)
 
-    wrapper = hp.get("wrapper")
+    from bathprint.agents.wrappers import wrapper_spec
+
+    if "env_wrapper" in hp and "wrapper" in hp:
+        raise ConfigError(
+            f"{where}: env_wrapper and wrapper are two spellings of one setting; give one"
+        )
+    try:
+        wrapper = wrapper_spec(hp.get("env_wrapper")) if "env_wrapper" in hp else hp.get("wrapper")
+    except ValueError as exc:
+        raise ConfigError(f"{where}: {exc}") from None
     if wrapper is not None:
         if not isinstance(wrapper, dict) or wrapper.get("name") not in WRAPPERS:
             raise ConfigError(
@@ -412,6 +486,13 @@ def algo_kwargs_for(algo: str, kwargs: dict[str, Any]) -> dict[str, Any]:
     JSON have) become tuples where it declares a tuple (``train_freq: [1, episode]``)."""
     params = _parameters(algo_class(algo).__init__)
     out = dict(kwargs)
+    if isinstance(out.get("replay_buffer_class"), str):
+        from stable_baselines3 import HerReplayBuffer
+        from stable_baselines3.common.buffers import DictReplayBuffer, ReplayBuffer
+
+        named = {"HerReplayBuffer": HerReplayBuffer, "ReplayBuffer": ReplayBuffer,
+                 "DictReplayBuffer": DictReplayBuffer}
+        out["replay_buffer_class"] = named[out["replay_buffer_class"]]
     for key, value in kwargs.items():
         ann = params.get(key)
         alternatives = (

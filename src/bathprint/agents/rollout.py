@@ -28,6 +28,7 @@ class Episode:
     sim_error: str | None
     mean_q_outer_ml_min: float
     mean_q_inner_ml_min: float
+    is_success: float = float("nan")  # info["is_success"] at the end (NaN: the env has none)
     frames: list[np.ndarray] = field(default_factory=list, repr=False)
     final_frame: np.ndarray | None = field(default=None, repr=False)
 
@@ -102,6 +103,7 @@ def run_episode(
         sim_error=info.get("sim_error"),
         mean_q_outer_ml_min=qo_sum / max(steps, 1),
         mean_q_inner_ml_min=qi_sum / max(steps, 1),
+        is_success=float(info["is_success"]) if "is_success" in info else float("nan"),
         frames=frames,
         final_frame=env.render() if final_frame else None,
     )

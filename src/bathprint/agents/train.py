@@ -44,6 +44,7 @@ import numpy as np
 
 from bathprint.agents.hyperparams import (
     ALGOS,
+    OFF_POLICY,
     agents_dir,
     algo_class,
     algo_kwargs_for,
@@ -78,10 +79,13 @@ def make_vec(
     env_kwargs: dict[str, Any],
     monitor_dir: Path | None = None,
     wrapper: dict[str, Any] | None = None,
+    vec_env: str = "subproc",
 ) -> Any:
     """``n_envs`` copies (a :class:`~bathprint.agents.vecenv.QuietSubprocVecEnv` with
-    forkserver when more than one), Monitor-wrapped and then wrapped by ``wrapper`` (see
-    :mod:`bathprint.agents.wrappers`)."""
+    forkserver when more than one and ``vec_env="subproc"``; a DummyVecEnv stepping them in
+    turn in this process otherwise), Monitor-wrapped and then wrapped by ``wrapper`` (see
+    :mod:`bathprint.agents.wrappers`). Several environments in one process batch the
+    policy's forward pass, which costs about as much as an environment step for one."""
     from stable_baselines3.common.env_util import make_vec_env
     from stable_baselines3.common.vec_env import DummyVecEnv
 
@@ -91,7 +95,7 @@ def make_vec(
 
     if n_envs < 1:
         raise ConfigError(f"n_envs = {n_envs!r}; must be >= 1")
-    sub = n_envs > 1
+    sub = n_envs > 1 and vec_env == "subproc"
     return make_vec_env(
         functools.partial(make, env_id),
         n_envs=n_envs,
@@ -115,6 +119,22 @@ def checkpoints(run_dir: Path) -> list[tuple[int, Path]]:
     return sorted(out)
 
 
+def eval_target_set(env_id: str) -> str:
+    """The target set model selection plays: ``validation`` (version 1), ``eval`` (v0)."""
+    return "validation" if env_id.endswith("-v1") else "eval"
+
+
+def make_eval_env(env_id: str, env_kwargs: dict[str, Any], wrapper: dict[str, Any] | None) -> Any:
+    """The environment of model selection: the validation set (v1; v0's ``eval``), wrapped
+    as training wraps its environments."""
+    from bathprint.agents.wrappers import wrapper_factory
+    from bathprint.envs import make
+
+    env = make(env_id, target_set=eval_target_set(env_id), **env_kwargs)
+    factory = wrapper_factory(wrapper)
+    return factory(env) if factory else env
+
+
 def _make_callbacks(
     run_dir: Path,
     env_id: str,
@@ -125,38 +145,34 @@ def _make_callbacks(
     resumed_at: int,
     algo: str,
     seed: int,
+    base_wall_s: float = 0.0,
+    stop: Any = None,
 ) -> list[Any]:
-    from stable_baselines3.common.callbacks import CheckpointCallback, EvalCallback
-    from stable_baselines3.common.vec_env import VecNormalize
+    from stable_baselines3.common.callbacks import CheckpointCallback
 
-    from bathprint.agents.callbacks import EpisodeLogCallback, ResumableEvalCallback
+    from bathprint.agents.callbacks import EpisodeLogCallback, ValidationCallback
 
-    eval_kwargs = dict(env_kwargs, target_set="eval")
-    eval_env = make_vec(env_id, 1, seed + 10_000, eval_kwargs, wrapper=run.get("wrapper"))
-    if normalize:
-        eval_env = VecNormalize(eval_env, training=False, norm_reward=False, **_obs_norm(normalize))
-    eval_freq = max(1, int(run.get("eval_freq", 10_000)) // n_envs)
     ckpt_freq = max(1, int(run.get("checkpoint_freq", 10_000)) // n_envs)
-    evaluator: EvalCallback = ResumableEvalCallback(
-        eval_env,
-        n_eval_episodes=int(run.get("eval_episodes", 16)),
-        eval_freq=eval_freq,
-        log_path=str(run_dir / "eval"),
-        best_model_save_path=str(run_dir / "eval"),
-        deterministic=True,
-        verbose=0,
+    evaluator = ValidationCallback(
+        make_eval_env(env_id, env_kwargs, run.get("wrapper")),
+        n_episodes=int(run.get("eval_episodes", 16)),
+        eval_freq=int(run.get("eval_freq", 10_000)),
+        log_dir=run_dir / "eval",
+        seed=seed + 10_000,
         resumed_at=resumed_at,
+        base_wall_s=base_wall_s,
+        stop=stop,
     )
     return [
         CheckpointCallback(
             ckpt_freq,
             str(run_dir / "checkpoints"),
             name_prefix="model",
-            save_replay_buffer=algo == "sac",
+            save_replay_buffer=algo in OFF_POLICY,
             save_vecnormalize=bool(normalize),
         ),
         evaluator,
-        EpisodeLogCallback(run_dir / "episodes.csv", resumed_at),
+        EpisodeLogCallback(run_dir / "episodes.csv", resumed_at, base_wall_s),
     ]
 
 
@@ -173,7 +189,7 @@ def save_checkpoint(model: Any, run_dir: Path, algo: str) -> Path:
     model.save(path)
     if model.get_vec_normalize_env() is not None:
         model.get_vec_normalize_env().save(str(d / f"model_vecnormalize_{n}_steps.pkl"))
-    if algo == "sac":
+    if algo in OFF_POLICY:
         model.save_replay_buffer(d / f"model_replay_buffer_{n}_steps.pkl")
     return path
 
@@ -290,13 +306,16 @@ def _preflight(
             env = wrapper_factory(run["wrapper"])(env)
         except failures as exc:
             raise ConfigError(f"{where}: wrapper = {run['wrapper']!r}: {exc}") from None
-    n_eval = env.unwrapped.sampler.eval_size
+    u = env.unwrapped
+    selection = eval_target_set(env_id)
+    n_eval = u.printed.sizes[selection] if selection != "eval" else u.sampler.eval_size
     obs_space, act_space = env.observation_space, env.action_space
     env.close()
     eval_episodes = int(run.get("eval_episodes", 16))
     if eval_episodes > n_eval:
+        name = "held-out" if selection == "eval" else selection
         raise ConfigError(
-            f"{where}: eval_episodes = {eval_episodes}; the held-out set of {env_id} has "
+            f"{where}: eval_episodes = {eval_episodes}; the {name} set of {env_id} has "
             f"{n_eval} targets (one episode each): allowed 1..{n_eval}"
         )
     kwargs = algo_kwargs_for(algo, algo_kwargs)
@@ -447,7 +466,7 @@ def train(
             import torch
             from stable_baselines3.common.vec_env import VecNormalize
 
-            from bathprint.agents.callbacks import RunInfoCallback, StopOnRequest
+            from bathprint.agents.callbacks import RunInfoCallback, StopOnRequest, TimeBudget
 
             cls = _algo_class(algo)
             info, start_over, where = _plan(
@@ -478,7 +497,8 @@ def train(
         callbacks: list[Any] = []
         try:
             venv = make_vec(
-                env_id, n_envs, seed, env_kwargs, run_dir / "monitor", run.get("wrapper")
+                env_id, n_envs, seed, env_kwargs, run_dir / "monitor", run.get("wrapper"),
+                str(run.get("vec_env", "subproc")),
             )
             if ckpt is not None:
                 d = run_dir / "checkpoints"
@@ -490,7 +510,7 @@ def train(
                         ckpt, env=venv, device="cpu", tensorboard_log=str(run_dir / "tb")
                     )
                     buffer = d / f"model_replay_buffer_{resumed_at}_steps.pkl"
-                    if algo == "sac" and buffer.is_file():
+                    if algo in OFF_POLICY and buffer.is_file():
                         model.load_replay_buffer(buffer)
                 except Exception as exc:  # a damaged file: say which, and what to do
                     raise ConfigError(
@@ -512,7 +532,8 @@ def train(
                     **algo_kwargs_for(algo, algo_kwargs),
                 )
             callbacks = _make_callbacks(
-                run_dir, env_id, env_kwargs, normalize, n_envs, run, resumed_at, algo, seed
+                run_dir, env_id, env_kwargs, normalize, n_envs, run, resumed_at, algo, seed,
+                float(info.get("wall_time_s", 0.0)), stop,
             )
         except BaseException as exc:
             with stop.shield():
@@ -528,6 +549,14 @@ def train(
             raise
         callbacks.append(RunInfoCallback(functools.partial(_write_run, run_dir), info))
         callbacks.append(StopOnRequest(stop))
+        budget = None
+        if run.get("time_budget_s"):
+            budget = TimeBudget(float(run["time_budget_s"]), float(info.get("wall_time_s", 0.0)))
+            callbacks.insert(0, budget)  # before the evaluation, which runs at its end
+        info.update(_compute_info(n_envs, int(run.get("torch_threads", 1))))
+        info["train_target_set"] = "train"
+        info["eval_target_set"] = eval_target_set(env_id)
+        cpu0 = _cpu_seconds()
         remaining = max(0, total - int(model.num_timesteps))
         base_wall = float(info.get("wall_time_s", 0.0))  # time spent before this session
         t0 = time.perf_counter()
@@ -550,7 +579,10 @@ def train(
             signum = stop.signum
         with stop.shield():
             info["wall_time_s"] = base_wall + time.perf_counter() - t0
+            info["cpu_time_s"] = float(info.get("cpu_time_s", 0.0)) + _cpu_seconds() - cpu0
             info["timesteps_done"] = int(model.num_timesteps)
+            if budget is not None and budget.reached:
+                info["stopped_by"] = "time_budget"
             message = ""
             if error is not None:
                 info["status"] = "failed"
@@ -580,6 +612,30 @@ def train(
     if signum is not None:
         raise Interrupted(signum)
     return run_dir
+
+
+def _cpu_seconds() -> float:
+    """CPU time of this process and its finished children (s)."""
+    import resource
+
+    own = resource.getrusage(resource.RUSAGE_SELF)
+    kids = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return own.ru_utime + own.ru_stime + kids.ru_utime + kids.ru_stime
+
+
+def _compute_info(n_envs: int, torch_threads: int) -> dict[str, Any]:
+    """What a run's compute is measured on: cores, load, threads, environments."""
+    import platform
+
+    return {
+        "machine": {
+            "cpus": os.cpu_count(),
+            "processor": platform.processor() or platform.machine(),
+            "load_average_1min_at_start": os.getloadavg()[0],
+        },
+        "torch_threads": torch_threads,
+        "n_envs": n_envs,
+    }
 
 
 def _close(venv: Any, callbacks: list[Any]) -> None:
@@ -680,6 +736,8 @@ def _guess_algo(path: Path) -> str:
             data = json.loads(z.read("data"))
     except (zipfile.BadZipFile, KeyError, json.JSONDecodeError, OSError) as exc:
         raise ConfigError(f"{path}: not a Stable-Baselines3 model file ({exc})") from None
+    if "top_quantiles_to_drop_per_net" in data:
+        return "tqc"
     return "sac" if "target_entropy" in data else "ppo"
 
 

@@ -4,8 +4,12 @@
 ``clip(a_ff(obs) + scale * a, -1, 1)``, where ``a_ff`` is the
 :class:`~bathprint.agents.policies.FeedforwardPolicy` action for the last observation (residual
 policy learning: the agent starts at the feedforward controller and learns what the law
-misses). Select it in ``agents/<algo>.yml`` with
-``wrapper: {name: feedforward_residual, scale: 0.5, calibrated: true}``; evaluation wraps the
+misses). Select it in ``agents/<algo>.yml`` in rl-zoo3's form (rl-zoo3 imports the class)::
+
+    env_wrapper:
+      - bathprint.agents.wrappers.FeedforwardResidual: {scale: 0.5, calibrated: true}
+
+(older files: ``wrapper: {name: feedforward_residual, scale: 0.5}``); evaluation wraps the
 environment the same way (read from the run's ``run.json``).
 """
 
@@ -19,6 +23,8 @@ import numpy as np
 from bathprint.agents.policies import PAPER_PREFACTOR, FeedforwardPolicy
 
 WRAPPERS = ("feedforward_residual",)
+#: the classes behind the names (rl-zoo3's ``env_wrapper`` names the class)
+WRAPPER_CLASSES = {"bathprint.agents.wrappers.FeedforwardResidual": "feedforward_residual"}
 
 
 class FeedforwardResidual(gym.Wrapper):
@@ -52,6 +58,29 @@ class FeedforwardResidual(gym.Wrapper):
         obs, reward, terminated, truncated, info = self.env.step(full.astype(np.float32))
         self._obs = obs
         return obs, reward, terminated, truncated, info
+
+
+def wrapper_spec(env_wrapper: Any) -> dict[str, Any] | None:
+    """bathprint's wrapper entry (``{name: ..., **kwargs}``) of an rl-zoo3 ``env_wrapper``
+    value: a class name, ``{class name: kwargs}``, or a list of one of those. Only the
+    wrappers of this module are accepted (ValueError naming the value otherwise)."""
+    if env_wrapper is None:
+        return None
+    items = env_wrapper if isinstance(env_wrapper, list) else [env_wrapper]
+    allowed = ", ".join(WRAPPER_CLASSES)
+    if len(items) != 1:
+        raise ValueError(f"env_wrapper = {env_wrapper!r}; allowed: one wrapper ({allowed})")
+    item = items[0]
+    kwargs: Any = {}
+    if isinstance(item, dict) and len(item) == 1:
+        item, kwargs = next(iter(item.items()))
+        kwargs = {} if kwargs is None else kwargs
+    if not isinstance(item, str) or item not in WRAPPER_CLASSES or not isinstance(kwargs, dict):
+        raise ValueError(
+            f"env_wrapper = {env_wrapper!r}; allowed: {allowed} (a name, or a mapping of the "
+            "name to its arguments)"
+        )
+    return {"name": WRAPPER_CLASSES[item], **kwargs}
 
 
 def wrapper_factory(spec: dict[str, Any] | None) -> Any:

@@ -1,0 +1,328 @@
+"""Many runs, one command (bathprint.agents.campaign), the statistics behind its tables
+(bathprint.agents.statistics), rl-zoo3's entry point on agents/*.yml, and model selection
+that never reads the test targets."""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+import yaml
+
+from bathprint.agents import statistics as st
+from bathprint.agents.campaign import export, load_campaign, parse_seeds, run_state
+from bathprint.agents.campaign import main as campaign_main
+from bathprint.agents.hyperparams import load_hyperparams
+from bathprint.errors import ConfigError
+
+ROOT = Path(__file__).resolve().parents[1]
+ENV = "bathprint/CoilRadius-v1"
+SRC = str(ROOT / "src")
+
+#: a tiny residual PPO: one environment, an update every 128 steps, a checkpoint every 128
+TINY = {
+    "n_steps": 128,
+    "batch_size": 64,
+    "n_epochs": 1,
+    "eval_freq": 256,
+    "eval_episodes": 2,
+    "checkpoint_freq": 128,
+    "policy_kwargs": {"net_arch": [16]},
+}
+
+
+def _env() -> dict[str, str]:
+    env = dict(os.environ)
+    env["PYTHONPATH"] = SRC + os.pathsep + env.get("PYTHONPATH", "")
+    return env
+
+
+# ----------------------------------------------------------------------- seeds
+
+
+@pytest.mark.parametrize(
+    "text, seeds",
+    [("0-4", [0, 1, 2, 3, 4]), ("0,2,5-6", [0, 2, 5, 6]), (3, [3]), ([1, 4], [1, 4])],
+)
+def test_seed_ranges(text, seeds):
+    assert parse_seeds(text) == seeds
+
+
+@pytest.mark.parametrize("text", ["4-0", "a", "", "-1", "0,0", True, 2.5, "0-"])
+def test_bad_seed_ranges_are_refused(text):
+    with pytest.raises(ConfigError, match="seeds"):
+        parse_seeds(text)
+
+
+# ------------------------------------------------------------------ statistics
+
+
+def test_iqm_is_the_mean_of_the_middle_half():
+    rng = np.random.default_rng(1)
+    x = rng.normal(size=(4, 10))  # 40 scores: the middle 20
+    flat = np.sort(x.ravel())
+    assert st.iqm(x) == pytest.approx(flat[10:30].mean(), rel=1e-12)
+    x[0, 0] = 1e6  # one diverged run moves the mean, not the IQM
+    assert abs(st.iqm(x) - flat[10:30].mean()) < 0.2
+
+
+def test_bootstrap_intervals_hold_the_estimate_and_repeat():
+    rng = np.random.default_rng(2)
+    m = rng.uniform(0.1, 0.3, size=(5, 16))
+    point, lo, hi = st.bootstrap_ci(lambda a: a.mean(), m, reps=500)
+    assert lo < point < hi
+    assert point == pytest.approx(m.mean(), rel=1e-12)
+    assert st.bootstrap_ci(lambda a: a.mean(), m, reps=500) == (point, lo, hi)
+    state = np.random.get_state()[1].copy()  # noqa: NPY002
+    st.bootstrap_ci(lambda a: a.mean(), m, reps=50, seed=7)
+    assert (np.random.get_state()[1] == state).all()  # noqa: NPY002 (restored)
+
+
+def test_paired_difference_and_gap_closed():
+    rng = np.random.default_rng(3)
+    ref = rng.uniform(0.15, 0.25, size=16)
+    oracle = np.zeros(16)
+    const = ref + 0.2
+    agent = ref[None, :] * 0.5 + rng.normal(0.0, 0.005, size=(3, 16))  # half the gap
+    s = st.summary(agent, (agent < 0.1).astype(float), const, oracle, ref, reps=500)
+    d, lo, hi = s["paired_difference"]
+    assert d == pytest.approx((agent - ref).mean(), rel=1e-12)
+    assert lo < d < hi < 0
+    g, glo, ghi = s["gap_closed"]
+    assert abs(g - 0.5) < 0.05 and glo < g < ghi
+    assert s["targets_won"] == 16
+    n = s["normalised_score"][0]
+    assert n == pytest.approx((const.mean() - agent.mean()) / const.mean(), rel=1e-9)
+    with pytest.raises(ValueError, match="targets"):
+        st.summary(agent, None, const[:5], oracle)
+    with pytest.raises(ValueError, match="NaN"):
+        st.summary(np.full((2, 3), np.nan), None, None, None)
+
+
+# -------------------------------------------------------------------- campaign
+
+
+def _campaign_file(tmp_path: Path, out: Path) -> Path:
+    data = {
+        "out": str(out),
+        "episodes": 2,
+        "baselines": ["constant", "feedforward_calibrated", "oracle"],
+        "reference": "feedforward_calibrated",
+        "runs": [
+            {
+                "name": "tiny",
+                "env": ENV,
+                "algo": "ppo",
+                "hyperparams": str(ROOT / "agents" / "ppo_residual.yml"),
+                "seeds": "0-1",
+                "timesteps": 1024,
+                "n_envs": 1,
+                "set": TINY,
+            }
+        ],
+    }
+    path = tmp_path / "campaign.yml"
+    path.write_text(yaml.safe_dump(data))
+    return path
+
+
+@pytest.mark.parametrize(
+    "change, needle",
+    [
+        ({"runs": []}, "runs"),
+        ({"episodes": 0}, "episodes"),
+        ({"baselines": ["nope"]}, "baselines"),
+        ({"reference": "mpc"}, "reference"),
+        ({"colour": 1}, "colour"),
+        ({"runs": [{"name": "a", "env": ENV, "algo": "ppo", "seeds": "2-1"}]}, "seeds"),
+        ({"runs": [{"name": "a", "env": ENV, "algo": "dqn"}]}, "algo"),
+        ({"runs": [{"name": "a", "env": ENV, "algo": "ppo", "set": {"n_stepz": 8}}]}, "n_stepz"),
+    ],
+)
+def test_bad_campaign_files_are_refused(tmp_path, change, needle):
+    path = _campaign_file(tmp_path, tmp_path / "out")
+    data = yaml.safe_load(path.read_text())
+    data.update(change)
+    path.write_text(yaml.safe_dump(data))
+    with pytest.raises(ConfigError, match=needle):
+        load_campaign(path)
+    assert not (tmp_path / "out").exists()
+
+
+def test_a_killed_campaign_resumes_and_ends_in_one_table(tmp_path, capsys, monkeypatch):
+    """Two tiny runs; the campaign is killed (SIGKILL) during the first run, after its
+    first checkpoint; the same command finishes it from there and writes the table."""
+    out = tmp_path / "out"
+    path = _campaign_file(tmp_path, out)
+    camp = load_campaign(path)
+    dirs = [Path(r.run_dir) for r in camp.runs]
+    cmd = [sys.executable, "-m", "bathprint.agents.campaign", str(path), "--quiet"]
+    proc = subprocess.Popen(cmd, env=_env(), cwd=tmp_path, start_new_session=True,
+                            stdout=subprocess.PIPE, stderr=subprocess.STDOUT)
+    deadline = time.monotonic() + 120
+    killed = None
+    while time.monotonic() < deadline and proc.poll() is None and killed is None:
+        killed = next((d for d in dirs if run_state(d) == "resume"), None)
+        time.sleep(0.02)
+    assert proc.poll() is None, proc.communicate()[0].decode()
+    os.killpg(proc.pid, signal.SIGKILL)  # mid-run: a checkpoint on disk, the run unfinished
+    proc.wait()
+    assert killed is not None and run_state(killed) == "resume"
+    assert not (out / "CoilRadius-v1" / "results.md").exists()
+
+    monkeypatch.chdir(tmp_path)
+    assert campaign_main([str(path), "--quiet"]) == 0  # the same command, in this process
+    stdout = capsys.readouterr().out
+    for spec in camp.runs:
+        info = json.loads((Path(spec.run_dir) / "run.json").read_text())
+        assert info["status"] == "done" and info["timesteps_done"] == 1024
+        (summary,) = (Path(spec.run_dir) / "test").glob("*/summary.json")
+        wrapper = json.loads(summary.read_text())["wrapper"]  # played as it was trained
+        assert wrapper["name"] == "feedforward_residual", wrapper
+    assert "resuming" in stdout and "tiny" in stdout
+    record = json.loads((out / "CoilRadius-v1" / "results.json").read_text())
+    rows = {r["policy"]: r for r in record["policies"]}
+    assert set(rows) == {"constant", "feedforward_calibrated", "oracle", "tiny"}
+    assert rows["tiny"]["runs"] == 2 and rows["tiny"]["targets"] == 2
+    assert record["target_set"] == "test"
+    lo, hi = rows["tiny"]["mean_metric"][1:]
+    assert lo <= rows["tiny"]["mean_metric"][0] <= hi
+    table = (out / "CoilRadius-v1" / "results.md").read_text()
+    assert "| tiny | 2 |" in table
+    assert (out / "CoilRadius-v1" / "curves.png").stat().st_size > 0
+    scores = (out / "CoilRadius-v1" / "scores.csv").read_text().splitlines()
+    assert len(scores) == 1 + 2 * 2 + 3 * 2  # header, 2 seeds x 2 targets, 3 baselines x 2
+
+    assert campaign_main([str(path), "--quiet"]) == 0  # all done: nothing trains again
+    assert "resuming" not in capsys.readouterr().out
+    assert (out / "CoilRadius-v1" / "results.md").read_text() == table
+    kept = export(camp, ENV, tmp_path / "kept")  # what is committed of a campaign
+    assert (kept / "results.json").is_file() and (kept / "tiny" / "seed1" / "run.json").is_file()
+    assert len(list(kept.glob("tiny/seed*/eval/best_model.zip"))) == 1  # the best on validation
+    assert len(list(kept.glob("tiny/seed*/episodes.csv.gz"))) == 2
+    assert list(kept.glob("baselines/oracle/*/episodes.csv"))
+    assert not list(kept.rglob("checkpoints")) and not list(kept.rglob("model_*_steps.zip"))
+
+
+# ------------------------------------------------------------ test set unread
+
+
+def test_training_never_plays_the_test_targets(tmp_path, monkeypatch):
+    """Every environment training builds, and every target set its validation callback
+    plays, is a training or validation set; the callback refuses the test set."""
+    import bathprint.envs as envs
+    from bathprint.agents import train as train_mod
+    from bathprint.agents.callbacks import ValidationCallback
+
+    built: list[str] = []
+    make = envs.make
+
+    def recording_make(env_id, *args, **kwargs):
+        env = make(env_id, *args, **kwargs)
+        built.append(str(env.unwrapped.target_set))
+        return env
+
+    monkeypatch.setattr(envs, "make", recording_make)
+    made: list[list] = []
+    make_callbacks = train_mod._make_callbacks
+
+    def recording_callbacks(*args, **kwargs):
+        cbs = make_callbacks(*args, **kwargs)
+        made.append(cbs)
+        return cbs
+
+    monkeypatch.setattr(train_mod, "_make_callbacks", recording_callbacks)
+    hp = load_hyperparams("ppo", ENV, ROOT / "agents" / "ppo_residual.yml")
+    hp.update(TINY, n_envs=1)
+    train_mod.train("ppo", ENV, timesteps=512, seed=0, out=tmp_path / "run", hyperparams=hp,
+                    progress=False)
+    (validation,) = [cb for cb in made[0] if isinstance(cb, ValidationCallback)]
+    assert validation.target_set == "validation"
+    assert validation.target_sets_played == {"validation"}
+    assert len(np.load(tmp_path / "run" / "eval" / "evaluations.npz")["timesteps"]) == 2
+    assert "test" not in built and set(built) == {"train", "validation"}
+    info = json.loads((tmp_path / "run" / "run.json").read_text())
+    assert (info["train_target_set"], info["eval_target_set"]) == ("train", "validation")
+    with pytest.raises(ValueError, match="test set"):
+        ValidationCallback(make(ENV, target_set="test"), 2, 100, tmp_path / "x")
+
+
+# -------------------------------------------------------------------- rl-zoo3
+
+
+def test_rl_zoo3_trains_from_the_agents_file(tmp_path):
+    """rl-zoo3's own entry point reads agents/ppo_residual.yml unchanged (bathprint's keys
+    in their own section, the wrapper imported by rl-zoo3) and trains a few hundred steps."""
+    pytest.importorskip("rl_zoo3")
+    cmd = [
+        sys.executable, "-m", "rl_zoo3.train", "--algo", "ppo", "--env", ENV,
+        "--gym-packages", "bathprint", "-conf", str(ROOT / "agents" / "ppo_residual.yml"),
+        "-n", "256", "--eval-freq", "-1", "--save-freq", "-1", "--seed", "0",
+        "--log-folder", str(tmp_path / "logs"), "--device", "cpu", "--verbose", "0",
+        "-params", "n_envs:1", "n_steps:128", "batch_size:64", "n_epochs:1",
+    ]
+    done = subprocess.run(cmd, env=_env(), cwd=tmp_path, capture_output=True, text=True,
+                          timeout=240)
+    assert done.returncode == 0, done.stdout[-2000:] + done.stderr[-4000:]
+    models = list((tmp_path / "logs" / "ppo").glob("*/*.zip"))
+    assert models, list((tmp_path / "logs").rglob("*"))
+    config = next((tmp_path / "logs" / "ppo").glob("*/*/config.yml")).read_text()
+    assert "FeedforwardResidual" in config  # the residual wrapper was used
+
+
+# ---------------------------------------------------------------------- tuning
+
+
+def test_the_search_scores_on_validation_and_continues_where_it_stopped(tmp_path):
+    """Two trials, then the same search asked for three: one more runs, the first two are
+    kept (Optuna's journal file); every score is a validation-set metric."""
+    from bathprint.agents.tune import tune
+
+    hp_file = tmp_path / "hp.yml"
+    base = load_hyperparams("ppo", ENV, ROOT / "agents" / "ppo_residual.yml")
+    base.update(TINY, n_envs=1)
+    hp_file.write_text(yaml.safe_dump({ENV: base}))
+    first = tune("ppo", ENV, hp_file, trials=2, timesteps=256, out=tmp_path / "tune")
+    assert first["trials"] == 2
+    second = tune("ppo", ENV, hp_file, trials=3, timesteps=256, out=tmp_path / "tune")
+    assert second["trials"] == 3
+    rows = (tmp_path / "tune" / "trials.csv").read_text().splitlines()
+    assert len(rows) == 4
+    for k in range(3):
+        best = json.loads((tmp_path / "tune" / f"trial_{k:03d}" / "eval" / "best.json")
+                          .read_text())
+        assert best["target_set"] == "validation"
+    values = [float(r.split(",")[1]) for r in rows[1:]]
+    assert second["best_value"] == pytest.approx(min(values), rel=1e-12)
+
+
+# ------------------------------------------------------------------------ CLI
+
+
+@pytest.mark.parametrize(
+    "argv, needle",
+    [
+        (["--algo", "ppo", "--env", "CoilRadius-v1", "--seeds", "4-0"], "seeds"),
+        (["--algo", "ppo", "--env", "CoilRadius-v1", "--seeds", "0-1", "--seed", "3"], "--seed"),
+        (["--campaign", "missing.yml"], "missing.yml"),
+        (["--campaign", "agents/campaigns/CoilRadius-v1.yml", "--algo", "ppo"], "--algo"),
+        (["--algo", "ppo", "--env", "CoilRadius-v1", "--seeds", "0", "--workers", "0"],
+         "--workers"),
+        (["--env", "CoilRadius-v1"], "--algo"),
+    ],
+)
+def test_many_runs_refusals_are_one_line(argv, needle, capsys, monkeypatch):
+    from bathprint.cli import main as cli_main
+
+    monkeypatch.chdir(ROOT)
+    assert cli_main(["train", *argv, "--out", "/nonexistent/never-written"]) == 2
+    err = capsys.readouterr().err
+    assert len(err.strip().splitlines()) == 1 and needle in err and "Traceback" not in err, err
+    assert not Path("/nonexistent/never-written").exists()
