@@ -1025,6 +1025,22 @@ def gravity() -> str:
     return _table(head, rows) + "\n\n" + provenance(GRAVITY / "gravity.csv")
 
 
+def kernel_ab() -> str:
+    path = RESULTS / "kernel_redesign_ab_final.csv"
+    rows = [
+        [
+            r["workload"],
+            _g(r["old_s"]),
+            _g(r["new_s"]),
+            f"{_g(r['cpu_ratio'], 3)} ± {_g(r['cpu_spread'], 2)}",
+            "yes" if r["identical"] == "True" else "no",
+        ]
+        for r in _csv(path)
+    ]
+    head = ["workload", "old (s)", "new (s)", "CPU time new / old", "bit-identical"]
+    return _table(head, rows) + "\n\n" + provenance(path)
+
+
 TABLES: dict[str, Callable[[], str]] = {
     "scene-keys": scene_keys,
     "builtin-scenes": builtin_scenes,
@@ -1052,6 +1068,7 @@ TABLES: dict[str, Callable[[], str]] = {
     "contact-scenes": contact_scenes,
     "ablation": ablation,
     "gravity": gravity,
+    "kernel-ab": kernel_ab,
 }
 
 
