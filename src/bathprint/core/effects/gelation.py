@@ -204,22 +204,10 @@ def update(model, rod, t: float, scratch) -> None:
     for j in range(n_seg):
         e_new = modulus(t - seg_mat[j, MAT_BIRTH_TIME], p)
         e_old = seg_mat[j, MAT_YOUNGS_MODULUS]
-        if memory and e_new > e_old:
-            # the segment's curvature: mean over its interior end nodes (1 .. n_nodes-2)
-            count = 0
+        if memory and e_new > e_old and _segment_curvature(pos, seg_rest, n_nodes, j, ka, kb):
+            f = e_old / e_new
             for c in range(3):
-                kb[c] = 0.0
-            for node in (j, j + 1):
-                if 1 <= node <= n_nodes - 2:
-                    node_curvature(pos, seg_rest, node, ka)
-                    for c in range(3):
-                        kb[c] += ka[c]
-                    count += 1
-            if count > 0:
-                f = e_old / e_new
-                for c in range(3):
-                    kappa = kb[c] / count
-                    seg_mat[j, MAT_KAPPA_X + c] = kappa + (seg_mat[j, MAT_KAPPA_X + c] - kappa) * f
+                seg_mat[j, MAT_KAPPA_X + c] = kb[c] + (seg_mat[j, MAT_KAPPA_X + c] - kb[c]) * f
         seg_mat[j, MAT_YOUNGS_MODULUS] = e_new
 
 
