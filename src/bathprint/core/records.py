@@ -107,8 +107,13 @@ class Contact(NamedTuple):
     seen: np.ndarray  # (27,) int64: buckets already scanned around a segment
     memory: np.ndarray  # (1,) CONTACT_DTYPE: search distance, skin, the last violation
     build_pos: np.ndarray  # (3 cap,) m: the whole rod's positions when the pairs were found
-    d_start: np.ndarray  # (P,) m: each pair's distance at the start of the step
+    d_start: np.ndarray  # (P,) m: each pair's distance at the start of the step (< 0: minus a
+    # lower bound, for pairs whose bounding spheres are beyond their near distance)
     near: np.ndarray  # (P,) int64: the pairs near enough to touch within the step
+    seg_mid: np.ndarray  # (3 cap,) m: each segment's midpoint at the start of the step
+    seg_half: np.ndarray  # (cap,) m: ... and its half length
+    node_motion: np.ndarray  # (cap,) m: each node's motion in the step, relative to the common
+    pair_x: np.ndarray  # (12,) m: scratch, the four nodes of a pair
 
 
 class Hydro(NamedTuple):
@@ -281,6 +286,10 @@ def new_contact(capacity: int, pairs: int) -> Contact:
         build_pos=np.zeros(3 * capacity),
         d_start=np.zeros(pairs),
         near=np.zeros(pairs, dtype=np.int64),
+        seg_mid=np.zeros(3 * capacity),
+        seg_half=np.zeros(capacity),
+        node_motion=np.zeros(capacity),
+        pair_x=np.zeros(12),
     )
 
 

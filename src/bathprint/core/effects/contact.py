@@ -54,6 +54,7 @@ SKIN_MAX = 2.0  # ... at most this many
 MARGIN_STEPS = 1.5  # near pairs: closer than delta + this many steps' relative motion
 MARGIN_MIN = 0.05  # ... at least this many largest contact distances
 TARGET_RATIO = 0.6  # steps are sized to keep the no-pass-through ratio near this (< 1)
+BOUND_SAFETY = 1.0 + 1e-9  # widens the bound on a pair's motion past round-off
 
 
 def min_separation_for(delta: float, dl: float) -> int:
@@ -158,13 +159,36 @@ def prepare(model, whole, frozen: int, contact) -> bool:
     margin = mem.margin if mem.margin > 0.0 else mem.skin
     factor = p.contact_distance_factor
     seg_mat = whole.seg_mat
+    pos = whole.pos
+    mid = contact.seg_mid
+    half = contact.seg_half
+    for k in range(n_seg):
+        e2 = 0.0
+        for c in range(3):
+            mid[3 * k + c] = 0.5 * (pos[3 * k + c] + pos[3 * k + 3 + c])
+            e = pos[3 * k + 3 + c] - pos[3 * k + c]
+            e2 += e * e
+        half[k] = 0.5 * math.sqrt(e2)
     n_near = 0
     for q in range(contact.count[0]):
         i = contact.pairs[q, 0]
         j = contact.pairs[q, 1]
-        d = segment_distance(whole.pos, i, i + 1, j, j + 1)
+        near = factor * (seg_mat[i, MAT_RADIUS] + seg_mat[j, MAT_RADIUS]) + margin
+        # bounding spheres: every point of a segment is within half its length of its
+        # midpoint, so d >= |m_i - m_j| - h_i - h_j; a pair whose bound is beyond ``near``
+        # is not near, and keeps minus that bound (check computes the distance only if
+        # the bound cannot settle the pair)
+        reach = near + half[i] + half[j]
+        dm2 = 0.0
+        for c in range(3):
+            dm = mid[3 * i + c] - mid[3 * j + c]
+            dm2 += dm * dm
+        if dm2 >= reach * reach:
+            contact.d_start[q] = -(math.sqrt(dm2) - half[i] - half[j])
+            continue
+        d = segment_distance(pos, i, i + 1, j, j + 1)
         contact.d_start[q] = d
-        if d < factor * (seg_mat[i, MAT_RADIUS] + seg_mat[j, MAT_RADIUS]) + margin:
+        if d < near:
             contact.near[n_near] = q
             n_near += 1
     mem.n_near = n_near
@@ -194,7 +218,8 @@ def check(model, whole, pos0, frozen: int, contact) -> float:
     sh1 = pos[3 * f + 1] - pos0[1]
     sh2 = pos[3 * f + 2] - pos0[2]
     # this step's motion (pos0 holds the active nodes, from f; the tail moves with node f)
-    m_step = _step_motion(pos, pos0, n_nodes, f, sh0, sh1, sh2)
+    nm = contact.node_motion
+    m_step = _step_motion(pos, pos0, n_nodes, f, sh0, sh1, sh2, nm)
     m_build = _motion(pos, contact.build_pos, n_nodes, f, sh0, sh1, sh2)
     worst = 2.0 * m_build / mem.skin
     worst_i = -1
@@ -205,6 +230,20 @@ def check(model, whole, pos0, frozen: int, contact) -> float:
     for q in range(contact.count[0]):
         i = contact.pairs[q, 0]
         j = contact.pairs[q, 1]
+        # |dx_a - dx_b| <= |dx_a - c| + |dx_b - c|: a bound on the pair's relative motion u
+        # from the nodes' own motions; a pair whose bound cannot beat the worst ratio so
+        # far is settled without the exact u (the worst ratio is the exact one)
+        u_bound = (max(nm[i], nm[i + 1]) + max(nm[j], nm[j + 1])) * BOUND_SAFETY
+        delta = factor * (seg_mat[i, MAT_RADIUS] + seg_mat[j, MAT_RADIUS])
+        d0 = contact.d_start[q]
+        if d0 < 0.0:  # minus a lower bound of the start distance (a pair that was not near)
+            if u_bound <= worst * (-d0 - delta):
+                continue
+            d0 = _start_distance(pos, pos0, f, i, j, contact.pair_x)
+            contact.d_start[q] = d0
+        gap = d0 if d0 < delta + margin else d0 - delta
+        if u_bound <= worst * gap:
+            continue
         u2 = 0.0
         for a in (i, i + 1):
             for b in (j, j + 1):
@@ -222,9 +261,6 @@ def check(model, whole, pos0, frozen: int, contact) -> float:
                 u2 = max(u2, w2)
         if u2 == 0.0:
             continue
-        d0 = contact.d_start[q]
-        delta = factor * (seg_mat[i, MAT_RADIUS] + seg_mat[j, MAT_RADIUS])
-        gap = d0 if d0 < delta + margin else d0 - delta
         ratio = math.sqrt(u2) / gap if gap > 0.0 else np.inf
         if ratio > worst:
             worst = ratio
@@ -240,9 +276,10 @@ def check(model, whole, pos0, frozen: int, contact) -> float:
 
 
 @njit(cache=True)
-def _step_motion(pos, pos0, n_nodes: int, f: int, sh0, sh1, sh2) -> float:
+def _step_motion(pos, pos0, n_nodes: int, f: int, sh0, sh1, sh2, motion) -> float:
     """The largest node displacement of the step relative to the common motion (m): active
-    nodes from pos0 (from f) to pos, frozen nodes by the tail's pending translation."""
+    nodes from pos0 (from f) to pos, frozen nodes by the tail's pending translation; each
+    node's into ``motion`` (m)."""
     lo0 = lo1 = lo2 = np.inf
     hi0 = hi1 = hi2 = -np.inf
     for g in range(n_nodes):
@@ -266,8 +303,22 @@ def _step_motion(pos, pos0, n_nodes: int, f: int, sh0, sh1, sh2) -> float:
             d0 = pos[3 * g] - pos0[k] - c0
             d1 = pos[3 * g + 1] - pos0[k + 1] - c1
             d2 = pos[3 * g + 2] - pos0[k + 2] - c2
-        m2 = max(m2, d0 * d0 + d1 * d1 + d2 * d2)
+        w2 = d0 * d0 + d1 * d1 + d2 * d2
+        motion[g] = math.sqrt(w2)
+        m2 = max(m2, w2)
     return math.sqrt(m2)
+
+
+@njit(cache=True)
+def _start_distance(pos, pos0, f: int, i: int, j: int, x) -> float:
+    """Distance (m) of segments i, j at the start of the step: active nodes (from f) at
+    pos0, frozen ones at pos (the tail's translation is still pending); ``x`` (12,) scratch."""
+    nodes = (i, i + 1, j, j + 1)
+    for a in range(4):
+        g = nodes[a]
+        for c in range(3):
+            x[3 * a + c] = pos0[3 * (g - f) + c] if g >= f else pos[3 * g + c]
+    return segment_distance(x, 0, 1, 2, 3)
 
 
 @njit(cache=True)
