@@ -107,13 +107,17 @@ class Contact(NamedTuple):
     seen: np.ndarray  # (27,) int64: buckets already scanned around a segment
     memory: np.ndarray  # (1,) CONTACT_DTYPE: search distance, skin, the last violation
     build_pos: np.ndarray  # (3 cap,) m: the whole rod's positions when the pairs were found
-    d_start: np.ndarray  # (P,) m: each pair's distance at the start of the step (< 0: minus a
-    # lower bound, for pairs whose bounding spheres are beyond their near distance)
+    allowance: np.ndarray  # (P,) m: how far each pair's nodes may move relative to each other
+    # in the step: its start distance if near, else that minus delta (< 0: minus a lower
+    # bound of the latter, for pairs whose bounding spheres are beyond their near distance)
     near: np.ndarray  # (P,) int64: the pairs near enough to touch within the step
     seg_mid: np.ndarray  # (3 cap,) m: each segment's midpoint at the start of the step
     seg_half: np.ndarray  # (cap,) m: ... and its half length
-    node_motion: np.ndarray  # (cap,) m: each node's motion in the step, relative to the common
+    node_motion: np.ndarray  # (2, cap) m: each node's motion in the last step checked, relative
+    # to the common motion and absolute (sets each pair's near margin)
     pair_x: np.ndarray  # (12,) m: scratch, the four nodes of a pair
+    start_pos: np.ndarray  # (3 cap,) m: the whole rod's positions at the step's start
+    iter_motion: np.ndarray  # (2, cap) m: each node's motion since then (at Newton's iterate)
 
 
 class Hydro(NamedTuple):
@@ -284,12 +288,14 @@ def new_contact(capacity: int, pairs: int) -> Contact:
         seen=np.zeros(27, dtype=np.int64),
         memory=np.zeros(1, dtype=CONTACT_DTYPE),
         build_pos=np.zeros(3 * capacity),
-        d_start=np.zeros(pairs),
+        allowance=np.zeros(pairs),
         near=np.zeros(pairs, dtype=np.int64),
         seg_mid=np.zeros(3 * capacity),
         seg_half=np.zeros(capacity),
-        node_motion=np.zeros(capacity),
+        node_motion=np.zeros((2, capacity)),
         pair_x=np.zeros(12),
+        start_pos=np.zeros(3 * capacity),
+        iter_motion=np.zeros((2, capacity)),
     )
 
 

@@ -363,12 +363,13 @@ class Numerics:
     )
     newton_tolerance: float = _num(0.01, 1e-8, 1.0, lo_open=True, doc="in units of tolerance")
     krylov_tolerance: float = _num(
-        1e-2,
+        0.05,
         1e-12,
         0.5,
         lo_open=True,
         doc="GMRES residual relative to the right-hand side, with couplings off the band "
-        "(contact); Newton's own iteration corrects the rest",
+        "(contact, implicit hydrodynamics): the forcing term of inexact Newton, whose own "
+        "iteration corrects the rest",
     )
 
 

@@ -12,10 +12,10 @@ A = B + C, B its band and C the off-band blocks, and :func:`solve` runs restarte
 (Saad & Schultz 1986) on A, right-preconditioned by the banded LU of B: the iterations
 needed grow with the strength of C relative to B, not with N. Newton needs its updates only
 to the accuracy of its own contraction (an inexact Newton method, Dembo, Eisenstat &
-Steihaug 1982), so a solve stops at a residual ``numerics.krylov_tolerance`` (default 1e-2)
-of its right-hand side. One that does not get there in ``KRYLOV_MAX_RESTARTS`` cycles
-returns False; the integrator treats it as a Newton failure (a shorter step), never passes
-it on.
+Steihaug 1982: local convergence for any constant forcing term below 1), so a solve stops at
+a residual ``numerics.krylov_tolerance`` (default 0.05) of its right-hand side. One that
+does not get there in ``KRYLOV_MAX_RESTARTS`` cycles returns False; the integrator treats
+it as a Newton failure (a shorter step), never passes it on.
 
 The hydrodynamics effect with its implicit coupling makes the Newton matrix dense: A = B +
 R M_nl W^-1 J_other, whose second part :func:`matvec` applies matrix-free (one evaluation of

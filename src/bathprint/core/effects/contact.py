@@ -53,6 +53,7 @@ SKIN_MIN = 0.25  # ... and at least this many largest contact distances
 SKIN_MAX = 2.0  # ... at most this many
 MARGIN_STEPS = 1.5  # near pairs: closer than delta + this many steps' relative motion
 MARGIN_MIN = 0.05  # ... at least this many largest contact distances
+OWN_MARGIN_STEPS = 3.0  # a pair's own margin: this many times its nodes' motion in the last step
 TARGET_RATIO = 0.6  # steps are sized to keep the no-pass-through ratio near this (< 1)
 BOUND_SAFETY = 1.0 + 1e-9  # widens the bound on a pair's motion past round-off
 
@@ -108,15 +109,19 @@ def _motion(pos, ref, n_nodes: int, first: int, shift0, shift1, shift2) -> float
 @njit(cache=True)
 def prepare(model, whole, frozen: int, contact) -> bool:
     """At the start of a step: the candidate pairs (rebuilt only when needed), each pair's
-    distance now, and the pairs near enough to touch within the step; False when the pairs
-    do not fit in ``contact.pairs`` (grow it and call again).
+    allowance (how far its nodes may move relative to each other in the step), and the
+    pairs near enough to touch within the step; False when the pairs do not fit in
+    ``contact.pairs`` (grow it and call again).
 
     The candidate pairs, whole-filament segment numbers (active segments with each other
     and with the frozen tail, an obstacle), are every pair within delta_max + skin when the
     spatial hash was built; they stay valid while no node has moved more than skin / 2
     relative to the common motion since (a Verlet list), and are rebuilt when that fails,
     when nodes are born or freeze, or when the radius changes. Of them, the pairs closer
-    than their delta + margin are near: only those are evaluated in Newton's iterations."""
+    than their delta + margin are near: only those are evaluated in Newton's iterations.
+    Each pair's margin comes from its own nodes' motion in the last step: any choice is
+    safe (:func:`check` rejects a step that brings a pair left out within delta), a tight
+    one is cheap where the coil has settled."""
     p = model.params[0]
     mem = contact.memory[0]
     n_nodes = whole.n_nodes
@@ -156,10 +161,22 @@ def prepare(model, whole, frozen: int, contact) -> bool:
         mem.built_nodes = n_nodes
         mem.built_frozen = frozen
         mem.builds += 1
+    # each pair's margin: OWN_MARGIN_STEPS times a bound on its relative motion in the last
+    # step (the nodes' own motions; nodes born since take the largest), at least MARGIN_MIN
+    # delta_max and at most the global margin: the settled part of a coil, which hardly
+    # moves, is evaluated only where it touches, while a fast stem keeps a wide margin
     margin = mem.margin if mem.margin > 0.0 else mem.skin
+    own = mem.margin > 0.0 and mem.motion_nodes > 0
+    nm = contact.node_motion
+    for g in range(mem.motion_nodes if own else 0, n_nodes):
+        nm[0, g] = mem.max_step_disp
+        nm[1, g] = np.inf
+    margin_min = MARGIN_MIN * delta_max
     factor = p.contact_distance_factor
     seg_mat = whole.seg_mat
     pos = whole.pos
+    for k in range(3 * n_nodes):
+        contact.start_pos[k] = pos[k]
     mid = contact.seg_mid
     half = contact.seg_half
     for k in range(n_seg):
@@ -173,7 +190,12 @@ def prepare(model, whole, frozen: int, contact) -> bool:
     for q in range(contact.count[0]):
         i = contact.pairs[q, 0]
         j = contact.pairs[q, 1]
-        near = factor * (seg_mat[i, MAT_RADIUS] + seg_mat[j, MAT_RADIUS]) + margin
+        delta = factor * (seg_mat[i, MAT_RADIUS] + seg_mat[j, MAT_RADIUS])
+        m_q = margin
+        if own:
+            u_q = _pair_motion(nm, i, j)
+            m_q = min(max(OWN_MARGIN_STEPS * u_q, margin_min), margin)
+        near = delta + m_q
         # bounding spheres: every point of a segment is within half its length of its
         # midpoint, so d >= |m_i - m_j| - h_i - h_j; a pair whose bound is beyond ``near``
         # is not near, and keeps minus that bound (check computes the distance only if
@@ -184,13 +206,15 @@ def prepare(model, whole, frozen: int, contact) -> bool:
             dm = mid[3 * i + c] - mid[3 * j + c]
             dm2 += dm * dm
         if dm2 >= reach * reach:
-            contact.d_start[q] = -(math.sqrt(dm2) - half[i] - half[j])
+            contact.allowance[q] = -(math.sqrt(dm2) - half[i] - half[j] - delta)
             continue
         d = segment_distance(pos, i, i + 1, j, j + 1)
-        contact.d_start[q] = d
         if d < near:
+            contact.allowance[q] = d
             contact.near[n_near] = q
             n_near += 1
+        else:
+            contact.allowance[q] = d - delta
     mem.n_near = n_near
     return True
 
@@ -226,22 +250,20 @@ def check(model, whole, pos0, frozen: int, contact) -> float:
     worst_j = -1
     factor = p.contact_distance_factor
     seg_mat = whole.seg_mat
-    margin = mem.margin if mem.margin > 0.0 else mem.skin
     for q in range(contact.count[0]):
         i = contact.pairs[q, 0]
         j = contact.pairs[q, 1]
-        # |dx_a - dx_b| <= |dx_a - c| + |dx_b - c|: a bound on the pair's relative motion u
-        # from the nodes' own motions; a pair whose bound cannot beat the worst ratio so
-        # far is settled without the exact u (the worst ratio is the exact one)
-        u_bound = (max(nm[i], nm[i + 1]) + max(nm[j], nm[j + 1])) * BOUND_SAFETY
-        delta = factor * (seg_mat[i, MAT_RADIUS] + seg_mat[j, MAT_RADIUS])
-        d0 = contact.d_start[q]
-        if d0 < 0.0:  # minus a lower bound of the start distance (a pair that was not near)
-            if u_bound <= worst * (-d0 - delta):
+        # a bound on the pair's relative motion u from the nodes' own motions; a pair whose
+        # bound cannot beat the worst ratio so far is settled without the exact u (the worst
+        # ratio is the exact one)
+        u_bound = _pair_motion(nm, i, j) * BOUND_SAFETY
+        gap = contact.allowance[q]
+        if gap < 0.0:  # minus a lower bound of the allowance (a pair that was not near)
+            if u_bound <= worst * -gap:
                 continue
-            d0 = _start_distance(pos, pos0, f, i, j, contact.pair_x)
-            contact.d_start[q] = d0
-        gap = d0 if d0 < delta + margin else d0 - delta
+            delta = factor * (seg_mat[i, MAT_RADIUS] + seg_mat[j, MAT_RADIUS])
+            gap = _start_distance(pos, pos0, f, i, j, contact.pair_x) - delta
+            contact.allowance[q] = gap
         if u_bound <= worst * gap:
             continue
         u2 = 0.0
@@ -270,6 +292,7 @@ def check(model, whole, pos0, frozen: int, contact) -> float:
     mem.pair_i = worst_i
     mem.pair_j = worst_j
     mem.max_step_disp = m_step
+    mem.motion_nodes = n_nodes
     if worst >= 1.0 and worst_i < 0:
         mem.built_nodes = -1  # the list ran out of skin: find the pairs again for the retry
     return worst
@@ -279,7 +302,7 @@ def check(model, whole, pos0, frozen: int, contact) -> float:
 def _step_motion(pos, pos0, n_nodes: int, f: int, sh0, sh1, sh2, motion) -> float:
     """The largest node displacement of the step relative to the common motion (m): active
     nodes from pos0 (from f) to pos, frozen nodes by the tail's pending translation; each
-    node's into ``motion`` (m)."""
+    node's into ``motion`` (2, cap) (m): relative to the common motion, and absolute."""
     lo0 = lo1 = lo2 = np.inf
     hi0 = hi1 = hi2 = -np.inf
     for g in range(n_nodes):
@@ -304,9 +327,22 @@ def _step_motion(pos, pos0, n_nodes: int, f: int, sh0, sh1, sh2, motion) -> floa
             d1 = pos[3 * g + 1] - pos0[k + 1] - c1
             d2 = pos[3 * g + 2] - pos0[k + 2] - c2
         w2 = d0 * d0 + d1 * d1 + d2 * d2
-        motion[g] = math.sqrt(w2)
+        motion[0, g] = math.sqrt(w2)
+        d0, d1, d2 = d0 + c0, d1 + c1, d2 + c2
+        motion[1, g] = math.sqrt(d0 * d0 + d1 * d1 + d2 * d2)
         m2 = max(m2, w2)
     return math.sqrt(m2)
+
+
+@njit(cache=True, inline="always")
+def _pair_motion(motion, i: int, j: int) -> float:
+    """A bound (m) on the relative displacement of the nodes of segments i and j:
+    |dx_a - dx_b| <= |dx_a - c| + |dx_b - c| for any c, taken with c the common motion
+    (``motion[0]``) and with c = 0 (``motion[1]``: where a fast stem moves the common motion
+    away from a pile at rest)."""
+    common = max(motion[0, i], motion[0, i + 1]) + max(motion[0, j], motion[0, j + 1])
+    still = max(motion[1, i], motion[1, i + 1]) + max(motion[1, j], motion[1, j + 1])
+    return min(common, still)
 
 
 @njit(cache=True)
@@ -373,6 +409,14 @@ def accumulate(model, rod, stage, out) -> float:
     exact = p.contact_exact_hessian
     energy = 0.0
     x = out.scratch.pair_x
+    # each node's motion since the step's start, relative to the common motion: a near
+    # pair that started farther than delta plus its nodes' motions apart cannot touch
+    # (d >= d0 - u), and is passed over without its distance
+    nm = contact.iter_motion
+    sh0 = rod.pos[0] - out.start[0]
+    sh1 = rod.pos[1] - out.start[1]
+    sh2 = rod.pos[2] - out.start[2]
+    _step_motion(pos, contact.start_pos[3 * f :], whole.n_nodes, f, sh0, sh1, sh2, nm)
     for k in range(contact.memory[0].n_near):
         q = contact.near[k]
         i = contact.pairs[q, 0]
@@ -380,6 +424,9 @@ def accumulate(model, rod, stage, out) -> float:
         if i >= n_seg or j >= n_seg:
             continue
         delta = factor * (seg_mat[i, MAT_RADIUS] + seg_mat[j, MAT_RADIUS])
+        u_bound = _pair_motion(nm, i, j) * BOUND_SAFETY
+        if contact.allowance[q] - u_bound >= delta * BOUND_SAFETY:
+            continue
         # the pair's nodes: a frozen node sits at its place plus the first active node's
         # displacement in this step (the tail follows it)
         nodes = (i - f, i + 1 - f, j - f, j + 1 - f)  # active-rod numbers, < 0: frozen
