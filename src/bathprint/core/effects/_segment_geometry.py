@@ -153,8 +153,11 @@ def segment_distance(pos, i0: int, i1: int, i2: int, i3: int) -> float:
 
 
 @njit(cache=True)
-def _distance_derivs(pos, i0, i1, i2, i3, s, t, s_free, t_free, d_floor, grad, hess) -> float:
-    """Distance d (m) with its gradient (12) and Hessian (12x12, 1/m) into grad and hess.
+def _distance_derivs(
+    pos, i0, i1, i2, i3, s, t, s_free, t_free, d_floor, grad, hess, with_hess=True
+) -> float:
+    """Distance d (m) with its gradient (12) and Hessian (12x12, 1/m) into grad and hess
+    (``with_hess`` False: the gradient only, for evaluations without the Jacobian).
 
     Coordinates are ordered [x_i0, x_i1, x_i2, x_i3]. With r = x_A(s) - x_B(t) = J x,
     J = [a0 I, a1 I, a2 I, a3 I], a = (1-s, s, t-1, -t), n = r/d, the free parameters' edge
@@ -221,6 +224,8 @@ def _distance_derivs(pos, i0, i1, i2, i3, s, t, s_free, t_free, d_floor, grad, h
     for i in range(4):
         for c in range(3):
             grad[3 * i + c] = alpha[i] * n[c]
+    if not with_hess:  # (forces only: the Hessian is left as it was)
+        return d
 
     # H^-1 entries (hss, hst, htt), G columns (g_s, g_t), M = mcoef (I - n n^T - pf f f^T)
     hss = 0.0

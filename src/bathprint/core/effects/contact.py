@@ -408,6 +408,7 @@ def accumulate(model, rod, stage, out) -> float:
     eps = p.contact_friction_velocity
     exact = p.contact_exact_hessian
     energy = 0.0
+    hess_needed = do_jac and cx != 0.0 and exact
     x = out.scratch.pair_x
     # each node's motion since the step's start, relative to the common motion: a near
     # pair that started farther than delta plus its nodes' motions apart cannot touch
@@ -448,7 +449,9 @@ def accumulate(model, rod, stage, out) -> float:
         s, t, s_free, t_free, dist2 = closest_params(x, 0, 1, 2, 3)
         if dist2 >= delta * delta:
             continue
-        d = _distance_derivs(x, 0, 1, 2, 3, s, t, s_free, t_free, D_FLOOR_REL * delta, grad, hess)
+        d = _distance_derivs(
+            x, 0, 1, 2, 3, s, t, s_free, t_free, D_FLOOR_REL * delta, grad, hess, hess_needed
+        )
         k_c = k_pa * 0.5 * (seg_rest[i] + seg_rest[j])
         e, e_p, e_pp = penalty(delta - d, k_c, p.contact_width_fraction * delta)
         energy += e
