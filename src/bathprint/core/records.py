@@ -89,9 +89,9 @@ class Krylov(NamedTuple):
 
     band_a: np.ndarray  # (3 cap, BAND_WIDTH): the Newton matrix's band, unfactored
     basis: np.ndarray  # (m + 1, 3 cap): Arnoldi vectors
+    zbasis: np.ndarray  # (m, 3 cap): the same, preconditioned
     hess: np.ndarray  # (m + 1, m): the Hessenberg matrix
     small: np.ndarray  # (4, m + 1): g, Givens cosines, sines, y
-    w: np.ndarray  # (3 cap,)
     z: np.ndarray  # (3 cap,)
 
 
@@ -268,9 +268,9 @@ def new_krylov(n_dof: int, restart: int) -> Krylov:
     return Krylov(
         band_a=np.zeros((n_dof, BAND_WIDTH)),
         basis=np.zeros((restart + 1, n_dof)),
+        zbasis=np.zeros((restart, n_dof)),
         hess=np.zeros((restart + 1, max(restart, 1))),
         small=np.zeros((4, restart + 1)),
-        w=np.zeros(n_dof),
         z=np.zeros(n_dof),
     )
 

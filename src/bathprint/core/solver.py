@@ -83,6 +83,18 @@ def matvec(ws, nd: int, x: np.ndarray, y: np.ndarray) -> None:
 
 
 @njit(cache=True)
+def _off_band_times(ws, nd: int, v: np.ndarray, z: np.ndarray, y: np.ndarray) -> None:
+    """y = A z for z = M^-1 v: since M is the LU of the band B, B z = v (to the LU's
+    round-off), and A z = v + (A - B) z needs only the blocks off the band and the nonlocal
+    part."""
+    for k in range(nd):
+        y[k] = v[k]
+    add_blocks_matvec(ws.cpl, z, y)
+    if ws.hydro.memory[0].linearized:
+        apply_nonlocal(ws, nd, z, y)
+
+
+@njit(cache=True)
 def _dot(a: np.ndarray, b: np.ndarray, nd: int) -> float:
     s = 0.0
     for k in range(nd):
@@ -93,15 +105,17 @@ def _dot(a: np.ndarray, b: np.ndarray, nd: int) -> float:
 @njit(cache=True)
 def _gmres(ws, nd: int, b: np.ndarray, counters: np.ndarray, rtol: float) -> bool:
     """Restarted GMRES for A x = b, right-preconditioned by the banded LU (in ``ws.band``):
-    minimise |b - A M^-1 u| over the Krylov space, x = M^-1 u. ``b`` is overwritten by x."""
+    minimise |b - A M^-1 u| over the Krylov space, x = M^-1 u. The preconditioned vectors
+    z_j = M^-1 v_j are kept (as flexible GMRES keeps them, Saad 1993), so that x = sum y_j z_j
+    costs no further back-substitution. ``b`` is overwritten by x."""
     kr = ws.krylov
     basis = kr.basis
+    zbasis = kr.zbasis
     hess = kr.hess
     g = kr.small[0]
     cs = kr.small[1]
     sn = kr.small[2]
     y = kr.small[3]
-    w = kr.w
     x = kr.z
     m = hess.shape[1]
     beta0 = math.sqrt(_dot(b, b, nd))
@@ -122,13 +136,14 @@ def _gmres(ws, nd: int, b: np.ndarray, counters: np.ndarray, rtol: float) -> boo
             g[i] = 0.0
         n_used = 0
         for j in range(m):
-            # w = M^-1 v_j, then v_{j+1} = A w, orthogonalised (modified Gram-Schmidt)
+            # z_j = M^-1 v_j, then v_{j+1} = A z_j, orthogonalised (modified Gram-Schmidt)
             vj = basis[j]
+            zj = zbasis[j]
             for k in range(nd):
-                w[k] = vj[k]
-            band_solve(ws.band, nd, KL, KU, ws.piv, w)
+                zj[k] = vj[k]
+            band_solve(ws.band, nd, KL, KU, ws.piv, zj)
             v_new = basis[j + 1]
-            matvec(ws, nd, w, v_new)
+            _off_band_times(ws, nd, vj, zj, v_new)
             for i in range(j + 1):
                 h = _dot(v_new, basis[i], nd)
                 hess[i, j] = h
@@ -159,22 +174,17 @@ def _gmres(ws, nd: int, b: np.ndarray, counters: np.ndarray, rtol: float) -> boo
             if abs(g[j + 1]) <= rtol * beta0 or h_next == 0.0:
                 converged = True
                 break
-        # y = H^-1 g (upper triangular), u = V y, x += M^-1 u
+        # y = H^-1 g (upper triangular), x += M^-1 V y = Z y
         for i in range(n_used - 1, -1, -1):
             s = g[i]
             for q in range(i + 1, n_used):
                 s -= hess[i, q] * y[q]
             y[i] = s / hess[i, i]
-        for k in range(nd):
-            w[k] = 0.0
         for i in range(n_used):
-            vi = basis[i]
+            zi = zbasis[i]
             yi = y[i]
             for k in range(nd):
-                w[k] += yi * vi[k]
-        band_solve(ws.band, nd, KL, KU, ws.piv, w)
-        for k in range(nd):
-            x[k] += w[k]
+                x[k] += yi * zi[k]
         if converged:
             break
         # the true residual for the restart
