@@ -243,13 +243,8 @@ class ValidationCallback(BaseCallback):
         self.rows["successes"].append(r["succ"])
         self.rows["wall_time_s"].append(wall)
         tmp = self.path.with_name(".evaluations.tmp.npz")
-        np.savez(
-            tmp,
-            **{
-                k: np.asarray(v, dtype=float if k != "timesteps" else int)
-                for k, v in self.rows.items()
-            },
-        )
+        np.savez(tmp, **{k: np.asarray(v, dtype=float if k != "timesteps" else int)
+                         for k, v in self.rows.items()})
         tmp.replace(self.path)
         mean = float(np.mean(r["metrics"]))
         if mean < self.best_metric:
@@ -299,9 +294,8 @@ class _ModelPolicy:
         self.model = model
         self.venv = model.get_vec_normalize_env()
 
-    def predict(
-        self, obs: Any, state: Any = None, episode_start: Any = None, deterministic: bool = True
-    ) -> Any:
+    def predict(self, obs: Any, state: Any = None, episode_start: Any = None,
+                deterministic: bool = True) -> Any:
         if self.venv is not None and self.venv.norm_obs:
             obs = self.venv.normalize_obs(obs)
         return self.model.predict(obs, state, episode_start, deterministic)

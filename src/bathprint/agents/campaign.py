@@ -208,18 +208,13 @@ def load_campaign(path: str | Path, out: str | Path | None = None) -> Campaign:
         for seed in parse_seeds(g.get("seeds", 0)):
             runs.append(
                 RunSpec(
-                    name,
-                    env_id,
-                    g["algo"],
-                    seed,
+                    name, env_id, g["algo"], seed,
                     str(env_dir(out_dir, env_id) / name / f"seed{seed}"),
-                    hp_file,
-                    timesteps,
-                    n_envs,
-                    dict(changes),
+                    hp_file, timesteps, n_envs, dict(changes),
                 )
             )
-    camp = Campaign(out_dir, episodes, list(baselines), reference, runs, int(data.get("seed", 0)))
+    camp = Campaign(out_dir, episodes, list(baselines), reference, runs,
+                    int(data.get("seed", 0)))
     for spec in runs:  # every run's settings checked before the first starts
         _settings(spec)
     return camp
@@ -257,16 +252,8 @@ def seeds_campaign(
     v1 = env_id.endswith("-v1")
     baselines = ["constant", "feedforward_calibrated"] + (["oracle"] if v1 else [])
     runs = [
-        RunSpec(
-            algo,
-            env_id,
-            algo,
-            s,
-            str(env_dir(out_dir, env_id) / algo / f"seed{s}"),
-            hyperparams_file,
-            timesteps,
-            n_envs,
-        )
+        RunSpec(algo, env_id, algo, s, str(env_dir(out_dir, env_id) / algo / f"seed{s}"),
+                hyperparams_file, timesteps, n_envs)
         for s in parse_seeds(seeds)
     ]
     for spec in runs:
@@ -303,25 +290,11 @@ def train_one(spec: RunSpec, progress: bool = False) -> dict[str, Any]:
     if state == "restart":  # a kill before the first checkpoint: nothing worth keeping
         shutil.rmtree(run_dir)
     if state in ("new", "restart"):
-        train(
-            spec.algo,
-            spec.env_id,
-            timesteps=spec.timesteps,
-            n_envs=spec.n_envs,
-            seed=spec.seed,
-            out=run_dir,
-            progress=progress,
-            hyperparams=_settings(spec),
-        )
+        train(spec.algo, spec.env_id, timesteps=spec.timesteps, n_envs=spec.n_envs,
+              seed=spec.seed, out=run_dir, progress=progress, hyperparams=_settings(spec))
     elif state == "resume":
-        train(
-            spec.algo,
-            spec.env_id,
-            timesteps=spec.timesteps,
-            out=run_dir,
-            resume=True,
-            progress=progress,
-        )
+        train(spec.algo, spec.env_id, timesteps=spec.timesteps, out=run_dir, resume=True,
+              progress=progress)
     info = read_run_info(run_dir)
     return {"state_before": state, "status": info.get("status"), **compute_record(spec)}
 
@@ -359,9 +332,8 @@ def _episodes_file(d: Path) -> Path | None:
     return found[0] if found else None
 
 
-def evaluate_one(
-    policy: str, env_id: str, out: Path, episodes: int, seed: int, progress: bool = False
-) -> Path:
+def evaluate_one(policy: str, env_id: str, out: Path, episodes: int, seed: int,
+                 progress: bool = False) -> Path:
     """Play ``policy`` on the first ``episodes`` test targets (version 0: the held-out
     ``eval`` set) into ``out``; an evaluation already there with these settings is kept."""
     from bathprint.agents.evaluate import default_target_set, evaluate_policy_spec
@@ -372,23 +344,12 @@ def evaluate_one(
     if found is not None and (found.parent / "summary.json").is_file():
         summary = json.loads((found.parent / "summary.json").read_text())
         if (summary.get("episodes"), summary.get("target_set"), summary.get("seed")) == (
-            episodes,
-            where,
-            seed,
+            episodes, where, seed
         ):
             return found
         shutil.rmtree(found.parent)
-    evaluate_policy_spec(
-        policy,
-        env_id,
-        episodes,
-        seed,
-        out,
-        images=1,
-        animate=False,
-        progress=progress,
-        target_set=where,
-    )
+    evaluate_policy_spec(policy, env_id, episodes, seed, out, images=1, animate=False,
+                         progress=progress, target_set=where)
     found = _episodes_file(out)
     assert found is not None
     return found
@@ -406,21 +367,11 @@ def _task(kind: str, payload: dict[str, Any]) -> dict[str, Any]:
         best = Path(spec.run_dir) / "eval" / "best_model.zip"
         if not best.is_file():
             raise RuntimeError(f"{spec.run_dir}: no validation-selected eval/best_model.zip")
-        evaluate_one(
-            str(best),
-            spec.env_id,
-            Path(spec.run_dir) / "test",
-            payload["episodes"],
-            payload["eval_seed"],
-        )
+        evaluate_one(str(best), spec.env_id, Path(spec.run_dir) / "test", payload["episodes"],
+                     payload["eval_seed"])
         return rec
-    evaluate_one(
-        payload["policy"],
-        payload["env_id"],
-        Path(payload["out"]),
-        payload["episodes"],
-        payload["eval_seed"],
-    )
+    evaluate_one(payload["policy"], payload["env_id"], Path(payload["out"]),
+                 payload["episodes"], payload["eval_seed"])
     return {"policy": payload["policy"]}
 
 
@@ -428,25 +379,14 @@ def _tasks(camp: Campaign) -> list[tuple[str, dict[str, Any]]]:
     tasks: list[tuple[str, dict[str, Any]]] = []
     for env_id in camp.envs:
         for b in camp.baselines:
-            tasks.append(
-                (
-                    "baseline",
-                    {
-                        "policy": b,
-                        "env_id": env_id,
-                        "episodes": camp.episodes,
-                        "eval_seed": camp.eval_seed,
-                        "out": str(env_dir(camp.out, env_id) / "baselines" / b.replace(":", "_")),
-                    },
-                )
-            )
+            tasks.append(("baseline", {
+                "policy": b, "env_id": env_id, "episodes": camp.episodes,
+                "eval_seed": camp.eval_seed,
+                "out": str(env_dir(camp.out, env_id) / "baselines" / b.replace(":", "_")),
+            }))
     for spec in camp.runs:
-        tasks.append(
-            (
-                "train",
-                {"spec": asdict(spec), "episodes": camp.episodes, "eval_seed": camp.eval_seed},
-            )
-        )
+        tasks.append(("train", {"spec": asdict(spec), "episodes": camp.episodes,
+                                "eval_seed": camp.eval_seed}))
     return tasks
 
 
@@ -465,9 +405,8 @@ def _iter_pool(tasks: list[tuple[str, dict[str, Any]]], workers: int) -> Iterato
 
     from bathprint.studies.sweep import _mp_context
 
-    pool = ProcessPoolExecutor(
-        max_workers=max(1, min(workers, len(tasks))), mp_context=_mp_context()
-    )
+    pool = ProcessPoolExecutor(max_workers=max(1, min(workers, len(tasks))),
+                               mp_context=_mp_context())
     finished = False
     try:
         futures = {pool.submit(_task, kind, payload): i for i, (kind, payload) in enumerate(tasks)}
@@ -488,9 +427,8 @@ def _iter_pool(tasks: list[tuple[str, dict[str, Any]]], workers: int) -> Iterato
                     pass
 
 
-def _iter_dask(
-    tasks: list[tuple[str, dict[str, Any]]], scheduler: str, workers: int
-) -> Iterator[tuple[int, Any]]:
+def _iter_dask(tasks: list[tuple[str, dict[str, Any]]], scheduler: str,
+               workers: int) -> Iterator[tuple[int, Any]]:
     import logging
 
     from distributed import Client, LocalCluster, as_completed
@@ -499,13 +437,9 @@ def _iter_dask(
 
     cluster = None
     if scheduler == LOCAL_DASK:
-        cluster = LocalCluster(
-            n_workers=max(1, min(workers, len(tasks))),
-            threads_per_worker=1,
-            processes=True,
-            dashboard_address=None,
-            silence_logs=logging.ERROR,
-        )
+        cluster = LocalCluster(n_workers=max(1, min(workers, len(tasks))), threads_per_worker=1,
+                               processes=True, dashboard_address=None,
+                               silence_logs=logging.ERROR)
         client = Client(cluster, set_as_default=False)
     else:
         try:
@@ -533,9 +467,8 @@ def _iter_dask(
             cluster.close()
 
 
-def run_campaign(
-    camp: Campaign, workers: int = 1, scheduler: str | None = None, progress: bool = True
-) -> dict[str, Path]:
+def run_campaign(camp: Campaign, workers: int = 1, scheduler: str | None = None,
+                 progress: bool = True) -> dict[str, Path]:
     """Train and evaluate everything not done yet, then write each environment's results;
     returns {env_id: results.md}. A failed run is reported and left out of the table."""
     from bathprint.studies.sweep import check_scheduler
@@ -554,14 +487,13 @@ def run_campaign(
         what = payload["spec"]["run_dir"] if kind == "train" else payload["out"]
         if isinstance(outcome, BaseException):
             failures.append(f"{what}: {type(outcome).__name__}: {outcome}")
-            print(f"campaign: {what} failed: {type(outcome).__name__}: {outcome}", file=sys.stderr)
+            print(f"campaign: {what} failed: {type(outcome).__name__}: {outcome}",
+                  file=sys.stderr)
         elif progress:
             extra = ""
             if kind == "train":
-                extra = (
-                    f" ({outcome['timesteps_done']} steps, "
-                    f"{outcome['wall_time_s']:.0f} s, {outcome['state_before']})"
-                )
+                extra = (f" ({outcome['timesteps_done']} steps, "
+                         f"{outcome['wall_time_s']:.0f} s, {outcome['state_before']})")
             print(f"campaign: {what} done{extra}", flush=True)
     written = {env_id: write_results(camp, env_id) for env_id in camp.envs}
     if failures:
@@ -597,15 +529,13 @@ def collect(camp: Campaign, env_id: str) -> dict[str, Any]:
         s = _test_scores(Path(spec.run_dir) / "test")
         if not s:
             continue
-        p = policies.setdefault(
-            spec.name, {"kind": "agent", "algo": spec.algo, "scores": [], "runs": []}
-        )
+        p = policies.setdefault(spec.name, {"kind": "agent", "algo": spec.algo, "scores": [],
+                                            "runs": []})
         p["scores"].append(s)
         p["runs"].append(compute_record(spec))
-    keys = sorted(
-        set.intersection(*[set(s) for p in policies.values() for s in p["scores"]]),
-        key=lambda k: min(list(s).index(k) for p in policies.values() for s in p["scores"]),
-    )
+    keys = sorted(set.intersection(*[set(s) for p in policies.values() for s in p["scores"]]),
+                  key=lambda k: min(
+                      list(s).index(k) for p in policies.values() for s in p["scores"]))
     for p in policies.values():
         p["metric"] = np.array([[s[k]["metric"] for k in keys] for s in p["scores"]])
         p["success"] = np.array([[s[k]["is_success"] for k in keys] for s in p["scores"]])
@@ -632,24 +562,20 @@ def write_results(camp: Campaign, env_id: str) -> Path:
     rows = []
     for name, p in pol.items():
         summ = st.summary(
-            p["metric"],
-            p["success"],
-            None if const is None else const[0],
-            None if oracle is None else oracle[0],
+            p["metric"], p["success"],
+            None if const is None else const[0], None if oracle is None else oracle[0],
             None if ref is None or name == camp.reference else ref[0],
         )
         runs = p["runs"]
-        summ.update(
-            {
-                "policy": name,
-                "kind": p["kind"],
-                "algo": p.get("algo"),
-                "seeds": [r["seed"] for r in runs],
-                "timesteps_per_run": [r["timesteps_done"] for r in runs],
-                "wall_time_s_per_run": [r["wall_time_s"] for r in runs],
-                "selected_timesteps": [r["selected_timesteps"] for r in runs],
-            }
-        )
+        summ.update({
+            "policy": name,
+            "kind": p["kind"],
+            "algo": p.get("algo"),
+            "seeds": [r["seed"] for r in runs],
+            "timesteps_per_run": [r["timesteps_done"] for r in runs],
+            "wall_time_s_per_run": [r["wall_time_s"] for r in runs],
+            "selected_timesteps": [r["selected_timesteps"] for r in runs],
+        })
         rows.append(summ)
     record = {
         "env_id": env_id,
@@ -670,7 +596,8 @@ def write_results(camp: Campaign, env_id: str) -> Path:
             for r in range(p["metric"].shape[0]):
                 seed = p["runs"][r]["seed"] if p["runs"] else ""
                 for j, k in enumerate(keys):
-                    w.writerow([name, seed, k, f"{p['metric'][r, j]:.6g}", int(p["success"][r, j])])
+                    w.writerow([name, seed, k, f"{p['metric'][r, j]:.6g}",
+                                int(p["success"][r, j])])
     runs = [r for p in pol.values() for r in p["runs"]]
     if runs:
         with (ed / "runs.csv").open("w", newline="") as f:
@@ -685,10 +612,8 @@ def write_results(camp: Campaign, env_id: str) -> Path:
 def format_results(record: dict[str, Any]) -> str:
     """The Markdown table of :func:`write_results`."""
     ref = record["reference"]
-    head = (
-        "| policy | runs | steps per run | wall min per run | IQM metric | mean metric "
-        "| normalised score | success rate | " + f"− {ref} | gap closed | targets won |"
-    )
+    head = ("| policy | runs | steps per run | wall min per run | IQM metric | mean metric "
+            "| normalised score | success rate | " + f"− {ref} | gap closed | targets won |")
     lines = [
         f"{record['env_id']}: {record['episodes']} {record['target_set']} targets; "
         "95% stratified-bootstrap "
@@ -754,12 +679,8 @@ def plot_curves(camp: Campaign, env_id: str, path: Path) -> Path | None:
 #: later (the curves, the test episodes, the selection), no checkpoints; the training
 #: episode log gzipped
 EXPORT_FILES = (
-    "run.json",
-    "training_curve.png",
-    "eval/evaluations.npz",
-    "eval/best.json",
-    "test/*/summary.json",
-    "test/*/episodes.csv",
+    "run.json", "training_curve.png", "eval/evaluations.npz", "eval/best.json",
+    "test/*/summary.json", "test/*/episodes.csv",
 )
 #: the selected model and its statistics: copied for one run per group (see export)
 MODEL_FILES = ("eval/best_model.zip", "eval/vecnormalize.pkl")
@@ -813,28 +734,19 @@ def export(camp: Campaign, env_id: str, dest: str | Path, all_models: bool = Fal
 
 
 def _parser() -> argparse.ArgumentParser:
-    ap = argparse.ArgumentParser(
-        prog="python -m bathprint.agents.campaign",
-        description=__doc__,
-        formatter_class=argparse.RawDescriptionHelpFormatter,
-    )
+    ap = argparse.ArgumentParser(prog="python -m bathprint.agents.campaign",
+                                 description=__doc__,
+                                 formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("file", help="campaign file (YAML)")
     ap.add_argument("--out", default=None, help="campaign directory (default: the file's out)")
     ap.add_argument("--workers", type=int, default=1, help="local worker processes")
-    ap.add_argument(
-        "--scheduler",
-        default=None,
-        help="'serial', 'local-dask' or a Dask scheduler address tcp://host:8786",
-    )
-    ap.add_argument(
-        "--report-only", action="store_true", help="only rebuild the results from what is on disk"
-    )
-    ap.add_argument(
-        "--export",
-        default=None,
-        metavar="DIR",
-        help="then copy the results and the runs' small files (no checkpoints) into DIR/<Env>-v1/",
-    )
+    ap.add_argument("--scheduler", default=None,
+                    help="'serial', 'local-dask' or a Dask scheduler address tcp://host:8786")
+    ap.add_argument("--report-only", action="store_true",
+                    help="only rebuild the results from what is on disk")
+    ap.add_argument("--export", default=None, metavar="DIR",
+                    help="then copy the results and the runs' small files (no checkpoints) "
+                    "into DIR/<Env>-v1/")
     ap.add_argument("--quiet", action="store_true")
     return ap
 

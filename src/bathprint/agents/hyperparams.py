@@ -397,7 +397,9 @@ def validate_hyperparams(algo: str, hp: Any, where: str, env_id: str | None = No
             if not (isinstance(value, int) and not isinstance(value, bool) and value >= 1):
                 raise ConfigError(f"{where}: {key} = {value!r}; allowed: an integer >= 1")
     if "vec_env" in hp and hp["vec_env"] not in VEC_ENVS:
-        raise ConfigError(f"{where}: vec_env = {hp['vec_env']!r}; allowed: " + ", ".join(VEC_ENVS))
+        raise ConfigError(
+            f"{where}: vec_env = {hp['vec_env']!r}; allowed: " + ", ".join(VEC_ENVS)
+        )
     policy = hp.get("policy", "MlpPolicy")
     if not isinstance(policy, str) or policy not in cls.policy_aliases:
         raise ConfigError(
@@ -488,11 +490,8 @@ def algo_kwargs_for(algo: str, kwargs: dict[str, Any]) -> dict[str, Any]:
         from stable_baselines3 import HerReplayBuffer
         from stable_baselines3.common.buffers import DictReplayBuffer, ReplayBuffer
 
-        named = {
-            "HerReplayBuffer": HerReplayBuffer,
-            "ReplayBuffer": ReplayBuffer,
-            "DictReplayBuffer": DictReplayBuffer,
-        }
+        named = {"HerReplayBuffer": HerReplayBuffer, "ReplayBuffer": ReplayBuffer,
+                 "DictReplayBuffer": DictReplayBuffer}
         out["replay_buffer_class"] = named[out["replay_buffer_class"]]
     for key, value in kwargs.items():
         ann = params.get(key)

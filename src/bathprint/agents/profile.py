@@ -38,14 +38,8 @@ from pathlib import Path
 from typing import Any
 
 CATEGORIES = (
-    "simulation",
-    "observation",
-    "scoring",
-    "env other",
-    "policy forward",
-    "policy update",
-    "validation",
-    "rest",
+    "simulation", "observation", "scoring", "env other", "policy forward", "policy update",
+    "validation", "rest",
 )
 
 
@@ -138,15 +132,8 @@ def profile_training(
             ValidationCallback.evaluate = evaluate  # type: ignore[method-assign]
             t._undo.append((ValidationCallback, "evaluate", original_eval))
             t0 = time.perf_counter()
-            run_dir = train(
-                algo,
-                env_id,
-                timesteps=timesteps,
-                seed=seed,
-                out=tmp / "run",
-                hyperparams=hp,
-                progress=False,
-            )
+            run_dir = train(algo, env_id, timesteps=timesteps, seed=seed, out=tmp / "run",
+                            hyperparams=hp, progress=False)
             wall = time.perf_counter() - t0
         info = read_run_info(run_dir)
     finally:
@@ -159,14 +146,9 @@ def profile_training(
         "simulation": sim,
         "observation": g("observation", 0.0),
         "scoring": g("record", 0.0) + g("evaluate_metric", 0.0),
-        "env other": env
-        - sim
-        - g("observation", 0.0)
-        - g("record", 0.0)
-        - g("evaluate_metric", 0.0)
-        + (vec - env),
-        "policy forward": g("collect_rollouts", 0.0)
-        - g("vec_step", 0.0)
+        "env other": env - sim - g("observation", 0.0) - g("record", 0.0)
+        - g("evaluate_metric", 0.0) + (vec - env),
+        "policy forward": g("collect_rollouts", 0.0) - g("vec_step", 0.0)
         - (g("vec_reset", 0.0) if collect is OffPolicyAlgorithm else 0.0),
         "policy update": g("policy_update", 0.0),
         "validation": g("validation", 0.0),
@@ -198,19 +180,14 @@ def format_profile(rec: dict[str, Any]) -> str:
         "|---|---|---|---|",
     ]
     for k in CATEGORIES:
-        lines.append(
-            f"| {k} | {rec['seconds'][k]:.2f} | {100 * rec['share'][k]:.1f}% "
-            f"| {rec['us_per_step'][k]:.0f} |"
-        )
+        lines.append(f"| {k} | {rec['seconds'][k]:.2f} | {100 * rec['share'][k]:.1f}% "
+                     f"| {rec['us_per_step'][k]:.0f} |")
     return "\n".join(lines) + "\n"
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(
-        prog="python -m bathprint.agents.profile",
-        description=__doc__,
-        formatter_class=argparse.RawDescriptionHelpFormatter,
-    )
+    ap = argparse.ArgumentParser(prog="python -m bathprint.agents.profile", description=__doc__,
+                                 formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--algo", default="ppo")
     ap.add_argument("--env", required=True)
     ap.add_argument("--hyperparams", default=None)
@@ -222,9 +199,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         print(f"profile: --timesteps = {args.timesteps}; must be >= 1", file=sys.stderr)
         return 2
     try:
-        rec = profile_training(
-            args.algo, args.env, args.hyperparams, args.timesteps, n_envs=args.n_envs
-        )
+        rec = profile_training(args.algo, args.env, args.hyperparams, args.timesteps,
+                               n_envs=args.n_envs)
     except (ValueError, FileNotFoundError) as exc:
         print(f"profile: {exc}", file=sys.stderr)
         return 2

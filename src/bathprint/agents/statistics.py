@@ -67,7 +67,8 @@ def bootstrap_ci(
     np.random.seed(seed)  # noqa: NPY002
     try:
         bs = StratifiedBootstrap(*arrays, task_bootstrap=True)
-        ci = bs.conf_int(lambda *a: np.array([func(*a)]), reps=reps, size=size, method="percentile")
+        ci = bs.conf_int(lambda *a: np.array([func(*a)]), reps=reps, size=size,
+                         method="percentile")
     finally:
         np.random.set_state(state)  # noqa: NPY002
     lo, hi = float(np.ravel(ci[0])[0]), float(np.ravel(ci[1])[0])

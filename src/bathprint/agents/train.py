@@ -497,12 +497,7 @@ def train(
         callbacks: list[Any] = []
         try:
             venv = make_vec(
-                env_id,
-                n_envs,
-                seed,
-                env_kwargs,
-                run_dir / "monitor",
-                run.get("wrapper"),
+                env_id, n_envs, seed, env_kwargs, run_dir / "monitor", run.get("wrapper"),
                 str(run.get("vec_env", "subproc")),
             )
             if ckpt is not None:
@@ -537,17 +532,8 @@ def train(
                     **algo_kwargs_for(algo, algo_kwargs),
                 )
             callbacks = _make_callbacks(
-                run_dir,
-                env_id,
-                env_kwargs,
-                normalize,
-                n_envs,
-                run,
-                resumed_at,
-                algo,
-                seed,
-                float(info.get("wall_time_s", 0.0)),
-                stop,
+                run_dir, env_id, env_kwargs, normalize, n_envs, run, resumed_at, algo, seed,
+                float(info.get("wall_time_s", 0.0)), stop,
             )
         except BaseException as exc:
             with stop.shield():

@@ -111,16 +111,8 @@ def tune(
             import shutil
 
             shutil.rmtree(run_dir)
-        train(
-            algo,
-            env_id,
-            timesteps=timesteps,
-            n_envs=n_envs,
-            seed=seed,
-            out=run_dir,
-            hyperparams=hp,
-            progress=False,
-        )
+        train(algo, env_id, timesteps=timesteps, n_envs=n_envs, seed=seed, out=run_dir,
+              hyperparams=hp, progress=False)
         score, at = _score(run_dir)
         info = read_run_info(run_dir)
         trial.set_user_attr("best_timesteps", at)
@@ -183,16 +175,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     ap.add_argument("--out", default="runs/tune")
     args = ap.parse_args(argv)
     try:
-        rec = tune(
-            args.algo,
-            args.env,
-            args.hyperparams,
-            args.trials,
-            args.timesteps,
-            args.out,
-            args.seed,
-            args.n_envs,
-        )
+        rec = tune(args.algo, args.env, args.hyperparams, args.trials, args.timesteps,
+                   args.out, args.seed, args.n_envs)
     except (ValueError, FileNotFoundError) as exc:
         print(f"tune: {exc}", file=sys.stderr)
         return 2
