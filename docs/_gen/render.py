@@ -962,6 +962,32 @@ def contact_scaling() -> str:
     return _table(head, rows) + "\n\n" + provenance(path)
 
 
+def preconditioners() -> str:
+    path = RESULTS / "preconditioners.csv"
+    rows = [
+        [
+            f"`{r['state']}`",
+            r["unknowns"],
+            r["off_band_blocks"],
+            f"`{r['preconditioner']}`",
+            r["coarse_unknowns"],
+            r["iterations_rtol_0.05"],
+            r["iterations_rtol_1e-6"],
+        ]
+        for r in _csv(path)
+    ]
+    head = [
+        "Newton matrix of",
+        "unknowns",
+        "blocks off the band",
+        "preconditioner",
+        "coarse unknowns",
+        "GMRES iterations to 0.05",
+        "to 1e-6",
+    ]
+    return _table(head, rows) + "\n\n" + provenance(path)
+
+
 def contact_scenes() -> str:
     path = RESULTS / "contact_scenes.csv"
     rows = [
@@ -1074,6 +1100,7 @@ TABLES: dict[str, Callable[[], str]] = {
     "fig3-settling": fig3_settling,
     "contact-scaling": contact_scaling,
     "contact-scenes": contact_scenes,
+    "preconditioners": preconditioners,
     "ablation": ablation,
     "gravity": gravity,
     "kernel-ab": kernel_ab,

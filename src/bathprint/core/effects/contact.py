@@ -40,6 +40,7 @@ from bathprint.core.effects._band import add_coupling
 from bathprint.core.effects._segment_geometry import (
     D_FLOOR_REL,
     _distance_derivs,
+    _start_distance,
     build_candidate_pairs,
     closest_params,
     penalty,
@@ -262,7 +263,7 @@ def check(model, whole, pos0, frozen: int, contact) -> float:
             if u_bound <= worst * -gap:
                 continue
             delta = factor * (seg_mat[i, MAT_RADIUS] + seg_mat[j, MAT_RADIUS])
-            gap = _start_distance(pos, pos0, f, i, j, contact.pair_x) - delta
+            gap = _start_distance(pos0, pos, f, i, j, contact.pair_x) - delta
             contact.allowance[q] = gap
         if u_bound <= worst * gap:
             continue
@@ -343,18 +344,6 @@ def _pair_motion(motion, i: int, j: int) -> float:
     common = max(motion[0, i], motion[0, i + 1]) + max(motion[0, j], motion[0, j + 1])
     still = max(motion[1, i], motion[1, i + 1]) + max(motion[1, j], motion[1, j + 1])
     return min(common, still)
-
-
-@njit(cache=True)
-def _start_distance(pos, pos0, f: int, i: int, j: int, x) -> float:
-    """Distance (m) of segments i, j at the start of the step: active nodes (from f) at
-    pos0, frozen ones at pos (the tail's translation is still pending); ``x`` (12,) scratch."""
-    nodes = (i, i + 1, j, j + 1)
-    for a in range(4):
-        g = nodes[a]
-        for c in range(3):
-            x[3 * a + c] = pos0[3 * (g - f) + c] if g >= f else pos[3 * g + c]
-    return segment_distance(x, 0, 1, 2, 3)
 
 
 @njit(cache=True)
