@@ -270,3 +270,39 @@ def test_a_pickled_simulation_still_writes_its_parameters() -> None:
         copy.set_inclusion_offset(0.25)
         assert copy.model.params[0]["inclusion_offset"] == pytest.approx(0.25)
     assert sim.model.params[0]["inclusion_offset"] == pytest.approx(0.0)
+
+
+def test_the_kernel_entry_point_follows_the_workspace_and_leaves_results_unchanged() -> None:
+    # Simulation.advance calls the compiled kernel directly, resolved once per workspace;
+    # a grown workspace is resolved again, a pickle drops the entry point, and the
+    # trajectory is the dispatcher's, bit for bit
+    a = Simulation("drag_coiling_22G", {"duration_s": 0.05})
+    b = Simulation("drag_coiling_22G", {"duration_s": 0.05})
+    cap0 = a.capacity
+    a.advance(0.01)  # (the first call may go through the dispatcher, which loads the kernel)
+    a.advance(0.02)
+    ws_before = a.ws
+    assert a._advance_entry[0] is ws_before
+    for t in np.linspace(0.02, 1.0, 50)[1:]:  # grows: a new workspace
+        a.advance(float(t))
+    assert a.capacity > cap0 and a.ws is not ws_before and a._advance_entry[0] is a.ws
+    copy = pickle.loads(pickle.dumps(a))
+    assert "_advance_entry" not in copy.__dict__
+    copy.advance(1.01)
+    a.advance(1.01)
+    np.testing.assert_array_equal(copy.centerline(), a.centerline())
+    # the same run through numba's dispatcher on every call
+    from bathprint.core.integrators import advance
+
+    b.advance(0.01)
+    b.advance(0.02)
+    for t in list(np.linspace(0.02, 1.0, 50)[1:]) + [1.01]:
+        while True:
+            before = int(b.counters[L.C_STEPS])
+            status = advance(b.model.record, b.state, b.ws, float(t), 10**9)
+            if status == L.STATUS_CAPACITY:
+                b._grow() if b.n_nodes + 2 > b.capacity else b._grow_off_band()
+                continue
+            assert status == L.STATUS_OK, before
+            break
+    np.testing.assert_array_equal(b.centerline(), a.centerline())

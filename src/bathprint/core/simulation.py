@@ -12,6 +12,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+from numba.core.typing.typeof import Purpose, typeof
 
 from bathprint.core import layout as L
 from bathprint.core import records
@@ -190,6 +191,12 @@ class Simulation:
             self.seg_rest,
             self.seg_mat,
         )
+
+    def __getstate__(self) -> dict:
+        """Pickled and copied without the resolved kernel entry point (a compiled function)."""
+        state = self.__dict__.copy()
+        state.pop("_advance_entry", None)
+        return state
 
     def __setstate__(self, state: dict) -> None:
         """Unpickle; a pickle of an older layout (flat parameter and work arrays) is refused
@@ -493,7 +500,8 @@ class Simulation:
         budget = max_steps
         while True:
             before = int(self.counters[L.C_STEPS])
-            status = advance(m.record, self.state, self.ws, float(t_end), int(budget))
+            args = (m.record, self.state, self.ws, float(t_end), int(budget))
+            status = self._advance_kernel(args)(*args)
             budget -= int(self.counters[L.C_STEPS]) - before
             if status == L.STATUS_OK:
                 return
@@ -506,6 +514,23 @@ class Simulation:
             if status == L.STATUS_STEP_LIMIT:
                 return
             self._raise(status)
+
+    def _advance_kernel(self, args: tuple) -> Any:
+        """The compiled :func:`~bathprint.core.integrators.advance` for these records.
+
+        numba's dispatcher resolves the types of the nested records on every call (about
+        13 us, most of a short call's cost, as an environment's control step makes); the
+        types are fixed by the workspace, so they are resolved once per workspace (it is
+        replaced when it grows) and the compiled entry point is called directly."""
+        entry = self.__dict__.get("_advance_entry")
+        if entry is not None and entry[0] is self.ws:
+            return entry[1]
+        sig = tuple(typeof(a, Purpose.argument) for a in args)
+        compiled = advance.overloads.get(sig)
+        if compiled is None:  # not compiled for these types yet: the dispatcher compiles
+            return advance
+        self._advance_entry = (self.ws, compiled.entry_point)
+        return compiled.entry_point
 
     def _raise(self, status: int) -> None:
         cause = L.STATUS_MESSAGES.get(status, f"status {status}")
