@@ -75,6 +75,19 @@ def test_readme_headline_table_is_rendered_from_the_result_files():
     )
 
 
+def test_an_empty_rendered_block_keeps_what_follows_it():
+    # an empty block (marker and end marker only) must end at its own end marker, not at
+    # the next block's
+    text = (
+        "<!-- render: call-overhead-missing -->\n<!-- end render -->\n\n## Next\n\nkept\n\n"
+        "<!-- render: other -->\n| old |\n<!-- end render -->\n"
+    )
+    blocks = [m.group(1) for m in render.DIRECTIVE.finditer(text)]
+    assert blocks == ["call-overhead-missing", "other"]
+    first = next(render.DIRECTIVE.finditer(text))
+    assert "## Next" not in first.group(0) and "## Next" in text[first.end() :]
+
+
 @pytest.mark.parametrize("path", ["README.md", "CHANGELOG.md"])
 def test_relative_links_of_top_level_files_exist(path: str):
     text = (ROOT / path).read_text(encoding="utf-8")

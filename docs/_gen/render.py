@@ -36,7 +36,7 @@ ROOT = Path(__file__).resolve().parents[2]
 RESULTS = ROOT / "benchmarks" / "results"
 AGENTS = ROOT / "agents" / "results"
 DIRECTIVE = re.compile(
-    r"^<!-- render: ([\w-]+) -->$(?:\n(.*?)\n<!-- end render -->$)?", re.S | re.M
+    r"^<!-- render: ([\w-]+) -->$(?:\n(?:(.*?)\n)??<!-- end render -->$)?", re.S | re.M
 )
 
 
