@@ -211,6 +211,34 @@ def test_a_killed_campaign_resumes_and_ends_in_one_table(tmp_path, capsys, monke
     assert not list(kept.rglob("checkpoints")) and not list(kept.rglob("model_*_steps.zip"))
 
 
+@pytest.mark.parametrize("algo, hp_file", [("sac", "sac.yml"), ("tqc", "tqc_her.yml")])
+def test_off_policy_runs_go_through_a_campaign(tmp_path, monkeypatch, algo, hp_file):
+    """SAC and TQC with hindsight replay (goal-conditioned observations) train, and their
+    validation-selected models play the test targets in the environment they trained on."""
+    tiny = {"learning_starts": 100, "batch_size": 32, "buffer_size": 2000, "train_freq": 8,
+            "gradient_steps": 1, "eval_freq": 200, "eval_episodes": 2, "checkpoint_freq": 200,
+            "policy_kwargs": {"net_arch": [16]}}
+    path = tmp_path / "campaign.yml"
+    path.write_text(yaml.safe_dump({
+        "out": str(tmp_path / "out"), "episodes": 2, "baselines": ["feedforward_calibrated"],
+        "reference": "feedforward_calibrated",
+        "runs": [{"name": algo, "env": ENV, "algo": algo, "seeds": 0, "timesteps": 400,
+                  "hyperparams": str(ROOT / "agents" / hp_file), "set": tiny}],
+    }))
+    monkeypatch.chdir(tmp_path)
+    assert campaign_main([str(path), "--quiet"]) == 0
+    (run,) = load_campaign(path).runs
+    (summary,) = (Path(run.run_dir) / "test").glob("*/summary.json")
+    played = json.loads(summary.read_text())
+    trained = json.loads((Path(run.run_dir) / "run.json").read_text())["hyperparams"]
+    assert played["target_set"] == "test" and played["episodes"] == 2
+    assert played["env_kwargs"] == trained["env_kwargs"]
+    assert played["env_kwargs"].get("goal_conditioned", False) == (algo == "tqc")
+    record = json.loads((tmp_path / "out" / "CoilRadius-v1" / "results.json").read_text())
+    rows = {r["policy"]: r for r in record["policies"]}
+    assert rows[algo]["runs"] == 1 and rows[algo]["targets"] == 2
+
+
 # ------------------------------------------------------------ test set unread
 
 

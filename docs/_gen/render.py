@@ -683,6 +683,39 @@ def agents() -> str:
     )
 
 
+#: the version-1 campaigns whose tables the docs render (agents/results/<Env>/results.json)
+CAMPAIGN_ENVS = ("CoilRadius-v1", "BuoyantLayers-v1", "WriteShape-v1")
+
+
+def campaign(env: str) -> str:
+    """The results table of one version-1 campaign (``bathprint.agents.campaign``'s
+    results.md, rebuilt from its results.json), with the command and the runs' machine."""
+    from bathprint.agents.campaign import format_results
+
+    path = AGENTS / env / "results.json"
+    if not path.is_file():
+        raise RenderError(
+            f"{_rel(path)} does not exist (python -m bathprint.agents.campaign "
+            f"agents/campaigns/{env}.yml --export agents/results)"
+        )
+    table = format_results(json.loads(path.read_text())).split("\n\n", 1)[1].rstrip()
+    machines = set()
+    runs_csv = path.with_name("runs.csv")
+    for r in _csv(runs_csv) if runs_csv.is_file() else []:
+        info = AGENTS / env / r["name"] / f"seed{r['seed']}"
+        if (info / "run.json").is_file():
+            m = json.loads((info / "run.json").read_text()).get("machine", {})
+            machines.add(f"{m.get('processor', '?')}, {m.get('cpus', '?')} cores")
+    date, commit = _committed(path)
+    when = f"committed {date}, {commit}" if date else "not yet committed"
+    return table + (
+        f"\n\n*Source: `{_rel(path)}` ({when}), written by `python -m "
+        f"bathprint.agents.campaign agents/campaigns/{env}.yml --export agents/results`; "
+        f"machine: {'; '.join(sorted(machines)) or 'not recorded'} (`runs.csv`: each run's "
+        "cores, load at its start, steps, wall and CPU seconds).*"
+    )
+
+
 # ------------------------------------------------------------------ the paper reproduced
 REPRODUCE = RESULTS / "reproduce"
 
@@ -1104,6 +1137,7 @@ TABLES: dict[str, Callable[[], str]] = {
     "ablation": ablation,
     "gravity": gravity,
     "kernel-ab": kernel_ab,
+    **{f"campaign-{e}": (lambda e=e: campaign(e)) for e in CAMPAIGN_ENVS},
 }
 
 

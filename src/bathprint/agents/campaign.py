@@ -660,8 +660,9 @@ def plot_curves(camp: Campaign, env_id: str, path: Path) -> Path | None:
         color = f"C{k}"
         for j, (steps, metric, wall) in enumerate(curves):
             label = f"{name} ({len(curves)} seeds)" if j == 0 else None
-            axes[0].plot(steps / 1e3, metric, color=color, alpha=0.7, lw=1, label=label)
-            axes[1].plot(wall / 60, metric, color=color, alpha=0.7, lw=1)
+            dots = {"marker": "o", "ms": 3} if len(steps) < 3 else {}  # 1-2 evaluations
+            axes[0].plot(steps / 1e3, metric, color=color, alpha=0.7, lw=1, label=label, **dots)
+            axes[1].plot(wall / 60, metric, color=color, alpha=0.7, lw=1, **dots)
     axes[0].set_xlabel("environment steps (thousands)")
     axes[1].set_xlabel("training wall time (min)")
     axes[0].set_ylabel("mean final metric, validation targets")

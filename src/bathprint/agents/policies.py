@@ -269,15 +269,23 @@ class SB3Policy:
 
     def predict(
         self,
-        observation: np.ndarray,
+        observation: np.ndarray | dict[str, np.ndarray],
         state: Any = None,
         episode_start: Any = None,
         deterministic: bool = True,
     ) -> tuple[np.ndarray, Any]:
-        obs = np.asarray(observation, np.float32)
+        obs = _float32(observation)
         if self.obs_normalizer is not None and self.obs_normalizer.norm_obs:
-            obs = self.obs_normalizer.normalize_obs(obs).astype(np.float32)
+            obs = _float32(self.obs_normalizer.normalize_obs(obs))
         return self.model.predict(obs, state, episode_start, deterministic)
+
+
+def _float32(observation: Any) -> Any:
+    """An observation as float32: an array, or a dict of arrays (the goal-conditioned
+    environments' ``observation``/``achieved_goal``/``desired_goal``)."""
+    if isinstance(observation, dict):
+        return {k: np.asarray(v, np.float32) for k, v in observation.items()}
+    return np.asarray(observation, np.float32)
 
 
 def load_policy(spec: str, env: Any, env_id: str, seed: int = 0) -> tuple[Policy, str]:

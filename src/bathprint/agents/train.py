@@ -716,7 +716,12 @@ def load_trained(path: str | Path) -> tuple[Any, Any, str, str]:
     from stable_baselines3.common.vec_env import VecNormalize
 
     algo, zip_path, stats, label, note = trained_files(path)
-    model = _algo_class(algo).load(zip_path, device="cpu")
+    # Playing needs no replay buffer: the one-slot default buffer stands in for the trained
+    # one (a HerReplayBuffer cannot be rebuilt without the training environment).
+    unused_buffer = {"replay_buffer_class": None, "replay_buffer_kwargs": {}, "buffer_size": 1}
+    model = _algo_class(algo).load(
+        zip_path, device="cpu", custom_objects=unused_buffer if algo in OFF_POLICY else None
+    )
     normalizer = None
     if stats.is_file():
         normalizer = VecNormalize.load(str(stats), _dummy_venv(model))
