@@ -75,6 +75,12 @@ def test_readme_headline_table_is_rendered_from_the_result_files():
     )
 
 
+def test_figures_in_the_docs_are_copies_of_their_result_files():
+    assert render.FIGURES and not render.stale_figures(), (
+        "docs/img is out of date: python docs/_gen/render.py --write"
+    )
+
+
 def test_an_empty_rendered_block_keeps_what_follows_it():
     # an empty block (marker and end marker only) must end at its own end marker, not at
     # the next block's

@@ -25,6 +25,7 @@ import json
 import math
 import os
 import re
+import shutil
 import subprocess
 import sys
 from collections.abc import Callable
@@ -1152,6 +1153,27 @@ TABLES: dict[str, Callable[[], str]] = {
 }
 
 
+# figures the docs show, copied from the result files that hold them (the docs site serves
+# only docs/): docs/img/NAME <- SOURCE
+FIGURES: dict[str, Path] = {
+    **{f"curves_{e}.png": AGENTS / e / "curves.png" for e in CAMPAIGN_ENVS},
+    "BuoyantLayers-v1_residual_vs_oracle.gif": AGENTS
+    / "BuoyantLayers-v1"
+    / "gif"
+    / "test0_residual_vs_oracle.gif",
+}
+
+
+def stale_figures() -> list[str]:
+    """The docs/img copies that differ from their result files."""
+    img = ROOT / "docs" / "img"
+    return [
+        name
+        for name, src in FIGURES.items()
+        if not (img / name).exists() or (img / name).read_bytes() != src.read_bytes()
+    ]
+
+
 def render_table(name: str) -> str:
     if name not in TABLES:
         raise RenderError(f"unknown table {name!r}; tables: {', '.join(TABLES)}")
@@ -1184,6 +1206,17 @@ def main(argv: list[str] | None = None) -> int:
                 print(f"## {name}\n\n{render_table(name)}\n")
             return 0
         stale = []
+        failed = False
+        for name in stale_figures():  # docs/img copies of result figures
+            if args.write:
+                shutil.copyfile(FIGURES[name], ROOT / "docs" / "img" / name)
+                print(f"copied docs/img/{name}")
+            else:
+                print(
+                    f"out of date: docs/img/{name} (a copy of {_rel(FIGURES[name])})",
+                    file=sys.stderr,
+                )
+                failed = True
         for f in args.what:
             path = Path(f)
             old = path.read_text(encoding="utf-8")
@@ -1200,6 +1233,9 @@ def main(argv: list[str] | None = None) -> int:
                 + " ".join(stale),
                 file=sys.stderr,
             )
+            return 1
+        if failed:
+            print("run python docs/_gen/render.py --write", file=sys.stderr)
             return 1
     except RenderError as exc:
         print(f"render.py: {exc}", file=sys.stderr)
