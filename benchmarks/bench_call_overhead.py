@@ -1,7 +1,11 @@
-"""The fixed cost of one call from Python into the time loop (what a short call pays, as an
-environment's control step makes): ``Simulation.advance`` to the current time (no step
+"""The fixed costs of calls: (1) from Python into the time loop (what a short call pays, as
+an environment's control step makes): ``Simulation.advance`` to the current time (no step
 taken), against the same call through numba's dispatcher, which resolves the types of the
-nested records on every call. Same process, interleaved rounds, best of each.
+nested records on every call; (2) between compiled kernels: a cached kernel that reads two
+counters, called from a compiled loop with the whole workspace record, with the two
+sub-records that hold the counters, and with the two arrays themselves (the cost grows
+with the number of arrays the argument holds). Same process, interleaved rounds, best of
+each.
 
     python benchmarks/bench_call_overhead.py
 """
@@ -11,12 +15,59 @@ from __future__ import annotations
 import time
 
 from _common import write_csv
+from numba import njit
 
 from bathprint import Simulation
 from bathprint.core.integrators import advance
 
 CALLS = 20000
 ROUNDS = 5
+
+
+@njit(cache=True)
+def _reads_workspace(ws) -> bool:
+    return ws.cpl.count[0] > 0 or ws.hydro.memory[0].linearized
+
+
+@njit(cache=True)
+def _reads_parts(cpl, hydro) -> bool:
+    return cpl.count[0] > 0 or hydro.memory[0].linearized
+
+
+@njit(cache=True)
+def _reads_arrays(count, memory) -> bool:
+    return count[0] > 0 or memory[0].linearized
+
+
+@njit(cache=True)
+def _loop_workspace(ws, n: int) -> int:
+    s = 0
+    for _ in range(n):
+        s += _reads_workspace(ws)
+    return s
+
+
+@njit(cache=True)
+def _loop_parts(ws, n: int) -> int:
+    s = 0
+    for _ in range(n):
+        s += _reads_parts(ws.cpl, ws.hydro)
+    return s
+
+
+@njit(cache=True)
+def _loop_arrays(ws, n: int) -> int:
+    s = 0
+    for _ in range(n):
+        s += _reads_arrays(ws.cpl.count, ws.hydro.memory)
+    return s
+
+
+def _arrays_in(record) -> int:
+    """Arrays in a (nested) record."""
+    if isinstance(record, tuple):
+        return sum(_arrays_in(x) for x in record)
+    return 1
 
 
 def per_call_us(fn) -> float:
@@ -42,15 +93,35 @@ def main() -> None:
     for _ in range(ROUNDS):
         best["simulation"] = min(best["simulation"], per_call_us(through_simulation))
         best["dispatcher"] = min(best["dispatcher"], per_call_us(through_dispatcher))
+    inner = {"workspace": _loop_workspace, "parts": _loop_parts, "arrays": _loop_arrays}
+    ns = {}
+    for name, loop in inner.items():
+        loop(sim.ws, 10)
+        best_s = float("inf")
+        for _ in range(ROUNDS):
+            t0 = time.perf_counter()
+            loop(sim.ws, 10 * CALLS)
+            best_s = min(best_s, time.perf_counter() - t0)
+        ns[name] = 1e9 * best_s / (10 * CALLS)
     row = {
         "us_per_call_simulation": best["simulation"],
         "us_per_call_dispatcher": best["dispatcher"],
         "ratio": best["dispatcher"] / best["simulation"],
+        "workspace_arrays": _arrays_in(sim.ws),
+        "parts_arrays": _arrays_in(sim.ws.cpl) + _arrays_in(sim.ws.hydro),
+        "ns_per_kernel_call_workspace": ns["workspace"],
+        "ns_per_kernel_call_parts": ns["parts"],
+        "ns_per_kernel_call_arrays": ns["arrays"],
     }
     print(
         f"a call that takes no step: {row['us_per_call_simulation']:.1f} us through "
         f"Simulation.advance, {row['us_per_call_dispatcher']:.1f} us through numba's "
         f"dispatcher (x{row['ratio']:.2f})"
+    )
+    print(
+        f"a kernel called from a kernel: {ns['workspace']:.0f} ns with the workspace "
+        f"({row['workspace_arrays']} arrays), {ns['parts']:.0f} ns with two of its parts "
+        f"({row['parts_arrays']} arrays), {ns['arrays']:.0f} ns with two arrays"
     )
     print("wrote", write_csv("call_overhead", [row]))
 
