@@ -211,6 +211,25 @@ def test_a_killed_campaign_resumes_and_ends_in_one_table(tmp_path, capsys, monke
     assert not list(kept.rglob("checkpoints")) and not list(kept.rglob("model_*_steps.zip"))
 
 
+def test_a_campaign_on_a_local_dask_cluster_ends_in_the_serial_table(tmp_path, monkeypatch):
+    """The same two tiny runs, trained one after the other in this process and on a local
+    Dask cluster of two worker processes: the same scores (seeded, one torch thread)."""
+    results = {}
+    for mode, extra in (("serial", []), ("dask", ["--scheduler", "local-dask", "--workers", "2"])):
+        where = tmp_path / mode
+        where.mkdir()
+        path = _campaign_file(where, where / "out")
+        data = yaml.safe_load(path.read_text())
+        data["baselines"] = ["feedforward_calibrated"]
+        path.write_text(yaml.safe_dump(data))
+        monkeypatch.chdir(where)
+        assert campaign_main([str(path), "--quiet", *extra]) == 0
+        record = json.loads((where / "out" / "CoilRadius-v1" / "results.json").read_text())
+        results[mode] = {r["policy"]: r for r in record["policies"]}
+    assert results["dask"]["tiny"]["runs"] == 2
+    assert results["dask"]["tiny"]["mean_metric"] == results["serial"]["tiny"]["mean_metric"]
+
+
 @pytest.mark.parametrize("algo, hp_file", [("sac", "sac.yml"), ("tqc", "tqc_her.yml")])
 def test_off_policy_runs_go_through_a_campaign(tmp_path, monkeypatch, algo, hp_file):
     """SAC and TQC with hindsight replay (goal-conditioned observations) train, and their
