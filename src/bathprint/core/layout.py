@@ -246,7 +246,7 @@ CONTACT_FIELDS: tuple[tuple[str, str, str], ...] = (
     ("built_nodes", "i8", "nodes of the rod when the pairs were found (-1: never)"),
     ("built_frozen", "i8", "frozen nodes then"),
     ("margin", "f8", "m, how much closer than delta + margin a pair is near (this step)"),
-    ("motion_nodes", "i8", "nodes whose motion in the last step checked is in node_motion"),
+    ("motion_nodes", "i8", "nodes whose motion in the last step checked is in contact.motion[0]"),
     ("n_near", "i8", "pairs near enough to touch within the step"),
     ("builds", "i8", "spatial-hash builds so far"),
 )

@@ -113,11 +113,11 @@ class Contact(NamedTuple):
     near: np.ndarray  # (P,) int64: the pairs near enough to touch within the step
     seg_mid: np.ndarray  # (3 cap,) m: each segment's midpoint at the start of the step
     seg_half: np.ndarray  # (cap,) m: ... and its half length
-    node_motion: np.ndarray  # (2, cap) m: each node's motion in the last step checked, relative
-    # to the common motion and absolute (sets each pair's near margin)
+    motion: np.ndarray  # (2, 2, cap) m: each node's motion relative to the common motion and
+    # absolute, [0] in the last step checked (sets each pair's near margin), [1] since the
+    # step's start at Newton's iterate
     pair_x: np.ndarray  # (12,) m: scratch, the four nodes of a pair
     start_pos: np.ndarray  # (3 cap,) m: the whole rod's positions at the step's start
-    iter_motion: np.ndarray  # (2, cap) m: each node's motion since then (at Newton's iterate)
 
 
 class Hydro(NamedTuple):
@@ -292,10 +292,9 @@ def new_contact(capacity: int, pairs: int) -> Contact:
         near=np.zeros(pairs, dtype=np.int64),
         seg_mid=np.zeros(3 * capacity),
         seg_half=np.zeros(capacity),
-        node_motion=np.zeros((2, capacity)),
+        motion=np.zeros((2, 2, capacity)),
         pair_x=np.zeros(12),
         start_pos=np.zeros(3 * capacity),
-        iter_motion=np.zeros((2, capacity)),
     )
 
 

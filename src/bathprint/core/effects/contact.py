@@ -168,10 +168,11 @@ def prepare(model, whole, frozen: int, contact) -> bool:
     # moves, is evaluated only where it touches, while a fast stem keeps a wide margin
     margin = mem.margin if mem.margin > 0.0 else mem.skin
     own = mem.margin > 0.0 and mem.motion_nodes > 0
-    nm = contact.node_motion
-    for g in range(mem.motion_nodes if own else 0, n_nodes):
-        nm[0, g] = mem.max_step_disp
-        nm[1, g] = np.inf
+    nm = contact.motion[0]
+    if own:
+        for g in range(mem.motion_nodes, n_nodes):
+            nm[0, g] = mem.max_step_disp
+            nm[1, g] = np.inf
     margin_min = MARGIN_MIN * delta_max
     factor = p.contact_distance_factor
     seg_mat = whole.seg_mat
@@ -243,7 +244,7 @@ def check(model, whole, pos0, frozen: int, contact) -> float:
     sh1 = pos[3 * f + 1] - pos0[1]
     sh2 = pos[3 * f + 2] - pos0[2]
     # this step's motion (pos0 holds the active nodes, from f; the tail moves with node f)
-    nm = contact.node_motion
+    nm = contact.motion[0]
     m_step = _step_motion(pos, pos0, n_nodes, f, sh0, sh1, sh2, nm)
     m_build = _motion(pos, contact.build_pos, n_nodes, f, sh0, sh1, sh2)
     worst = 2.0 * m_build / mem.skin
@@ -399,10 +400,10 @@ def accumulate(model, rod, stage, out) -> float:
     energy = 0.0
     hess_needed = do_jac and cx != 0.0 and exact
     x = out.scratch.pair_x
-    # each node's motion since the step's start, relative to the common motion: a near
-    # pair that started farther than delta plus its nodes' motions apart cannot touch
-    # (d >= d0 - u), and is passed over without its distance
-    nm = contact.iter_motion
+    # each node's motion since the step's start: a near pair that started farther apart
+    # than delta plus the bound on its nodes' relative motion cannot touch (d >= d0 - u),
+    # and is passed over without its distance
+    nm = contact.motion[1]
     sh0 = rod.pos[0] - out.start[0]
     sh1 = rod.pos[1] - out.start[1]
     sh2 = rod.pos[2] - out.start[2]
