@@ -14,7 +14,15 @@ import numpy as np
 from _common import best_of, write_csv
 
 from bathprint import Simulation
-from bathprint.core.effects import drag, elasticity, end_load, floor, gravity, inertia
+from bathprint.core.effects import (
+    drag,
+    elasticity,
+    end_load,
+    floor,
+    gravity,
+    inertia,
+    viscosity,
+)
 
 KERNELS = {
     "elasticity": elasticity,
@@ -22,6 +30,7 @@ KERNELS = {
     "gravity": gravity,
     "floor": floor,
     "inertia": inertia,
+    "viscosity": viscosity,
     "end_load": end_load,
 }
 
@@ -63,6 +72,7 @@ def run_costs() -> list[dict]:
         "+gravity": {"effects": base_effects + ["gravity"]},
         "+floor": {"effects": base_effects + ["gravity", "floor"]},
         "+inertia": {"effects": base_effects + ["gravity", "inertia"]},
+        "+viscosity": {"effects": base_effects + ["gravity", "viscosity"]},
         "+gelation": {"effects": base_effects + ["gravity", "gelation"]},
         "+inclusions (Q_i = 2 ml/min)": {
             "effects": base_effects + ["gravity", "inclusions"],

@@ -10,7 +10,7 @@ import math
 import pytest
 
 from bathprint.cli import main
-from bathprint.studies.reproduce import ablation, fig2, gravity
+from bathprint.studies.reproduce import ablation, fast_jets, fig2, gravity
 from bathprint.studies.reproduce.ablation import Variant
 
 
@@ -178,3 +178,31 @@ def test_the_cost_probe_times_every_variant_at_one_point() -> None:
             assert c["simulated_s"] == pytest.approx(costs[ablation.BASELINE]["simulated_s"])
     with pytest.raises(ValueError, match="not in the 'fig2' set"):
         ablation.time_variants("fig2", (9.0, 9.0), quick=True)
+
+
+def test_quick_fast_jets_writes_its_table(tmp_path) -> None:
+    argv = ["reproduce", "fast_jets", "--quick", "--out", str(tmp_path), "--scheduler", "serial"]
+    assert main(argv) == 0
+    rows = _read_csv(tmp_path / "fast_jets.csv")
+    assert [r["variant"] for r in rows] == list(fast_jets.QUICK_NAMES)
+    for r in rows:
+        assert r["status"] == "ok" and r["imperfection_um"] == "1.0"
+    text = (tmp_path / "fast_jets.md").read_text()
+    assert "+ solution viscosity" in text and "paper: period_doubling" in text
+    # the full plan: every combination at both points with both seeds, the seed set as asked
+    full = fast_jets.plan()
+    assert len(full) == 2 * 2 * len(fast_jets.COMBINATIONS)
+    assert {r["over"]["needle.imperfection_um"] for r in full} == {1.0, 20.0}
+    assert all("viscosity" in r["over"]["effects"] for r in full if "viscosity" in r["name"])
+
+
+def test_a_failure_message_gives_time_node_and_cause() -> None:
+    msg = (
+        "simulation diverged at t = 0.00341 s, node 70: segment strain beyond "
+        "numerics.max_strain even at the smallest allowed time step"
+    )
+    t, node, cause = fast_jets.failure(msg)
+    assert t == pytest.approx(0.00341) and node == 70
+    assert cause.startswith("segment strain beyond")
+    assert fast_jets.failure(None) == (None, None, None)
+    assert fast_jets.failure("something else") == (None, None, "something else")

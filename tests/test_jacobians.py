@@ -75,6 +75,8 @@ def _dense_jacobian(sim: Simulation, pos, vel, acc, cx, cv, ca) -> np.ndarray:
         ["drag", "floor"],
         ["drag", "inertia"],
         ["drag", "end_load"],
+        ["drag", "viscosity"],
+        ["elasticity", "drag", "viscosity", "inertia"],
     ],
 )
 @pytest.mark.parametrize("which", ["x", "v", "a"])

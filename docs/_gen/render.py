@@ -1104,6 +1104,17 @@ def gravity() -> str:
     return _table(head, rows) + "\n\n" + provenance(GRAVITY / "gravity.csv")
 
 
+FAST_JETS = RESULTS / "fast_jets"
+
+
+def fast_jets() -> str:
+    """The fast-jets study's table (fast_jets.md of ``bathprint reproduce fast_jets``)."""
+    path = FAST_JETS / "fast_jets.md"
+    if not path.is_file():
+        raise RenderError(f"{_rel(path)} does not exist (run bathprint reproduce fast_jets)")
+    return path.read_text().strip() + "\n\n" + provenance(FAST_JETS / "fast_jets.csv")
+
+
 def kernel_ab() -> str:
     path = RESULTS / "kernel_redesign_ab_final.csv"
     rows = [
@@ -1148,6 +1159,7 @@ TABLES: dict[str, Callable[[], str]] = {
     "preconditioners": preconditioners,
     "ablation": ablation,
     "gravity": gravity,
+    "fast_jets": fast_jets,
     "kernel-ab": kernel_ab,
     **{f"campaign-{e}": (lambda e=e: campaign(e)) for e in CAMPAIGN_ENVS},
 }

@@ -10,7 +10,11 @@ Used by the test suite (with the tolerances stated there), by ``bathprint valida
   of 0F1(4/3; -beta/9) = (beta/4) 0F1(7/3; -beta/9) (the paper's linear stability).
   In the frame of the extruded material the paper's problem is a rod of fixed length L,
   clamped at the needle, in a uniform flow of speed v from the free end toward the needle
-  (relative velocity -v along the axis, compression T = -mu_s v x): that is what is run.
+  (relative velocity -v along the axis, compression T = -mu_s v x): that is what is run;
+- viscous thread (effect ``viscosity``): pulled by a force F it stretches at
+  dL/dt = F L0 / (Tr eta A) (Trouton 1906);
+- Kelvin-Voigt rod (``elasticity`` and ``viscosity`` on one section): every deformation of
+  a straight rod relaxes as exp(-t E / (Tr eta)), whatever its shape.
 """
 
 from __future__ import annotations
@@ -267,6 +271,95 @@ def inertial_cantilever_frequency(tolerance: float = 1e-5) -> tuple[float, float
     return float(2 * math.pi / (2 * np.mean(np.diff(crossings)))), omega_d
 
 
+# nearly no drag (mu_s = 1e-6 Pa s, 1e-4 of the viscous stress or less) and a still needle:
+# the rod's own viscous stress is all that resists
+VISCOUS_ROD = {
+    "flow.q_outer_ml_min": 0.0,
+    "drag.model": "constant",
+    "drag.coefficient_pa_s": 1e-6,
+    "needle.imperfection_um": 0.0,
+    "numerics.node_spacing_mm": 1.0,
+    "numerics.tolerance": 1e-6,
+}
+
+
+def _filament_length(sim: Simulation) -> float:
+    x = sim.centerline()
+    return float(np.linalg.norm(np.diff(x, axis=0), axis=1).sum())
+
+
+def viscous_thread_stretch_rate(
+    eta: float = 2.0, trouton: float = 3.0, force: float = 1e-5, strain: float = 0.05
+) -> tuple[float, float]:
+    """(simulated, exact) mean stretching rate dL/dt (m/s) of a 20 mm thread of radius
+    0.5 mm, clamped at the needle and pulled along it by ``force`` (N) until ``strain``:
+    F L0 / (Tr eta A), the extensional viscosity Tr eta acting on the rest section."""
+    sim = Simulation(
+        "paper_simulation",
+        {
+            **VISCOUS_ROD,
+            "effects": ["drag", "viscosity", "end_load"],
+            "initial.length_mm": 20.0,
+            "viscosity.solution_viscosity_pa_s": eta,
+            "viscosity.trouton_ratio": trouton,
+            "end_load.force_n": [0.0, 0.0, -force],
+        },
+    )
+    length0 = _filament_length(sim)
+    rate = force * length0 / (trouton * eta * math.pi * sim.model.radius**2)
+    t_end = strain * length0 / rate
+    sim.advance(t_end)
+    return (_filament_length(sim) - length0) / t_end, rate
+
+
+def kelvin_voigt_relaxation(
+    perturbation_mm: float = 0.05, eta: float = 20.0, modulus: float = 4800.0
+) -> tuple[float, float]:
+    """(simulated, exact) deflection of the free end of a 10 mm rod (E = ``modulus``, a sine
+    perturbation of ``perturbation_mm``) after one relaxation time Tr eta / E, over its
+    initial deflection: exp(-1)."""
+    sim = Simulation(
+        "paper_simulation",
+        {
+            **VISCOUS_ROD,
+            "effects": ["elasticity", "drag", "viscosity"],
+            "initial.length_mm": 10.0,
+            "initial.perturbation_mm": perturbation_mm,
+            "material.youngs_modulus_pa": modulus,
+            "viscosity.solution_viscosity_pa_s": eta,
+        },
+    )
+    axis = np.asarray(sim.model.scene.needle.direction, dtype=float)
+    axis /= np.linalg.norm(axis)
+
+    def deflection() -> float:
+        c = sim.centerline()
+        tip = c[0] - c[-1]
+        return float(np.linalg.norm(tip - (tip @ axis) * axis))
+
+    d0 = deflection()
+    sim.advance(sim.model.scene.viscosity.trouton_ratio * eta / modulus)
+    return deflection() / d0, math.exp(-1.0)
+
+
+def viscosity_checks() -> list[Check]:
+    """The viscosity effect: Trouton's thread and the Kelvin-Voigt rod."""
+    sim_rate, rate = viscous_thread_stretch_rate()
+    checks = [Check("viscous thread stretch rate F L / (3 eta A)", sim_rate, rate, 1e-3, "m/s")]
+    for amp in (0.05, 0.2):
+        sim_ratio, ratio = kelvin_voigt_relaxation(amp)
+        checks.append(
+            Check(
+                f"Kelvin-Voigt rod relaxation after 3 eta / E ({amp} mm)",
+                sim_ratio,
+                ratio,
+                0.005,
+                "-",
+            )
+        )
+    return checks
+
+
 def run_all() -> list[Check]:
     """Every analytic check, with the tolerance the test suite asserts."""
     checks = []
@@ -314,6 +407,7 @@ def run_all() -> list[Check]:
     checks.append(Check("inertial cantilever damped frequency", w_sim, w_exact, 0.02, "rad/s"))
     checks.extend(finite_re_checks())
     checks.extend(hydrodynamics_checks())
+    checks.extend(viscosity_checks())
     return checks
 
 

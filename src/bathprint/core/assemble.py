@@ -21,6 +21,7 @@ from bathprint.core.effects import (
     gravity,
     hydrodynamics,
     inertia,
+    viscosity,
 )
 from bathprint.core.freezing import accumulate_tail
 from bathprint.core.layout import (
@@ -32,6 +33,7 @@ from bathprint.core.layout import (
     E_GRAVITY,
     E_HYDRODYNAMICS,
     E_INERTIA,
+    E_VISCOSITY,
 )
 from bathprint.core.topology import free_nodes
 
@@ -60,6 +62,9 @@ def assemble(model, rod, stage, out, calls: np.ndarray, energies: np.ndarray) ->
     if enabled[E_FLOOR]:
         calls[E_FLOOR] += 1
         energies[E_FLOOR] = floor.accumulate(model, rod, stage, out)
+    if enabled[E_VISCOSITY]:
+        calls[E_VISCOSITY] += 1
+        energies[E_VISCOSITY] = viscosity.accumulate(model, rod, stage, out)
     if enabled[E_INERTIA]:
         calls[E_INERTIA] += 1
         energies[E_INERTIA] = inertia.accumulate(model, rod, stage, out)

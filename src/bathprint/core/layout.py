@@ -114,6 +114,8 @@ PARAMS_FIELDS: tuple[tuple[str, str, str], ...] = (
     ("hydro_screening", "?", "nonlocal Stokeslets screened beyond the Oseen length (finite_re)"),
     ("hydro_fmm_nodes", "i8", "-, active nodes from which the FMM sums the far field (0: never)"),
     ("hydro_fmm_precision", "f8", "-, requested relative precision of the FMM"),
+    ("solution_viscosity", "f8", "Pa s, shear viscosity eta of the alginate solution"),
+    ("trouton_ratio", "f8", "-, extensional / shear viscosity of the solution (3: Newtonian)"),
 )
 PARAMS_DTYPE = np.dtype([(name, kind) for name, kind, _ in PARAMS_FIELDS])
 
@@ -128,7 +130,8 @@ E_GELATION = 6  # a material effect: updates modulus and natural curvature after
 E_INCLUSIONS = 7  # a material effect: composite properties of material at its birth
 E_CONTACT = 8  # self-contact between non-adjacent segments (couplings off the band)
 E_HYDRODYNAMICS = 9  # nonlocal slender-body flow (the drag's local law with a nonlocal part)
-N_EFFECTS = 10
+E_VISCOSITY = 10  # viscous stress of the alginate solution in the rod (Kelvin-Voigt)
+N_EFFECTS = 11
 
 EFFECT_NAMES = (
     "elasticity",
@@ -141,6 +144,7 @@ EFFECT_NAMES = (
     "inclusions",
     "contact",
     "hydrodynamics",
+    "viscosity",
 )
 
 # --- gelation's material models (``p.gel_model``) -------------------------------------

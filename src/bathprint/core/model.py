@@ -254,6 +254,8 @@ def compile_model(scene: Scene) -> Model:
     p.friction_coefficient = scene.floor.friction_coefficient
     p.friction_velocity = scene.floor.friction_velocity_mm_s * MM
     p.added_mass_coefficient = scene.inertia.added_mass_coefficient
+    p.solution_viscosity = scene.viscosity.solution_viscosity_pa_s
+    p.trouton_ratio = scene.viscosity.trouton_ratio
     p.end_load = scene.end_load.force_n
     num = effective_numerics(scene)
     p.node_spacing = num["node_spacing_mm"] * MM

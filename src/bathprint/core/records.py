@@ -48,7 +48,7 @@ class State(NamedTuple):
     clock: np.ndarray  # (2,): t (s), next step size (s)
     counters: np.ndarray  # (N_COUNTERS,) int64 (layout.C_*)
     calls: np.ndarray  # (N_EFFECTS,) int64: kernel calls of each effect
-    energies: np.ndarray  # (N_EFFECTS,) J (drag: W) of the last force evaluation
+    energies: np.ndarray  # (N_EFFECTS,) J (drag, viscosity: W) of the last force evaluation
     info: np.ndarray  # (3,): time, node, value of the last failure
 
 
@@ -72,6 +72,7 @@ class Scratch(NamedTuple):
     law_force: np.ndarray  # (3,) force per length of a drag law (drag, hydrodynamics)
     law_du: np.ndarray  # (3, 3) its derivative in the relative velocity
     law_dt: np.ndarray  # (3, 3) ... and in the tangent
+    edge_rates: np.ndarray  # (2, 3) edge velocities of a bending stencil (viscosity)
 
 
 class Couplings(NamedTuple):
@@ -250,6 +251,7 @@ def new_scratch() -> Scratch:
         law_force=np.zeros(3),
         law_du=np.zeros((3, 3)),
         law_dt=np.zeros((3, 3)),
+        edge_rates=np.zeros((2, 3)),
     )
 
 

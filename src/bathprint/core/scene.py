@@ -297,6 +297,20 @@ class Inertia:
 
 
 @dataclass
+class Viscosity:
+    """The viscous stress of the alginate solution in the rod (effect 'viscosity'):
+    stretching resistance Tr eta A and bending resistance Tr eta I beside the elastic ones
+    (a Kelvin-Voigt rod; docs/physics/index.md#viscosity gives the sources of the defaults)."""
+
+    solution_viscosity_pa_s: float = _num(
+        2.0, 0.0, 1e5, lo_open=True, doc="shear viscosity eta of the 2% alginate solution"
+    )
+    trouton_ratio: float = _num(
+        3.0, 0.0, 1e4, lo_open=True, doc="extensional / shear viscosity (3: Newtonian, Trouton)"
+    )
+
+
+@dataclass
 class EndLoad:
     """A dead force on the free end (validation scenes: column buckling)."""
 
@@ -410,6 +424,7 @@ class Scene:
     floor: Floor = field(default_factory=Floor)
     contact: Contact = field(default_factory=Contact)
     inertia: Inertia = field(default_factory=Inertia)
+    viscosity: Viscosity = field(default_factory=Viscosity)
     end_load: EndLoad = field(default_factory=EndLoad)
     initial: Initial = field(default_factory=Initial)
     numerics: Numerics = field(default_factory=Numerics)

@@ -405,8 +405,9 @@ class Simulation:
         return {name: int(self.calls[k]) for k, name in enumerate(L.EFFECT_NAMES)}
 
     def energies_now(self) -> dict[str, float]:
-        """Energy of each listed effect at the current state (J; drag: dissipation rate, W),
-        over the whole filament (a frozen tail's lumped load is not added again)."""
+        """Energy of each listed effect at the current state (J; drag and viscosity: their
+        dissipation rates, W), over the whole filament (a frozen tail's lumped load is not
+        added again)."""
         zero = np.zeros_like(self.vel)
         force = np.zeros_like(self.pos)
         calls = np.zeros_like(self.calls)

@@ -159,7 +159,7 @@ def bend_energy_grad_hess(
 
 
 @njit(cache=True, inline="always")
-def _add_bend_hessian(band: np.ndarray, n_free: int, i: int, hess: np.ndarray, cx: float) -> None:
+def add_bend_hessian(band: np.ndarray, n_free: int, i: int, hess: np.ndarray, cx: float) -> None:
     """Add cx * d2E/dx2 of node i's bending stencil to ``band``, from the edge Hessian
     ``hess`` = [[H11, H12], [H21, H22]] (e1 = x_i - x_{i-1}, e2 = x_{i+1} - x_i): the node
     blocks are (i-1, i-1) = H11, (i-1, i) = H12 - H11, (i-1, i+1) = -H12,
@@ -261,5 +261,5 @@ def accumulate(model, rod, stage, out) -> float:
             force[b3 + a] += grad[3 + a] - grad[a]
             force[b3 + 3 + a] -= grad[3 + a]
         if do_jac:
-            _add_bend_hessian(band, n_free, i, hess, cx)
+            add_bend_hessian(band, n_free, i, hess, cx)
     return energy

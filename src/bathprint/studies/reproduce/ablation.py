@@ -4,14 +4,15 @@ much.
 Points: the paper's four Fig. 1B examples (floor 30 mm below the needle, as for Fig. 1C) and
 points spanning its Fig. 2 range (no floor, as for Fig. 2). Variants: local slender-body
 (Stokes) drag with elasticity and gravity only, then one effect added at a time (inertia,
-self-contact, finite-Reynolds drag, nonlocal hydrodynamics, surface gelation) and all of them
-together. A variant whose scene keys this build does not know (probed by loading its scene)
-gets "not available" rows and is left out of "all". Per run: l (the paper's inset definition
-and the other three of :func:`bathprint.analysis.measure.buckling_length_definitions`), R,
-Lambda, omega (rad/s and Hz), omega R / v, the regime, and the smallest gap between
-non-adjacent segments over the saved frames (:func:`bathprint.analysis.measure.min_gap_ratio`;
-below ``INTERPENETRATION_RATIO`` the turns interpenetrate). On the Fig. 2 points the paper's
-three fits are redone per variant (:func:`bathprint.studies.reproduce.fig2.fit_laws`).
+self-contact, finite-Reynolds drag, nonlocal hydrodynamics, surface gelation, the solution's
+viscous stress) and all of them together. A variant whose scene keys this build does not
+know (probed by loading its scene) gets "not available" rows and is left out of "all". Per
+run: l (the paper's inset definition and the other three of
+:func:`bathprint.analysis.measure.buckling_length_definitions`), R, Lambda, omega (rad/s and
+Hz), omega R / v, the regime, and the smallest gap between non-adjacent segments over the
+saved frames (:func:`bathprint.analysis.measure.min_gap_ratio`; below
+``INTERPENETRATION_RATIO`` the turns interpenetrate). On the Fig. 2 points the paper's three
+fits are redone per variant (:func:`bathprint.studies.reproduce.fig2.fit_laws`).
 
 Budgets: each run's node spacing, duration and frame interval follow
 :func:`bathprint.studies.reproduce.runs.run_overrides` (onset plus ``turns`` coiling periods,
@@ -64,6 +65,7 @@ VARIANTS = (
     Variant("finite_re", "+ finite-Re drag", (), {"drag.model": "finite_re"}),
     Variant("hydrodynamics", "+ nonlocal hydrodynamics", ("hydrodynamics",)),
     Variant("surface_gel", "+ surface gelation", ("gelation",), {"gelation.model": "surface"}),
+    Variant("viscosity", "+ solution viscosity", ("viscosity",)),
 )
 ALL = "all"
 BASELINE = "stokes"

@@ -1,7 +1,9 @@
-"""``bathprint reproduce fig1c|fig2|fig3|stability|coils|all|ablation|gravity --out DIR [--quick]``.
+"""``bathprint reproduce fig1c|fig2|fig3|stability|coils|all|ablation|gravity|fast_jets --out DIR
+[--quick]``.
 
 ``all`` runs the paper's figures; the studies (``ablation``: which effect moves which
-quantity; ``gravity``: the universal scaling with gravity) run by name.
+quantity; ``gravity``: the universal scaling with gravity; ``fast_jets``: what stops the
+effects at the fast points) run by name.
 
 Options are checked before anything runs (exit code 2). Ctrl-C and SIGTERM stop the run
 cleanly (exit 130 / 143): the figures finished so far stay in ``reproduce.json``, the
@@ -24,7 +26,7 @@ from bathprint.errors import OptionError
 from bathprint.interrupt import atomic, exit_code, signals_interrupt
 
 FIGURES = ("stability", "fig3", "coils", "fig2", "fig1c")
-STUDIES = ("ablation", "gravity")  # not part of "all"
+STUDIES = ("ablation", "gravity", "fast_jets")  # not part of "all"
 SIMULATION_RUNS = ("fig2", "fig1c", *STUDIES)  # their finished runs are kept when interrupted
 MARKER = "reproduce.interrupted.json"  # what an interrupted run had finished
 
@@ -35,7 +37,9 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         choices=(*FIGURES, "all", *STUDIES),
         help="coils: steady coiling over 20+ turns, with and without gelation; all: the "
         "figures; ablation: the effects switched on one at a time and together at the Fig. 1B "
-        "points and over the Fig. 2 range; gravity: l against (B/(mu v + drho g r^2))^(1/3)",
+        "points and over the Fig. 2 range; gravity: l against (B/(mu v + drho g r^2))^(1/3); "
+        "fast_jets: inertia and finite-Re drag with and without the solution's viscosity at the "
+        "fast Fig. 1B points",
     )
     p.add_argument("--out", default="runs/reproduce", help="output directory")
     p.add_argument("--quick", action="store_true", help="small grids: every figure, roughly")
@@ -129,12 +133,23 @@ def run_args(args: argparse.Namespace) -> int:
 
 
 def _run_figure(name: str, out: Path, args: argparse.Namespace) -> dict:
-    from bathprint.studies.reproduce import ablation, coils, fig1c, fig2, fig3, gravity, stability
+    from bathprint.studies.reproduce import (
+        ablation,
+        coils,
+        fast_jets,
+        fig1c,
+        fig2,
+        fig3,
+        gravity,
+        stability,
+    )
 
     if name == "ablation":
         return ablation.run(out, args.quick, args.workers, args.scheduler)
     if name == "gravity":
         return gravity.run(out, args.quick, args.workers, args.scheduler)
+    if name == "fast_jets":
+        return fast_jets.run(out, args.quick, args.workers, args.scheduler)
     if name == "stability":
         return stability.run(out, args.quick)
     if name == "fig3":
