@@ -94,6 +94,19 @@ def test_an_empty_rendered_block_keeps_what_follows_it():
     assert "## Next" not in first.group(0) and "## Next" in text[first.end() :]
 
 
+def test_a_bare_directive_before_a_filled_block_keeps_what_follows_it():
+    # a bare line (filled at build time, or by --write) must not take the text up to the
+    # next block's end marker as its own
+    text = (
+        "<!-- render: new -->\n\n## Next\n\nkept\n\n"
+        "<!-- render: other -->\n| old |\n<!-- end render -->\n"
+    )
+    matches = list(render.DIRECTIVE.finditer(text))
+    assert [m.group(1) for m in matches] == ["new", "other"]
+    assert matches[0].group(0) == "<!-- render: new -->"
+    assert matches[1].group(2) == "| old |"
+
+
 @pytest.mark.parametrize("path", ["README.md", "CHANGELOG.md"])
 def test_relative_links_of_top_level_files_exist(path: str):
     text = (ROOT / path).read_text(encoding="utf-8")

@@ -37,7 +37,10 @@ ROOT = Path(__file__).resolve().parents[2]
 RESULTS = ROOT / "benchmarks" / "results"
 AGENTS = ROOT / "agents" / "results"
 DIRECTIVE = re.compile(
-    r"^<!-- render: ([\w-]+) -->$(?:\n(?:(.*?)\n)??<!-- end render -->$)?", re.S | re.M
+    # (a block's body never holds another directive: a bare line before a filled block does
+    # not swallow it)
+    r"^<!-- render: ([\w-]+) -->$(?:\n(?:((?:(?!<!-- render: ).)*?)\n)??<!-- end render -->$)?",
+    re.S | re.M,
 )
 
 
@@ -1173,6 +1176,7 @@ FIGURES: dict[str, Path] = {
     / "BuoyantLayers-v1"
     / "gif"
     / "test0_residual_vs_oracle.gif",
+    "ablation.png": ABLATION / "ablation.png",
 }
 
 
