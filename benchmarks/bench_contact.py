@@ -34,8 +34,8 @@ R_FIL = 0.205 * MM  # 22G
 SPACING = 0.3 * MM
 
 
-def coil_stack(n: int, contact: bool, gap: float = 1.5) -> Simulation:
-    """``gap``: the pitch in contact distances."""
+def coil_stack(n: int, contact: bool, gap: float = 1.5, extra: dict | None = None) -> Simulation:
+    """``gap``: the pitch in contact distances; ``extra``: more scene overrides."""
     radius, pitch = 3 * MM, gap * 2 * R_FIL
     dphi = SPACING / math.hypot(radius, pitch / (2 * math.pi))
     phi = dphi * np.arange(n)
@@ -46,7 +46,7 @@ def coil_stack(n: int, contact: bool, gap: float = 1.5) -> Simulation:
     return Simulation.from_points(
         pts,
         "drag_coiling_22G",
-        {"effects": effects, "duration_s": 1e3},
+        {"effects": effects, "duration_s": 1e3, **(extra or {})},
         relaxed=True,
     )
 

@@ -1010,6 +1010,37 @@ def contact_scaling() -> str:
     return _table(head, rows) + "\n\n" + provenance(path)
 
 
+def contact_newton() -> str:
+    path = RESULTS / "contact_newton.csv"
+    rows = [
+        [
+            r["variant"],
+            r["steps"],
+            _g(r["newton_per_step"]),
+            _g(r["krylov_per_newton"]),
+            _g(r["wall_ratio"]),
+        ]
+        for r in _csv(path)
+    ]
+    head = ["pressed stack, 300 nodes, 20 ms", "steps", "Newton per step", "Krylov per Newton"]
+    table = _table([*head, "wall / default"], rows)
+    c = _csv(RESULTS / "contact_closest_points.csv")[0]
+    points = (
+        f"Closest points after 5 ms: {c['near_pairs']} near pairs ({c['both_inside']} with both "
+        f"parameters inside their segments, {c['both_clamped']} with both at an end); "
+        f"{c['touching']} touching ({c['touching_both_inside']} both inside, crossing at a median "
+        f"{_g(c['median_angle_deg_touching'], 2)} deg); {c['class_changes_over_2_ms']} of "
+        f"{c['pairs_compared']} change class over the next 2 ms."
+    )
+    return (
+        table
+        + "\n\n"
+        + points
+        + "\n\n"
+        + provenance(path, RESULTS / "contact_closest_points.csv")
+    )
+
+
 def preconditioners() -> str:
     path = RESULTS / "preconditioners.csv"
     rows = [
@@ -1160,6 +1191,7 @@ TABLES: dict[str, Callable[[], str]] = {
     "contact-scaling": contact_scaling,
     "contact-scenes": contact_scenes,
     "preconditioners": preconditioners,
+    "contact-newton": contact_newton,
     "ablation": ablation,
     "gravity": gravity,
     "fast_jets": fast_jets,

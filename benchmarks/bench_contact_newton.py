@@ -1,0 +1,133 @@
+"""Why Newton needs many iterations on a pressed coil stack: the linear solve or the penalty?
+
+The pressed stack of ``bench_contact.py`` (300 nodes, turns at 0.98 of the contact
+distance, 20 ms of settling under gravity, adaptive steps) takes 8 Newton iterations per
+step with contact against 2 without. Each row changes one thing and counts steps, Newton
+iterations per step and Krylov iterations per Newton iteration, with the wall time as a
+ratio to the default in the same run:
+
+- the linear solve: GMRES to 1e-3 and 1e-6 instead of 0.05 (inexact Newton's forcing term);
+  full Newton (a new Jacobian every iteration);
+- the step: at most 0.3 ms;
+- the penalty: a wider and a narrower soft onset (``contact.width_fraction``), a softer
+  stiffness (these change the result: the contact distance is held less exactly).
+
+It also classifies the near pairs' closest points after 5 ms (both parameters inside their
+segments, or clamped to an end) and counts the pairs whose class changes over the next
+2 ms: switches between interior and end points make the distance's Hessian jump.
+
+    python benchmarks/bench_contact_newton.py
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections import Counter
+
+import numpy as np
+from _common import write_csv
+from bench_contact import R_FIL, coil_stack
+
+from bathprint.core.effects._segment_geometry import closest_params
+
+N_NODES = 300
+DURATION_S = 0.02
+VARIANTS: dict[str, dict] = {
+    "default (GMRES to 0.05, modified Newton)": {},
+    "GMRES to 1e-3": {"numerics.krylov_tolerance": 1e-3},
+    "GMRES to 1e-6": {"numerics.krylov_tolerance": 1e-6},
+    "full Newton": {"numerics.newton": "full"},
+    "steps of at most 0.3 ms": {"numerics.max_step_s": 3e-4},
+    "soft onset 0.1 delta (default 0.02)": {"contact.width_fraction": 0.1},
+    "soft onset 0.005 delta": {"contact.width_fraction": 0.005},
+    "stiffness 100 Pa (default 1000)": {"contact.stiffness_pa": 100.0},
+}
+
+
+def newton_rows() -> list[dict]:
+    coil_stack(N_NODES, True, 0.98).advance(1e-3)  # compile
+    rows, base = [], None
+    for label, extra in VARIANTS.items():
+        sim = coil_stack(N_NODES, True, 0.98, extra)
+        t0 = time.perf_counter()
+        sim.advance(DURATION_S)
+        wall = time.perf_counter() - t0
+        c = sim.counts()
+        base = base or wall
+        rows.append(
+            {
+                "variant": label,
+                "steps": c["steps"],
+                "rejected_steps": c["rejected_steps"],
+                "newton_per_step": c["newton_iterations"] / c["steps"],
+                "jacobians": c["jacobians"],
+                "krylov_per_newton": c["krylov_iterations"] / max(c["newton_iterations"], 1),
+                "newton_failures": c["newton_failures"],
+                "wall_s": wall,
+                "wall_ratio": wall / base,
+            }
+        )
+        r = rows[-1]
+        print(
+            f"{label:>42}: {r['steps']} steps ({r['rejected_steps']} rejected), "
+            f"{r['newton_per_step']:.2f} Newton per step, {r['krylov_per_newton']:.2f} Krylov "
+            f"per Newton, wall x{r['wall_ratio']:.2f}"
+        )
+    return rows
+
+
+def _classes(sim, pos: np.ndarray) -> dict[tuple[int, int], tuple[bool, bool, float, float]]:
+    """Near pair -> (s inside, t inside, distance / contact distance, sin^2 of the angle)."""
+    c = sim.ws.contact
+    out = {}
+    for k in range(int(c.count[0])):
+        if not c.near[k]:
+            continue
+        i, j = (int(v) for v in c.pairs[k])
+        _, _, s_free, t_free, d2 = closest_params(pos, i, i + 1, j, j + 1)
+        a = pos[3 * i + 3 : 3 * i + 6] - pos[3 * i : 3 * i + 3]
+        b = pos[3 * j + 3 : 3 * j + 6] - pos[3 * j : 3 * j + 3]
+        sin2 = 1.0 - (a @ b) ** 2 / ((a @ a) * (b @ b))
+        out[(i, j)] = (bool(s_free), bool(t_free), math.sqrt(d2) / (2 * R_FIL), sin2)
+    return out
+
+
+def closest_point_rows() -> list[dict]:
+    sim = coil_stack(N_NODES, True, 0.98)
+    sim.advance(0.005)
+    before = _classes(sim, sim.pos.copy())
+    sim.advance(0.007)
+    after = _classes(sim, sim.pos.copy())
+    common = set(before) & set(after)
+    touching = [v for v in after.values() if v[2] < 1.0]
+    kinds = Counter((v[0], v[1]) for v in after.values())
+    row = {
+        "near_pairs": len(after),
+        "both_inside": kinds[(True, True)],
+        "one_inside": kinds[(True, False)] + kinds[(False, True)],
+        "both_clamped": kinds[(False, False)],
+        "touching": len(touching),
+        "touching_both_inside": sum(1 for v in touching if v[0] and v[1]),
+        "class_changes_over_2_ms": sum(before[k][:2] != after[k][:2] for k in common),
+        "pairs_compared": len(common),
+        "median_angle_deg_touching": math.degrees(
+            math.asin(math.sqrt(float(np.median([v[3] for v in touching]))))
+        )
+        if touching
+        else math.nan,
+    }
+    print(
+        f"near pairs {row['near_pairs']}: {row['both_inside']} both inside, {row['one_inside']} "
+        f"one, {row['both_clamped']} both clamped; touching {row['touching']} "
+        f"({row['touching_both_inside']} both inside, median angle "
+        f"{row['median_angle_deg_touching']:.1f} deg); class changes over 2 ms: "
+        f"{row['class_changes_over_2_ms']} of {row['pairs_compared']}"
+    )
+    return [row]
+
+
+if __name__ == "__main__":
+    print(f"pressed stack, N = {N_NODES}, {DURATION_S * 1e3:g} ms:")
+    print("wrote", write_csv("contact_newton", newton_rows()))
+    print("wrote", write_csv("contact_closest_points", closest_point_rows()))
