@@ -64,6 +64,7 @@ def newton_rows() -> list[dict]:
                 "jacobians": c["jacobians"],
                 "krylov_per_newton": c["krylov_iterations"] / max(c["newton_iterations"], 1),
                 "newton_failures": c["newton_failures"],
+                "damped_share": c["damped_newton_iterations"] / max(c["newton_iterations"], 1),
                 "wall_s": wall,
                 "wall_ratio": wall / base,
             }
@@ -72,7 +73,8 @@ def newton_rows() -> list[dict]:
         print(
             f"{label:>42}: {r['steps']} steps ({r['rejected_steps']} rejected), "
             f"{r['newton_per_step']:.2f} Newton per step, {r['krylov_per_newton']:.2f} Krylov "
-            f"per Newton, wall x{r['wall_ratio']:.2f}"
+            f"per Newton, {100 * r['damped_share']:.0f}% of updates damped, "
+            f"wall x{r['wall_ratio']:.2f}"
         )
     return rows
 

@@ -306,3 +306,16 @@ def test_the_kernel_entry_point_follows_the_workspace_and_leaves_results_unchang
             assert status == L.STATUS_OK, before
             break
     np.testing.assert_array_equal(b.centerline(), a.centerline())
+
+
+def test_damped_newton_updates_are_counted() -> None:
+    """A buckling jet stalls some full Newton updates (they are then halved, and counted);
+    a cantilever relaxing to its sag never does."""
+    jet = Simulation("paper_simulation", {})
+    jet.advance(0.3)
+    c = jet.counts()
+    assert 0 < c["damped_newton_iterations"] < c["newton_iterations"]
+    beam = Simulation("cantilever_water", {})
+    beam.advance(0.3)
+    assert beam.counts()["damped_newton_iterations"] == 0
+    assert beam.counts()["newton_iterations"] > 0

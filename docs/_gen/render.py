@@ -1018,12 +1018,13 @@ def contact_newton() -> str:
             r["steps"],
             _g(r["newton_per_step"]),
             _g(r["krylov_per_newton"]),
+            f"{100 * float(r['damped_share']):.0f}%",
             _g(r["wall_ratio"]),
         ]
         for r in _csv(path)
     ]
     head = ["pressed stack, 300 nodes, 20 ms", "steps", "Newton per step", "Krylov per Newton"]
-    table = _table([*head, "wall / default"], rows)
+    table = _table([*head, "updates damped", "wall / default"], rows)
     c = _csv(RESULTS / "contact_closest_points.csv")[0]
     points = (
         f"Closest points after 5 ms: {c['near_pairs']} near pairs ({c['both_inside']} with both "

@@ -44,6 +44,7 @@ from bathprint.core.extrusion import (
 from bathprint.core.freezing import tail_load
 from bathprint.core.layout import (
     C_CONTACT_REJECTIONS,
+    C_DAMPED_NEWTON,
     C_FACTORIZATIONS,
     C_FAIL_NODE,
     C_NEWTON_FAILURES,
@@ -253,6 +254,8 @@ def _stage_solve(model, rod, state, ws, hg: float, t_stage: float) -> bool:
             # saturates with the sliding speed; the friction is monotone in the velocity,
             # so a damped update breaks the cycle. (A stale Jacobian is refreshed instead.)
             relax *= 0.5
+        if relax < 1.0:
+            state.counters[C_DAMPED_NEWTON] += 1
         for k in range(nd):
             pos[k] += relax * rhs[k]
         if modified and not need_jac and norm > 0.3 * previous:

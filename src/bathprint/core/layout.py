@@ -202,7 +202,8 @@ C_FACTORIZATIONS = 6  # Jacobians assembled and LU-factorised
 C_KRYLOV_ITERATIONS = 7  # GMRES iterations (only with couplings off the band)
 C_KRYLOV_FAILURES = 8  # GMRES solves that stalled (each a Newton failure)
 C_CONTACT_REJECTIONS = 9  # steps retried because segments could have passed through each other
-N_COUNTERS = 10
+C_DAMPED_NEWTON = 10  # Newton iterations that applied a damped (shortened) update
+N_COUNTERS = 11
 
 # --- band storage -------------------------------------------------------------------------
 # A node's force depends on nodes i-2..i+2 (bending), so the Jacobian has 8 sub- and

@@ -383,9 +383,9 @@ class Simulation:
 
     def counts(self) -> dict[str, int]:
         """Steps, rejected steps, Newton iterations, node births, Newton failures, Jacobian
-        factorisations, GMRES iterations and stalls (couplings off the band only) and steps
-        retried by the self-contact bound, and evaluations of the nonlocal flow
-        (hydrodynamics) so far."""
+        factorisations, GMRES iterations and stalls (couplings off the band only), steps
+        retried by the self-contact bound, evaluations of the nonlocal flow (hydrodynamics)
+        and Newton iterations whose update was damped (halved after a stall) so far."""
         c = self.counters
         return {
             "steps": int(c[L.C_STEPS]),
@@ -398,6 +398,7 @@ class Simulation:
             "krylov_failures": int(c[L.C_KRYLOV_FAILURES]),
             "contact_rejections": int(c[L.C_CONTACT_REJECTIONS]),
             "hydro_evaluations": int(self.ws.hydro.memory[0]["evaluations"]),
+            "damped_newton_iterations": int(c[L.C_DAMPED_NEWTON]),
         }
 
     def effect_calls(self) -> dict[str, int]:
