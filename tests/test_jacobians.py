@@ -111,7 +111,7 @@ def test_force_is_the_same_with_and_without_the_jacobian() -> None:
     """Forces and energies with and without the Jacobian: the residual-only paths (bending
     without its Hessian, inertia's scalar mass product) against the Jacobian paths (the
     3x3 mass blocks)."""
-    sim = _random_rod(["elasticity", "drag", "gravity", "inertia"])
+    sim = _random_rod(["elasticity", "drag", "gravity", "inertia", "viscosity"])
     acc = np.random.default_rng(5).normal(scale=0.1, size=sim.vel.shape)
     # coefficients 1: elasticity assembles its Hessian only when cx != 0
     out = [_assemble(sim, sim.pos, sim.vel, acc, j, (1.0, 1.0, 1.0))[::2] for j in (False, True)]
