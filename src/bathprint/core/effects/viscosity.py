@@ -22,8 +22,8 @@ concentric column of co-extruded inner fluid of volume fraction phi: A = pi r^2 
 I = pi r^4 (1 - phi^2) / 4. Strains are measured on the rest section and length (the law
 is a small-strain one, as the elastic one is). The Jacobian is exact in the velocities;
 in the positions it is exact for stretching and, for bending, central differences of each
-stencil's force (six per stencil, relative step 1e-6). Returns the dissipation rate 2D
-(W), as drag does.
+stencil's force (twelve per stencil, two per coordinate, relative step 1e-6). Returns the
+dissipation rate 2D (W), as drag does.
 """
 
 from __future__ import annotations
