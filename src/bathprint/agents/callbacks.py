@@ -168,7 +168,8 @@ class ValidationCallback(BaseCallback):
     (``DIR/vecnormalize.pkl``) and ``DIR/best.json``. ``env`` is a plain (not vectorised)
     environment, wrapped as training wraps it; its ``target_set`` must be one of
     :data:`SELECTION_SETS` (a ValueError otherwise: the test set is never read in
-    training). On a resume the evaluations up to ``resumed_at`` are kept."""
+    training). On a resume the evaluations up to ``resumed_at`` are kept. With
+    ``evaluate_at_start`` the model is also played once when learning starts (step 0)."""
 
     def __init__(
         self,
@@ -180,8 +181,10 @@ class ValidationCallback(BaseCallback):
         resumed_at: int = 0,
         base_wall_s: float = 0.0,
         stop: Any = None,
+        evaluate_at_start: bool = False,
     ) -> None:
         super().__init__()
+        self.evaluate_at_start = bool(evaluate_at_start)
         self.target_set = str(getattr(env.unwrapped, "target_set", ""))
         if self.target_set not in SELECTION_SETS:
             raise ValueError(
@@ -266,6 +269,12 @@ class ValidationCallback(BaseCallback):
                 )
             )
         return mean
+
+    def _on_training_start(self) -> None:
+        """With ``evaluate_at_start``, the model as learning starts (step 0 of a fresh run,
+        e.g. a pretrained policy) is evaluated and may be kept as the best."""
+        if self.evaluate_at_start and not self.rows["timesteps"]:
+            self.evaluate()
 
     def _on_step(self) -> bool:
         if self.num_timesteps >= self._next:
