@@ -85,11 +85,11 @@ def test_fitting_lowers_the_action_error_and_is_deterministic(demos):
         assert torch.equal(p, q)
 
 
-def test_tiny_training_with_bc_pretrain_records_it_and_evaluates_step_0(tmp_path):
+def test_tiny_training_with_bc_pretrain_records_it_and_evaluates_step_0(tmp_path, monkeypatch):
     hp = load_hyperparams("ppo", ENV, agents_dir() / "ppo_bc.yml")
     assert hp["bc_pretrain"]["targets"] >= 1
     hp.update(n_envs=1, n_steps=82, batch_size=41, n_epochs=1, eval_freq=10_000,
-              eval_episodes=1, checkpoint_freq=10_000, time_budget_s=600,
+              eval_episodes=1, checkpoint_freq=82, time_budget_s=600,
               bc_pretrain={"targets": 2, "epochs": 5, "batch_size": 32})
     run = train("ppo", ENV, timesteps=82, out=tmp_path / "bc", hyperparams=hp, progress=False)
     info = json.loads((run / "run.json").read_text())
@@ -104,6 +104,20 @@ def test_tiny_training_with_bc_pretrain_records_it_and_evaluates_step_0(tmp_path
     assert steps[0] == 0 and steps[-1] >= 82  # the pretrained model, then the end
     assert (run / "eval" / "best_model.zip").is_file()
 
+    # a resume continues the checkpoint: no second behaviour cloning, step 0 kept
+    import bathprint.agents.imitation as imitation
+
+    def refuse(*args, **kwargs):
+        raise AssertionError("bc_pretrain applied on --resume")
+
+    monkeypatch.setattr(imitation, "pretrain", refuse)
+    train("ppo", ENV, timesteps=164, out=run, resume=True, progress=False)
+    resumed = json.loads((run / "run.json").read_text())
+    assert resumed["status"] == "done" and resumed["timesteps_done"] >= 164
+    assert resumed["bc_pretrain"] == bc
+    with np.load(run / "eval" / "evaluations.npz") as d:
+        assert d["timesteps"].tolist()[:2] == steps[:2] and d["timesteps"][-1] >= 164
+
 
 @pytest.mark.parametrize(
     ("value", "needle"),
@@ -113,6 +127,7 @@ def test_tiny_training_with_bc_pretrain_records_it_and_evaluates_step_0(tmp_path
         ({"batch_size": True}, "bc_pretrain.batch_size = True"),
         ({"learning_rate": -1.0}, "bc_pretrain.learning_rate = -1.0"),
         ({"action_noise": float("nan")}, "bc_pretrain.action_noise = nan"),
+        ({"critic_warmup_steps": -1}, "bc_pretrain.critic_warmup_steps = -1"),
         ({"targts": 10}, "unknown bc_pretrain key 'targts'"),
         (160, "bc_pretrain = 160"),
     ],
@@ -144,3 +159,32 @@ def test_bc_pretrain_is_refused_where_it_cannot_work(tmp_path):
     assert not (tmp_path / "x").exists()
     assert bc_settings(False, "hp") is None and bc_settings(None, "hp") is None
     assert bc_settings({"targets": 4}, "hp")["epochs"] == 30
+
+
+def test_critic_warmup_trains_the_value_net_only_until_its_step():
+    import torch
+
+    from bathprint.agents.callbacks import CriticWarmup
+    from bathprint.agents.imitation import actor_parameters
+
+    torch.set_num_threads(1)
+
+    def snapshot(params):
+        return [p.detach().clone() for p in params]
+
+    model = _ppo()
+    actor0 = snapshot(actor_parameters(model.policy))
+    value0 = snapshot(model.policy.value_net.parameters())
+    warm = CriticWarmup(10_000)
+    model.learn(128, callback=warm)
+    assert all(torch.equal(p, q) for p, q in zip(actor_parameters(model.policy), actor0,
+                                                 strict=True))
+    assert not all(torch.equal(p, q) for p, q in zip(model.policy.value_net.parameters(),
+                                                     value0, strict=True))
+    assert not warm.frozen and all(p.requires_grad for p in actor_parameters(model.policy))
+    # past its step the actor learns again
+    model = _ppo()
+    actor0 = snapshot(actor_parameters(model.policy))
+    model.learn(128, callback=CriticWarmup(64))
+    assert not all(torch.equal(p, q) for p, q in zip(actor_parameters(model.policy), actor0,
+                                                     strict=True))

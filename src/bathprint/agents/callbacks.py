@@ -292,6 +292,40 @@ class ValidationCallback(BaseCallback):
             self.evaluate()
 
 
+class CriticWarmup(BaseCallback):
+    """Freezes the actor (:func:`~bathprint.agents.imitation.actor_parameters`) while the
+    model has run fewer than ``steps`` environment steps, so that PPO's updates then fit the
+    value network only; the actor learns again from the first update after that. A resume
+    before the end of the warm-up freezes it again until then."""
+
+    def __init__(self, steps: int) -> None:
+        super().__init__()
+        self.steps = int(steps)
+        self.frozen = False
+
+    def _set(self, frozen: bool) -> None:
+        from bathprint.agents.imitation import actor_parameters
+
+        for p in actor_parameters(self.model.policy):
+            p.requires_grad_(not frozen)
+        self.frozen = frozen
+
+    def _on_training_start(self) -> None:
+        if self.num_timesteps < self.steps:
+            self._set(True)
+
+    def _on_rollout_end(self) -> None:  # called before each update
+        if self.frozen and self.model.num_timesteps >= self.steps:
+            self._set(False)
+
+    def _on_step(self) -> bool:
+        return True
+
+    def _on_training_end(self) -> None:
+        if self.frozen:
+            self._set(False)
+
+
 _EVAL_KEYS = ("timesteps", "results", "ep_lengths", "metrics", "successes", "wall_time_s")
 
 

@@ -7,7 +7,10 @@ state prints it again. Those actions are demonstrations that cost nothing to lab
 0 .. targets-1 of the training pool; validation and test targets are never read) and keeps
 (observation, action) pairs; :func:`fit_policy` regresses the PPO policy's deterministic
 action mean (``mlp_extractor.policy_net`` and ``action_net``) onto the actions by mean
-squared error, leaving the value network (and the action noise) to PPO.
+squared error, leaving the value network (and the action noise) to PPO. With
+``critic_warmup_steps``, PPO's first updates train the value network only
+(:class:`~bathprint.agents.callbacks.CriticWarmup`): an untrained critic's advantages
+would otherwise move the pretrained actor at random.
 
 ``bc_pretrain`` in the ``bathprint`` section of a hyperparameter file switches it on
 (:data:`BC_KEYS`); ``bathprint train`` applies it to a fresh model before learning.
@@ -31,6 +34,7 @@ BC_DEFAULTS: dict[str, Any] = {
     "batch_size": 256,
     "learning_rate": 1.0e-3,  # Adam
     "action_noise": 0.0,  # std of Gaussian noise on the played action, every other episode
+    "critic_warmup_steps": 0,  # environment steps of PPO that update the value net only
 }
 BC_KEYS = tuple(BC_DEFAULTS)
 
@@ -55,9 +59,10 @@ def bc_settings(value: Any, where: str) -> dict[str, Any] | None:
                 f"{where}: unknown bc_pretrain key {key!r}; allowed: " + ", ".join(BC_KEYS)
             )
         name = f"bc_pretrain.{key}"
-        if key in ("targets", "epochs", "batch_size"):
-            if not (isinstance(v, int) and not isinstance(v, bool) and v >= 1):
-                raise ConfigError(f"{where}: {name} = {v!r}; allowed: an integer >= 1")
+        if key in ("targets", "epochs", "batch_size", "critic_warmup_steps"):
+            low = 0 if key == "critic_warmup_steps" else 1
+            if not (isinstance(v, int) and not isinstance(v, bool) and v >= low):
+                raise ConfigError(f"{where}: {name} = {v!r}; allowed: an integer >= {low}")
         else:
             number = isinstance(v, int | float) and not isinstance(v, bool) and np.isfinite(v)
             if key == "learning_rate" and not (number and v > 0):
@@ -168,13 +173,8 @@ def fit_policy(
     import torch
 
     t0 = time.perf_counter()
-    params = [
-        *policy.pi_features_extractor.parameters(),
-        *policy.mlp_extractor.policy_net.parameters(),
-        *policy.action_net.parameters(),
-    ]
-    unique = list({id(p): p for p in params}.values())
-    opt = torch.optim.Adam(unique, lr=learning_rate)
+    params = [p for p in actor_parameters(policy) if p is not getattr(policy, "log_std", None)]
+    opt = torch.optim.Adam(params, lr=learning_rate)
     obs = torch.as_tensor(demos.obs, dtype=torch.float32, device=policy.device)
     act = torch.as_tensor(demos.actions, dtype=torch.float32, device=policy.device)
     gen = torch.Generator().manual_seed(int(seed))
@@ -230,3 +230,19 @@ def pretrain(
         "collect_wall_time_s": demos.wall_time_s,
         **fit,
     }
+
+
+def actor_parameters(policy: Any) -> list[Any]:
+    """The parameters of an ActorCriticPolicy's action distribution (features extractor of
+    the actor, policy net, action net, log std), each once."""
+    import torch
+
+    params = [
+        *policy.pi_features_extractor.parameters(),
+        *policy.mlp_extractor.policy_net.parameters(),
+        *policy.action_net.parameters(),
+    ]
+    if isinstance(getattr(policy, "log_std", None), torch.nn.Parameter):
+        params.append(policy.log_std)
+    return list({id(p): p for p in params}.values())
+

@@ -583,6 +583,11 @@ def train(
                     name = signal_name(getattr(exc, "signum", signal.SIGINT))
                     print(f"interrupted by {name} while starting: {run_dir} holds no new steps")
             raise
+        bc = bc_settings(run.get("bc_pretrain"), where)
+        if bc is not None and bc["critic_warmup_steps"] > 0:
+            from bathprint.agents.callbacks import CriticWarmup
+
+            callbacks.insert(0, CriticWarmup(bc["critic_warmup_steps"]))
         callbacks.append(RunInfoCallback(functools.partial(_write_run, run_dir), info))
         callbacks.append(StopOnRequest(stop))
         budget = None
