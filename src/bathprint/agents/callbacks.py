@@ -168,7 +168,8 @@ class ValidationCallback(BaseCallback):
     (``DIR/vecnormalize.pkl``) and ``DIR/best.json``. ``env`` is a plain (not vectorised)
     environment, wrapped as training wraps it; its ``target_set`` must be one of
     :data:`SELECTION_SETS` (a ValueError otherwise: the test set is never read in
-    training). On a resume the evaluations up to ``resumed_at`` are kept."""
+    training). On a resume the evaluations up to ``resumed_at`` are kept. With
+    ``evaluate_at_start`` the model is also played once when learning starts (step 0)."""
 
     def __init__(
         self,
@@ -180,8 +181,10 @@ class ValidationCallback(BaseCallback):
         resumed_at: int = 0,
         base_wall_s: float = 0.0,
         stop: Any = None,
+        evaluate_at_start: bool = False,
     ) -> None:
         super().__init__()
+        self.evaluate_at_start = bool(evaluate_at_start)
         self.target_set = str(getattr(env.unwrapped, "target_set", ""))
         if self.target_set not in SELECTION_SETS:
             raise ValueError(
@@ -267,6 +270,12 @@ class ValidationCallback(BaseCallback):
             )
         return mean
 
+    def _on_training_start(self) -> None:
+        """With ``evaluate_at_start``, the model as learning starts (step 0 of a fresh run,
+        e.g. a pretrained policy) is evaluated and may be kept as the best."""
+        if self.evaluate_at_start and not self.rows["timesteps"]:
+            self.evaluate()
+
     def _on_step(self) -> bool:
         if self.num_timesteps >= self._next:
             self.evaluate()
@@ -281,6 +290,40 @@ class ValidationCallback(BaseCallback):
             return
         if self.num_timesteps > 0 and (not done or int(done[-1]) < self.num_timesteps):
             self.evaluate()
+
+
+class CriticWarmup(BaseCallback):
+    """Freezes the actor (:func:`~bathprint.agents.imitation.actor_parameters`) while the
+    model has run fewer than ``steps`` environment steps, so that PPO's updates then fit the
+    value network only; the actor learns again from the first update after that. A resume
+    before the end of the warm-up freezes it again until then."""
+
+    def __init__(self, steps: int) -> None:
+        super().__init__()
+        self.steps = int(steps)
+        self.frozen = False
+
+    def _set(self, frozen: bool) -> None:
+        from bathprint.agents.imitation import actor_parameters
+
+        for p in actor_parameters(self.model.policy):
+            p.requires_grad_(not frozen)
+        self.frozen = frozen
+
+    def _on_training_start(self) -> None:
+        if self.num_timesteps < self.steps:
+            self._set(True)
+
+    def _on_rollout_end(self) -> None:  # called before each update
+        if self.frozen and self.model.num_timesteps >= self.steps:
+            self._set(False)
+
+    def _on_step(self) -> bool:
+        return True
+
+    def _on_training_end(self) -> None:
+        if self.frozen:
+            self._set(False)
 
 
 _EVAL_KEYS = ("timesteps", "results", "ep_lengths", "metrics", "successes", "wall_time_s")

@@ -22,6 +22,7 @@ rl-zoo3's layout (``python -m rl_zoo3.train --algo ppo --env ENV --gym-packages 
         checkpoint_freq: 10000 # environment steps between checkpoints
         torch_threads: 1
         time_budget_s: 600     # wall-time cap of a run (training stops there, "done")
+        bc_pretrain: {targets: 160, epochs: 30}   # PPO: behaviour cloning first (imitation)
       bathprint/CoilRadius-v1: {eval_freq: 20000}   # per environment, over the default
 
 :func:`load_hyperparams` merges the environment's entry with the ``bathprint`` section
@@ -73,6 +74,7 @@ OWN_KEYS = (
     "time_budget_s",
     "vec_env",
     "wrapper",
+    "bc_pretrain",
 )
 #: vector environments (``vec_env``): one process stepping them in turn, or one each
 VEC_ENVS = ("dummy", "subproc")
@@ -456,6 +458,8 @@ def validate_hyperparams(algo: str, hp: Any, where: str, env_id: str | None = No
                 raise _unknown(key, allowed_norm, where, "normalize key")
             _check_value(f"normalize.{key}", value, allowed_norm[key], where)
 
+    _check_bc(algo, hp, where, env_id)
+
     from bathprint.agents.wrappers import wrapper_spec
 
     if "env_wrapper" in hp and "wrapper" in hp:
@@ -479,6 +483,37 @@ def validate_hyperparams(algo: str, hp: Any, where: str, env_id: str | None = No
             if key not in allowed_w:
                 raise _unknown(key, ["name", *allowed_w], where, "wrapper key")
             _check_value(f"wrapper.{key}", value, allowed_w[key], where)
+
+
+def _check_bc(algo: str, hp: dict[str, Any], where: str, env_id: str | None) -> None:
+    """``bc_pretrain`` (see :mod:`bathprint.agents.imitation`): its keys and values, and
+    that the run can use it (PPO, no action wrapper, raw observations)."""
+    from bathprint.agents.imitation import bc_settings
+
+    settings = bc_settings(hp.get("bc_pretrain"), where)
+    if settings is None:
+        return
+    if algo != "ppo":
+        raise ConfigError(
+            f"{where}: bc_pretrain = {hp['bc_pretrain']!r} with algo = {algo!r}; behaviour "
+            "cloning pretrains PPO's policy only: remove bc_pretrain or use ppo"
+        )
+    if env_id is not None and not env_id.endswith("-v1"):
+        raise ConfigError(
+            f"{where}: bc_pretrain on {env_id}: only version-1 environments print their "
+            "targets (the printing actions are the demonstrations): remove bc_pretrain"
+        )
+    if hp.get("env_wrapper") or hp.get("wrapper"):
+        raise ConfigError(
+            f"{where}: bc_pretrain with an env_wrapper: the demonstrations are the "
+            "environment's own actions, not a wrapper's: remove one of them"
+        )
+    normalize = hp.get("normalize")
+    if isinstance(normalize, dict) and normalize.get("norm_obs", True):
+        raise ConfigError(
+            f"{where}: bc_pretrain with normalize.norm_obs = {normalize.get('norm_obs', True)!r}"
+            ": behaviour cloning fits raw observations; set normalize.norm_obs: false"
+        )
 
 
 def algo_kwargs_for(algo: str, kwargs: dict[str, Any]) -> dict[str, Any]:

@@ -3,8 +3,9 @@
 A run directory holds everything a run writes, and everything ``--resume`` needs::
 
     run.json                 settings (algorithm, environment, seed, hyperparameters),
-                             status (running, done, interrupted, failed: with the reason)
-                             and the wall time spent so far
+                             status (running, done, interrupted, failed: with the reason),
+                             the wall time spent so far and, with ``bc_pretrain``, what
+                             behaviour cloning did (pairs, action MSE before and after)
     checkpoints/             model_<N>_steps.zip (+ VecNormalize statistics and, for SAC,
                              the replay buffer) every ``checkpoint_freq`` environment steps
     episodes.csv             every training episode: timesteps, return, final metric
@@ -24,6 +25,12 @@ checkpoint there (model, VecNormalize statistics, SAC's replay buffer); the run 
 ``interrupted`` and ``--resume`` continues from that step. The vector env's workers ignore
 both signals and are closed by the training process. A killed run (SIGKILL) resumes from
 its last regular checkpoint and loses at most one checkpoint interval.
+
+With ``bc_pretrain`` (PPO on a version-1 environment; :mod:`bathprint.agents.imitation`) a
+freshly built model is first fitted to the training targets' own printing actions (never on
+a model loaded from a checkpoint), its wall time counts towards the run's, and the
+validation callback evaluates the pretrained model at step 0, so that model selection can
+keep it if fine-tuning makes it worse.
 """
 
 from __future__ import annotations
@@ -52,6 +59,7 @@ from bathprint.agents.hyperparams import (
     split_hyperparams,
     validate_hyperparams,
 )
+from bathprint.agents.imitation import bc_settings
 from bathprint.agents.signals import Interrupted, SignalStop, signal_name
 from bathprint.errors import ConfigError
 
@@ -147,6 +155,7 @@ def _make_callbacks(
     seed: int,
     base_wall_s: float = 0.0,
     stop: Any = None,
+    evaluate_at_start: bool = False,
 ) -> list[Any]:
     from stable_baselines3.common.callbacks import CheckpointCallback
 
@@ -162,6 +171,7 @@ def _make_callbacks(
         resumed_at=resumed_at,
         base_wall_s=base_wall_s,
         stop=stop,
+        evaluate_at_start=evaluate_at_start,
     )
     return [
         CheckpointCallback(
@@ -307,6 +317,14 @@ def _preflight(
         except failures as exc:
             raise ConfigError(f"{where}: wrapper = {run['wrapper']!r}: {exc}") from None
     u = env.unwrapped
+    bc = bc_settings(run.get("bc_pretrain"), where)
+    pool = getattr(getattr(u, "printed", None), "train_pool", None)
+    if bc is not None and pool is not None and bc["targets"] > pool:
+        env.close()
+        raise ConfigError(
+            f"{where}: bc_pretrain.targets = {bc['targets']}; the training pool of {env_id} "
+            f"has {pool} targets: allowed 1..{pool}"
+        )
     selection = eval_target_set(env_id)
     n_eval = u.printed.sizes[selection] if selection != "eval" else u.sampler.eval_size
     obs_space, act_space = env.observation_space, env.action_space
@@ -531,9 +549,27 @@ def train(
                     verbose=0,
                     **algo_kwargs_for(algo, algo_kwargs),
                 )
+                bc = bc_settings(run.get("bc_pretrain"), where)
+                if bc is not None:  # a fresh model only: a checkpoint keeps its weights
+                    from bathprint.agents.imitation import pretrain
+
+                    t_bc = time.perf_counter()
+                    info["bc_pretrain"] = pretrain(model, env_id, env_kwargs, bc, seed)
+                    info["bc_pretrain"]["wall_time_s"] = time.perf_counter() - t_bc
+                    info["wall_time_s"] = float(info.get("wall_time_s", 0.0)) + float(
+                        info["bc_pretrain"]["wall_time_s"]
+                    )
+                    _write_run(run_dir, info)
+                    print(
+                        f"bc_pretrain: {info['bc_pretrain']['demonstration_pairs']} pairs from "
+                        f"{bc['targets']} training targets; action MSE "
+                        f"{info['bc_pretrain']['mse_before']:.4f} -> "
+                        f"{info['bc_pretrain']['mse_after']:.4f}"
+                    )
             callbacks = _make_callbacks(
                 run_dir, env_id, env_kwargs, normalize, n_envs, run, resumed_at, algo, seed,
                 float(info.get("wall_time_s", 0.0)), stop,
+                evaluate_at_start=ckpt is None and "bc_pretrain" in info,
             )
         except BaseException as exc:
             with stop.shield():
@@ -547,6 +583,11 @@ def train(
                     name = signal_name(getattr(exc, "signum", signal.SIGINT))
                     print(f"interrupted by {name} while starting: {run_dir} holds no new steps")
             raise
+        bc = bc_settings(run.get("bc_pretrain"), where)
+        if bc is not None and bc["critic_warmup_steps"] > 0:
+            from bathprint.agents.callbacks import CriticWarmup
+
+            callbacks.insert(0, CriticWarmup(bc["critic_warmup_steps"]))
         callbacks.append(RunInfoCallback(functools.partial(_write_run, run_dir), info))
         callbacks.append(StopOnRequest(stop))
         budget = None

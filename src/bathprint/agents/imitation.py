@@ -1,0 +1,248 @@
+"""Behaviour cloning (BC) of a PPO policy on the training targets' own printing actions.
+
+A version-1 environment prints its targets itself (:mod:`bathprint.envs.printed`): every
+target carries the actions that printed it, and replaying them from the target's start
+state prints it again. Those actions are demonstrations that cost nothing to label.
+:func:`collect_demonstrations` replays the first ``targets`` training targets (seeds
+0 .. targets-1 of the training pool; validation and test targets are never read) and keeps
+(observation, action) pairs; :func:`fit_policy` regresses the PPO policy's deterministic
+action mean (``mlp_extractor.policy_net`` and ``action_net``) onto the actions by mean
+squared error, leaving the value network (and the action noise) to PPO. With
+``critic_warmup_steps``, PPO's first updates train the value network only
+(:class:`~bathprint.agents.callbacks.CriticWarmup`): an untrained critic's advantages
+would otherwise move the pretrained actor at random.
+
+``bc_pretrain`` in the ``bathprint`` section of a hyperparameter file switches it on
+(:data:`BC_KEYS`); ``bathprint train`` applies it to a fresh model before learning.
+Everything is deterministic for a seed.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from bathprint.errors import ConfigError
+
+#: keys of ``bc_pretrain`` and their defaults
+BC_DEFAULTS: dict[str, Any] = {
+    "targets": 160,  # training targets replayed (seeds 0 .. targets-1)
+    "epochs": 30,  # passes over the demonstrations
+    "batch_size": 256,
+    "learning_rate": 1.0e-3,  # Adam
+    "action_noise": 0.0,  # std of Gaussian noise on the played action, every other episode
+    "critic_warmup_steps": 0,  # environment steps of PPO that update the value net only
+}
+BC_KEYS = tuple(BC_DEFAULTS)
+
+
+def bc_settings(value: Any, where: str) -> dict[str, Any] | None:
+    """``bc_pretrain`` checked and completed with :data:`BC_DEFAULTS`; None when off
+    (``false``, ``null`` or absent). Raises ConfigError naming the key."""
+    if value is None or value is False:
+        return None
+    if value is True:
+        value = {}
+    if not isinstance(value, dict):
+        raise ConfigError(
+            f"{where}: bc_pretrain = {value!r}; expected false or a mapping of "
+            + ", ".join(BC_KEYS)
+            + " (e.g. {targets: 160, epochs: 30})"
+        )
+    out = dict(BC_DEFAULTS)
+    for key, v in value.items():
+        if key not in BC_DEFAULTS:
+            raise ConfigError(
+                f"{where}: unknown bc_pretrain key {key!r}; allowed: " + ", ".join(BC_KEYS)
+            )
+        name = f"bc_pretrain.{key}"
+        if key in ("targets", "epochs", "batch_size", "critic_warmup_steps"):
+            low = 0 if key == "critic_warmup_steps" else 1
+            if not (isinstance(v, int) and not isinstance(v, bool) and v >= low):
+                raise ConfigError(f"{where}: {name} = {v!r}; allowed: an integer >= {low}")
+        else:
+            number = isinstance(v, int | float) and not isinstance(v, bool) and np.isfinite(v)
+            if key == "learning_rate" and not (number and v > 0):
+                raise ConfigError(f"{where}: {name} = {v!r}; allowed: a number > 0")
+            if key == "action_noise" and not (number and v >= 0):
+                raise ConfigError(f"{where}: {name} = {v!r}; allowed: a number >= 0")
+            v = float(v)
+        out[key] = v
+    return out
+
+
+@dataclass
+class Demonstrations:
+    """(observation, action) pairs of replayed training targets."""
+
+    obs: np.ndarray  # (n, obs_dim) float32
+    actions: np.ndarray  # (n, act_dim) float32, the printing actions (the labels)
+    target_seeds: list[int]  # seeds of the training targets replayed
+    target_sets: list[str]  # the set each replayed target belongs to (all "train")
+    wall_time_s: float
+
+
+def collect_demonstrations(
+    env_id: str, env_kwargs: dict[str, Any], n_targets: int, seed: int, action_noise: float = 0.0
+) -> Demonstrations:
+    """Replay the printing actions of training targets 0 .. n_targets-1 in a training
+    environment (``env_kwargs`` as training uses them) and record the observation before
+    each action. With ``action_noise`` > 0, every other episode plays the action plus
+    Gaussian noise of that std (seeded by ``seed``; clipped to [-1, 1]) while the label
+    stays the printing action, so that the demonstrations also cover states slightly off
+    the printed path."""
+    from bathprint.envs import make
+
+    t0 = time.perf_counter()
+    env = make(env_id, target_set="train", **env_kwargs)
+    try:
+        u = env.unwrapped
+        family = getattr(u, "printed", None)
+        if family is None:
+            raise ConfigError(
+                f"bc_pretrain: {env_id} does not print its targets (no printing actions to "
+                "imitate); behaviour cloning needs a version-1 environment"
+            )
+        if n_targets > family.train_pool:
+            raise ConfigError(
+                f"bc_pretrain.targets = {n_targets}; the training pool of {env_id} has "
+                f"{family.train_pool} targets: allowed 1..{family.train_pool}"
+            )
+        rng = np.random.default_rng([int(seed), 7])
+        obs_rows: list[np.ndarray] = []
+        act_rows: list[np.ndarray] = []
+        sets: list[str] = []
+        for s in range(n_targets):
+            sets.append(family.set_of_seed(s))
+            if sets[-1] != "train":  # the seed ranges are disjoint; a guard all the same
+                raise RuntimeError(f"seed {s} is a {sets[-1]} target, not a training target")
+            target = family.get(s)
+            actions = np.asarray(u.actions_for(target), np.float32)
+            obs, _ = env.reset(seed=int(seed) * 100_003 + s, options={"target": target})
+            noisy = action_noise > 0 and s % 2 == 1
+            for t in range(len(actions) + 10_000):
+                a = actions[min(t, len(actions) - 1)]
+                obs_rows.append(np.asarray(obs, np.float32))
+                act_rows.append(a)
+                played = np.clip(a + rng.normal(0.0, action_noise, a.shape), -1, 1) if noisy else a
+                obs, _, term, trunc, _ = env.step(np.asarray(played, np.float32))
+                if term or trunc:
+                    break
+    finally:
+        env.close()
+    return Demonstrations(
+        obs=np.stack(obs_rows),
+        actions=np.stack(act_rows).astype(np.float32),
+        target_seeds=list(range(n_targets)),
+        target_sets=sets,
+        wall_time_s=time.perf_counter() - t0,
+    )
+
+
+def _action_mean(policy: Any, obs: Any) -> Any:
+    """The policy's deterministic action (the Gaussian's mean) for a batch of observations."""
+    features = policy.extract_features(obs, policy.pi_features_extractor)
+    return policy.action_net(policy.mlp_extractor.forward_actor(features))
+
+
+def action_mse(policy: Any, demos: Demonstrations) -> float:
+    """Mean squared error of the policy's action mean to the demonstrations' actions."""
+    import torch
+
+    with torch.no_grad():
+        obs = torch.as_tensor(demos.obs, dtype=torch.float32, device=policy.device)
+        act = torch.as_tensor(demos.actions, dtype=torch.float32, device=policy.device)
+        return float(((_action_mean(policy, obs) - act) ** 2).mean())
+
+
+def fit_policy(
+    policy: Any,
+    demos: Demonstrations,
+    epochs: int,
+    batch_size: int,
+    learning_rate: float,
+    seed: int,
+) -> dict[str, float]:
+    """Fit the actor of an SB3 ActorCriticPolicy (features extractor, policy net, action
+    net) to the demonstrations by MSE with Adam; the value network is left as it is.
+    Minibatches are shuffled by a generator seeded with ``seed``. Returns the MSE before and
+    after, the optimiser steps and the wall time (s)."""
+    import torch
+
+    t0 = time.perf_counter()
+    params = [p for p in actor_parameters(policy) if p is not getattr(policy, "log_std", None)]
+    opt = torch.optim.Adam(params, lr=learning_rate)
+    obs = torch.as_tensor(demos.obs, dtype=torch.float32, device=policy.device)
+    act = torch.as_tensor(demos.actions, dtype=torch.float32, device=policy.device)
+    gen = torch.Generator().manual_seed(int(seed))
+    before = action_mse(policy, demos)
+    was_training = policy.training
+    policy.set_training_mode(True)
+    n, steps = len(obs), 0
+    for _ in range(int(epochs)):
+        order = torch.randperm(n, generator=gen)
+        for i in range(0, n, int(batch_size)):
+            idx = order[i : i + int(batch_size)]
+            loss = ((_action_mean(policy, obs[idx]) - act[idx]) ** 2).mean()
+            opt.zero_grad()
+            loss.backward()
+            opt.step()
+            steps += 1
+    policy.set_training_mode(was_training)
+    return {
+        "mse_before": before,
+        "mse_after": action_mse(policy, demos),
+        "optimizer_steps": steps,
+        "fit_wall_time_s": time.perf_counter() - t0,
+    }
+
+
+def pretrain(
+    model: Any, env_id: str, env_kwargs: dict[str, Any], settings: dict[str, Any], seed: int
+) -> dict[str, Any]:
+    """Behaviour cloning of ``model`` (a PPO model) with ``settings`` (:func:`bc_settings`):
+    collect, fit, and return what ``run.json`` records."""
+    venv = model.get_vec_normalize_env()
+    if venv is not None and venv.norm_obs:
+        raise ConfigError(
+            "bc_pretrain with normalize.norm_obs true: the demonstrations would be fitted on "
+            "raw observations while the policy sees normalised ones; set norm_obs: false"
+        )
+    demos = collect_demonstrations(
+        env_id, env_kwargs, int(settings["targets"]), seed, float(settings["action_noise"])
+    )
+    fit = fit_policy(
+        model.policy,
+        demos,
+        int(settings["epochs"]),
+        int(settings["batch_size"]),
+        float(settings["learning_rate"]),
+        seed,
+    )
+    return {
+        **settings,
+        "demonstration_pairs": int(len(demos.obs)),
+        "demonstration_target_set": "train",
+        "demonstration_seeds": f"0..{len(demos.target_seeds) - 1}",
+        "collect_wall_time_s": demos.wall_time_s,
+        **fit,
+    }
+
+
+def actor_parameters(policy: Any) -> list[Any]:
+    """The parameters of an ActorCriticPolicy's action distribution (features extractor of
+    the actor, policy net, action net, log std), each once."""
+    import torch
+
+    params = [
+        *policy.pi_features_extractor.parameters(),
+        *policy.mlp_extractor.policy_net.parameters(),
+        *policy.action_net.parameters(),
+    ]
+    if isinstance(getattr(policy, "log_std", None), torch.nn.Parameter):
+        params.append(policy.log_std)
+    return list({id(p): p for p in params}.values())
+

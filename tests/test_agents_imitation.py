@@ -1,0 +1,190 @@
+"""Behaviour-cloning pretraining (bathprint.agents.imitation): demonstrations come from the
+training targets only, fitting lowers the action error to them, ``bathprint train`` applies
+it and records it (the pretrained model is evaluated at step 0), and bad settings are
+refused naming the key."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+from bathprint.agents.hyperparams import agents_dir, load_hyperparams, validate_hyperparams
+from bathprint.agents.imitation import (
+    action_mse,
+    bc_settings,
+    collect_demonstrations,
+    fit_policy,
+)
+from bathprint.agents.train import train
+from bathprint.envs import make
+from bathprint.errors import ConfigError
+
+ENV = "bathprint/CoilRadius-v1"
+KW = {"accuracy": "draft"}
+
+
+def _ppo(seed: int = 0):
+    from stable_baselines3 import PPO
+    from stable_baselines3.common.vec_env import DummyVecEnv
+
+    venv = DummyVecEnv([lambda: make(ENV, **KW)])
+    return PPO("MlpPolicy", venv, seed=seed, device="cpu", n_steps=64, batch_size=32,
+               policy_kwargs={"net_arch": [128, 128], "log_std_init": -1.0})
+
+
+@pytest.fixture(scope="module")
+def demos():
+    return collect_demonstrations(ENV, KW, 3, seed=0, action_noise=0.15)
+
+
+def test_demonstrations_come_from_the_training_set_only(demos, monkeypatch):
+    env = make(ENV, **KW)
+    family = env.unwrapped.printed
+    held_out = set(family.seeds("validation")) | set(family.seeds("test"))
+    assert demos.target_seeds == [0, 1, 2]
+    assert not set(demos.target_seeds) & held_out
+    assert demos.target_sets == ["train"] * 3
+    # collecting never reads a fixed (validation or test) target
+    import bathprint.envs.v1 as v1
+
+    def refuse(self, target_set, index):
+        raise AssertionError(f"read {target_set} target {index}")
+
+    monkeypatch.setattr(v1.BathprintEnvV1, "fixed_set_target", refuse)
+    again = collect_demonstrations(ENV, KW, 1, seed=0)
+    # the labels are the training target's own printing actions
+    n = len(env.unwrapped.actions_for(family.get(0)))
+    expected = env.unwrapped.actions_for(family.get(0))
+    assert len(again.obs) == len(again.actions) >= n
+    np.testing.assert_allclose(again.actions[:n], expected, atol=1e-6)
+    env.close()
+
+
+def test_demonstrations_are_deterministic(demos):
+    again = collect_demonstrations(ENV, KW, 3, seed=0, action_noise=0.15)
+    np.testing.assert_array_equal(again.obs, demos.obs)
+    np.testing.assert_array_equal(again.actions, demos.actions)
+
+
+def test_fitting_lowers_the_action_error_and_is_deterministic(demos):
+    import torch
+
+    torch.set_num_threads(1)
+    a, b = _ppo(), _ppo()
+    value_before = [p.detach().clone() for p in a.policy.value_net.parameters()]
+    fit = fit_policy(a.policy, demos, epochs=20, batch_size=64, learning_rate=1e-3, seed=3)
+    assert fit["mse_after"] < 0.5 * fit["mse_before"], fit
+    assert fit["mse_after"] == pytest.approx(action_mse(a.policy, demos), rel=1e-6)
+    for p, q in zip(a.policy.value_net.parameters(), value_before, strict=True):
+        assert torch.equal(p, q)  # the value net is PPO's
+    fit_b = fit_policy(b.policy, demos, epochs=20, batch_size=64, learning_rate=1e-3, seed=3)
+    assert fit_b["mse_after"] == pytest.approx(fit["mse_after"], rel=1e-9, abs=1e-12)
+    for p, q in zip(a.policy.parameters(), b.policy.parameters(), strict=True):
+        assert torch.equal(p, q)
+
+
+def test_tiny_training_with_bc_pretrain_records_it_and_evaluates_step_0(tmp_path, monkeypatch):
+    hp = load_hyperparams("ppo", ENV, agents_dir() / "ppo_bc.yml")
+    assert hp["bc_pretrain"]["targets"] >= 1
+    hp.update(n_envs=1, n_steps=82, batch_size=41, n_epochs=1, eval_freq=10_000,
+              eval_episodes=1, checkpoint_freq=82, time_budget_s=600,
+              bc_pretrain={"targets": 2, "epochs": 5, "batch_size": 32})
+    run = train("ppo", ENV, timesteps=82, out=tmp_path / "bc", hyperparams=hp, progress=False)
+    info = json.loads((run / "run.json").read_text())
+    assert info["status"] == "done"
+    bc = info["bc_pretrain"]
+    assert bc["targets"] == 2 and bc["demonstration_target_set"] == "train"
+    assert bc["demonstration_pairs"] >= 2 * 80
+    assert bc["mse_after"] < bc["mse_before"]
+    assert info["wall_time_s"] >= bc["wall_time_s"] > 0
+    with np.load(run / "eval" / "evaluations.npz") as d:
+        steps = d["timesteps"].tolist()
+    assert steps[0] == 0 and steps[-1] >= 82  # the pretrained model, then the end
+    assert (run / "eval" / "best_model.zip").is_file()
+
+    # a resume continues the checkpoint: no second behaviour cloning, step 0 kept
+    import bathprint.agents.imitation as imitation
+
+    def refuse(*args, **kwargs):
+        raise AssertionError("bc_pretrain applied on --resume")
+
+    monkeypatch.setattr(imitation, "pretrain", refuse)
+    train("ppo", ENV, timesteps=164, out=run, resume=True, progress=False)
+    resumed = json.loads((run / "run.json").read_text())
+    assert resumed["status"] == "done" and resumed["timesteps_done"] >= 164
+    assert resumed["bc_pretrain"] == bc
+    with np.load(run / "eval" / "evaluations.npz") as d:
+        assert d["timesteps"].tolist()[:2] == steps[:2] and d["timesteps"][-1] >= 164
+
+
+@pytest.mark.parametrize(
+    ("value", "needle"),
+    [
+        ({"targets": 0}, "bc_pretrain.targets = 0"),
+        ({"epochs": 2.5}, "bc_pretrain.epochs = 2.5"),
+        ({"batch_size": True}, "bc_pretrain.batch_size = True"),
+        ({"learning_rate": -1.0}, "bc_pretrain.learning_rate = -1.0"),
+        ({"action_noise": float("nan")}, "bc_pretrain.action_noise = nan"),
+        ({"critic_warmup_steps": -1}, "bc_pretrain.critic_warmup_steps = -1"),
+        ({"targts": 10}, "unknown bc_pretrain key 'targts'"),
+        (160, "bc_pretrain = 160"),
+    ],
+)
+def test_bad_bc_pretrain_values_are_refused_naming_the_key(value, needle):
+    hp = load_hyperparams("ppo", ENV, agents_dir() / "ppo_bc.yml")
+    hp["bc_pretrain"] = value
+    with pytest.raises(ConfigError) as exc:
+        validate_hyperparams("ppo", hp, "hp", ENV)
+    assert needle in str(exc.value)
+
+
+def test_bc_pretrain_is_refused_where_it_cannot_work(tmp_path):
+    base = load_hyperparams("ppo", ENV, agents_dir() / "ppo_bc.yml")
+    cases = [
+        ({"normalize": {"norm_obs": True}}, ENV, "normalize.norm_obs"),
+        ({"env_wrapper": [{"bathprint.agents.wrappers.FeedforwardResidual": {"scale": 0.5}}]},
+         ENV, "env_wrapper"),
+        ({}, "bathprint/CoilRadius-v0", "version-1"),
+    ]
+    for extra, env_id, needle in cases:
+        hp = {**base, **extra}
+        with pytest.raises(ConfigError, match="bc_pretrain") as exc:
+            validate_hyperparams("ppo", hp, "hp", env_id)
+        assert needle in str(exc.value)
+    with pytest.raises(ConfigError, match="bc_pretrain.targets = 5000"):
+        train("ppo", ENV, timesteps=82, out=tmp_path / "x", progress=False,
+              hyperparams={**base, "bc_pretrain": {"targets": 5000}})
+    assert not (tmp_path / "x").exists()
+    assert bc_settings(False, "hp") is None and bc_settings(None, "hp") is None
+    assert bc_settings({"targets": 4}, "hp")["epochs"] == 30
+
+
+def test_critic_warmup_trains_the_value_net_only_until_its_step():
+    import torch
+
+    from bathprint.agents.callbacks import CriticWarmup
+    from bathprint.agents.imitation import actor_parameters
+
+    torch.set_num_threads(1)
+
+    def snapshot(params):
+        return [p.detach().clone() for p in params]
+
+    model = _ppo()
+    actor0 = snapshot(actor_parameters(model.policy))
+    value0 = snapshot(model.policy.value_net.parameters())
+    warm = CriticWarmup(10_000)
+    model.learn(128, callback=warm)
+    assert all(torch.equal(p, q) for p, q in zip(actor_parameters(model.policy), actor0,
+                                                 strict=True))
+    assert not all(torch.equal(p, q) for p, q in zip(model.policy.value_net.parameters(),
+                                                     value0, strict=True))
+    assert not warm.frozen and all(p.requires_grad for p in actor_parameters(model.policy))
+    # past its step the actor learns again
+    model = _ppo()
+    actor0 = snapshot(actor_parameters(model.policy))
+    model.learn(128, callback=CriticWarmup(64))
+    assert not all(torch.equal(p, q) for p, q in zip(actor_parameters(model.policy), actor0,
+                                                     strict=True))
