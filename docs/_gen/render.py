@@ -932,7 +932,13 @@ def headline() -> str:
         name = min(val, key=lambda k: sum(val[k]) / len(val[k]))
         pol = {p["policy"]: p for p in json.loads(path.read_text())["policies"]}
         g = pol[name]["gap_closed"]
-        names = {"ppo_residual": "residual PPO", "ppo": "PPO", "sac": "SAC", "tqc_her": "TQC+HER"}
+        names = {
+            "ppo_residual": "residual PPO",
+            "ppo_bc": "PPO pretrained by cloning",
+            "ppo": "PPO",
+            "sac": "SAC",
+            "tqc_her": "TQC+HER",
+        }
         label = names.get(name, name)
         return f"{label} {100 * g[0]:.0f}% [{100 * g[1]:.0f}, {100 * g[2]:.0f}]"
 
