@@ -159,6 +159,17 @@ def bend_energy_grad_hess(
 
 
 @njit(cache=True, inline="always")
+def add_stencil_force(force: np.ndarray, i: int, grad: np.ndarray) -> None:
+    """Add -dE/dx of node i's bending stencil from ``grad`` = dE/d(e1, e2) (e1 = x_i -
+    x_{i-1}, e2 = x_{i+1} - x_i): +g1 on node i-1, g2 - g1 on node i, -g2 on node i+1."""
+    b3 = 3 * i
+    for a in range(3):
+        force[b3 - 3 + a] += grad[a]
+        force[b3 + a] += grad[3 + a] - grad[a]
+        force[b3 + 3 + a] -= grad[3 + a]
+
+
+@njit(cache=True, inline="always")
 def add_bend_hessian(band: np.ndarray, n_free: int, i: int, hess: np.ndarray, cx: float) -> None:
     """Add cx * d2E/dx2 of node i's bending stencil to ``band``, from the edge Hessian
     ``hess`` = [[H11, H12], [H21, H22]] (e1 = x_i - x_{i-1}, e2 = x_{i+1} - x_i): the node
@@ -255,11 +266,7 @@ def accumulate(model, rod, stage, out) -> float:
             kbar[a] = 0.5 * dl * (seg_mat[ja, MAT_KAPPA_X + a] + seg_mat[jb, MAT_KAPPA_X + a])
         energy += bend_energy_grad_hess(e1, e2, kbar, k, grad, hess, scratch, do_jac)
         # e1 = x_i - x_{i-1}, e2 = x_{i+1} - x_i: forces and Hessian blocks by node
-        b3 = 3 * i
-        for a in range(3):
-            force[b3 - 3 + a] += grad[a]
-            force[b3 + a] += grad[3 + a] - grad[a]
-            force[b3 + 3 + a] -= grad[3 + a]
+        add_stencil_force(force, i, grad)
         if do_jac:
             add_bend_hessian(band, n_free, i, hess, cx)
     return energy

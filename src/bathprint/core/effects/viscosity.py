@@ -34,7 +34,7 @@ import numpy as np
 from numba import njit
 
 from bathprint.core.effects._band import add_block
-from bathprint.core.effects.elasticity import add_bend_hessian
+from bathprint.core.effects.elasticity import add_bend_hessian, add_stencil_force
 from bathprint.core.extrusion import flow_rate
 from bathprint.core.layout import MAT_INNER_FRACTION, MAT_RADIUS
 from bathprint.core.topology import filament_segments, free_nodes
@@ -217,11 +217,7 @@ def accumulate(model, rod, stage, out) -> float:
             elif i == inlet + 1:  # e1 ends at the tip (e2: tip to ghost, both carried)
                 u1[a] -= carried * d_hat[a]
         power += 2.0 * bend_rate_grad(e1, e2, u1, u2, k, grad, jhat)
-        b3 = 3 * i
-        for a in range(3):
-            force[b3 - 3 + a] += grad[a]
-            force[b3 + a] += grad[3 + a] - grad[a]
-            force[b3 + 3 + a] -= grad[3 + a]
+        add_stencil_force(force, i, grad)  # (the edge forces are -grad, as elasticity's)
         if not do_jac:
             continue
         # edge forces F = -grad: -dF/du = k Jh^T Jh (cv), -dF/de = d grad/de (cx, central
