@@ -1,0 +1,216 @@
+"""Behaviour-cloning search on the validation targets: which demonstrations and which policy
+size make a cloned policy write WriteShape-v1's targets.
+
+Each row clones a fresh PPO policy (``MlpPolicy``, two tanh layers of ``net_width``) on the
+printing actions of the first ``targets`` training targets (every other one replayed with
+N(0, ``action_noise``) on the played action; :func:`bathprint.agents.imitation.
+collect_demonstrations`), for ``epochs`` passes (:func:`~bathprint.agents.imitation.
+fit_policy`, Adam 1e-3, batches of 256), and plays the cloned policy deterministically on
+the 16 validation targets (target k with seed k, as the validation callback plays them).
+No PPO step is taken and the test targets are never read. The row chosen here is the
+``bc_pretrain`` of ``agents/ppo_bc.yml`` for the environment.
+
+    python benchmarks/bench_bc_search.py                 # all rows (about 10 min on a core)
+    python benchmarks/bench_bc_search.py --rows 0 --targets-scale 0.02   # a smoke run
+
+Rows already in the CSV are kept (the search resumes after a kill); ``--fresh`` starts over.
+Writes benchmarks/results/bc_search_<Env>.csv (+ .meta.json).
+
+``--diagnose ROW`` measures where the cloned policy's error comes from, on the validation
+targets: its actions teacher-forced on the printing actions' own states (RMS to them), and
+the printing actions replayed with white noise of each std in ``NOISE_STDS`` (the metric an
+uncorrelated action error of that size costs); benchmarks/results/bc_search_<Env>_diagnosis.csv.
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from _common import RESULTS, write_meta  # noqa: E402
+
+#: (training targets, action noise std, net width, epochs); the last row is agents/ppo_bc.yml's
+ROWS: list[tuple[int, float, int, int]] = [
+    (160, 0.15, 128, 30),  # CoilRadius-v1's setting
+    (1024, 0.0, 128, 30),
+    (1024, 0.15, 128, 30),
+    (1024, 0.15, 128, 60),
+    (1024, 0.3, 128, 60),
+    (1024, 0.15, 256, 30),
+    (1024, 0.15, 256, 100),
+]
+NOISE_STDS = (0.0, 0.05, 0.1, 0.2, 0.4)  # white noise on replayed printing actions (--diagnose)
+FIELDS = [
+    "targets", "action_noise", "net_width", "epochs", "demonstration_pairs", "mse_after",
+    "validation_mean_metric", "validation_ci_low", "validation_ci_high",
+    "validation_success_rate", "collect_wall_s", "fit_wall_s",
+]  # fmt: skip
+
+
+def _key(row: dict) -> tuple:
+    return (int(row["targets"]), float(row["action_noise"]), int(row["net_width"]),
+            int(row["epochs"]))  # fmt: skip
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--env", default="bathprint/WriteShape-v1")
+    ap.add_argument("--rows", default=None, help="comma-separated row indices (default all)")
+    ap.add_argument("--episodes", type=int, default=16, help="validation targets played")
+    ap.add_argument("--targets-scale", type=float, default=1.0,
+                    help="multiply each row's training targets (smoke runs)")  # fmt: skip
+    ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--out", default=None, help="CSV path (default benchmarks/results/...)")
+    ap.add_argument("--fresh", action="store_true", help="discard rows already in the CSV")
+    ap.add_argument("--diagnose", type=int, default=None, metavar="ROW",
+                    help="diagnose one row (teacher-forced, noisy replays) instead")  # fmt: skip
+    args = ap.parse_args(argv)
+    if args.diagnose is not None:
+        return diagnose(args)
+
+    import torch
+    from rich.progress import track
+
+    from bathprint.agents.imitation import collect_demonstrations
+    from bathprint.agents.rollout import run_episode
+    from bathprint.agents.statistics import bootstrap_ci
+    from bathprint.envs import make
+
+    torch.set_num_threads(1)
+    name = args.env.split("/")[-1]
+    out = Path(args.out) if args.out else RESULTS / f"bc_search_{name}.csv"
+    out.parent.mkdir(parents=True, exist_ok=True)
+    done: list[dict] = []
+    if out.exists() and not args.fresh:
+        with out.open() as f:
+            done = list(csv.DictReader(f))
+    have = {_key(r) for r in done}
+    picked = range(len(ROWS)) if args.rows is None else [int(i) for i in args.rows.split(",")]
+    todo = []
+    for i in picked:
+        n, noise, width, epochs = ROWS[i]
+        todo.append((max(1, round(n * args.targets_scale)), noise, width, epochs))
+    todo = [r for r in todo if r not in have]
+    demos_cache: dict[tuple[int, float], object] = {}
+    env_kwargs = {"accuracy": "draft"}
+    val_env = make(args.env, target_set="validation", **env_kwargs)
+    try:
+        for n, noise, width, epochs in todo:
+            if (n, noise) not in demos_cache:
+                demos_cache[(n, noise)] = collect_demonstrations(
+                    args.env, env_kwargs, n, args.seed, noise
+                )
+            demos = demos_cache[(n, noise)]
+            model, fit = _fitted(val_env, demos, width, epochs, args.seed)
+            metrics, success = [], []
+            for k in track(range(args.episodes), description=f"{n} targets, {noise}, "
+                           f"{width}x2, {epochs} epochs"):  # fmt: skip
+                ep = run_episode(val_env, model, seed=k, target_index=k)
+                metrics.append(ep.metrics["metric"])
+                success.append(ep.is_success)
+            m = np.array(metrics)
+            _, lo, hi = bootstrap_ci(np.mean, m[None, :], seed=args.seed)
+            row = {
+                "targets": n, "action_noise": noise, "net_width": width, "epochs": epochs,
+                "demonstration_pairs": len(demos.obs), "mse_after": fit["mse_after"],
+                "validation_mean_metric": float(m.mean()), "validation_ci_low": lo,
+                "validation_ci_high": hi, "validation_success_rate": float(np.mean(success)),
+                "collect_wall_s": demos.wall_time_s, "fit_wall_s": fit["fit_wall_time_s"],
+            }  # fmt: skip
+            done.append(row)
+            with out.open("w", newline="") as f:  # rewritten whole after every row
+                w = csv.DictWriter(f, fieldnames=FIELDS)
+                w.writeheader()
+                w.writerows(done)
+            write_meta(out)
+            print(
+                f"{n} targets, noise {noise}, {width}x2, {epochs} epochs: validation "
+                f"{m.mean():.3f} [{lo:.3f}, {hi:.3f}] ({time.strftime('%H:%M:%S')})",
+                flush=True,
+            )
+    finally:
+        val_env.close()
+    print(f"wrote {out}")
+    return 0
+
+
+def _fitted(env: object, demos: object, width: int, epochs: int, seed: int) -> tuple:
+    """A fresh PPO model (two tanh layers of ``width``) whose policy is cloned on ``demos``
+    (no PPO step), and the fit's record."""
+    from stable_baselines3 import PPO
+
+    from bathprint.agents.imitation import fit_policy
+
+    model = PPO("MlpPolicy", env, seed=seed, device="cpu",
+                policy_kwargs={"net_arch": [width, width], "log_std_init": -3.0})  # fmt: skip
+    return model, fit_policy(model.policy, demos, epochs, 256, 1.0e-3, seed)
+
+
+def diagnose(args: argparse.Namespace) -> int:
+    """Teacher-forced action error of the cloned policy and noisy replays of the printing
+    actions, on the validation targets."""
+    import torch
+
+    from bathprint.agents.imitation import collect_demonstrations
+    from bathprint.envs import make
+
+    torch.set_num_threads(1)
+    name = args.env.split("/")[-1]
+    out = Path(args.out) if args.out else RESULTS / f"bc_search_{name}_diagnosis.csv"
+    n, noise, width, epochs = ROWS[args.diagnose]
+    n = max(1, round(n * args.targets_scale))
+    env = make(args.env, target_set="validation", accuracy="draft")
+    u = env.unwrapped
+    rows: list[dict] = []
+    try:
+        demos = collect_demonstrations(args.env, {"accuracy": "draft"}, n, args.seed, noise)
+        model, _ = _fitted(env, demos, width, epochs, args.seed)
+        sq, n_act = 0.0, 0
+        for k in range(args.episodes):
+            obs, _ = env.reset(seed=k, options={"target_index": k})
+            printing = np.asarray(u.actions_for(u.target), np.float32)
+            for t in range(10_000):
+                a = printing[min(t, len(printing) - 1)]
+                pred, _ = model.predict(obs, deterministic=True)
+                sq += float(np.sum((np.asarray(pred) - a) ** 2))
+                n_act += a.size
+                obs, _, term, trunc, _ = env.step(a)
+                if term or trunc:
+                    break
+        rows.append({"what": "cloned policy, teacher-forced: action RMS to the printing "
+                     "actions", "noise_std": "", "value": (sq / n_act) ** 0.5})  # fmt: skip
+        rng = np.random.default_rng(args.seed)
+        for std in NOISE_STDS:
+            metrics = []
+            for k in range(args.episodes):
+                obs, _ = env.reset(seed=k, options={"target_index": k})
+                printing = np.asarray(u.actions_for(u.target), np.float32)
+                for t in range(10_000):
+                    a = printing[min(t, len(printing) - 1)]
+                    a = np.clip(a + rng.normal(0.0, std, a.shape), -1, 1).astype(np.float32)
+                    obs, _, term, trunc, info = env.step(a)
+                    if term or trunc:
+                        break
+                metrics.append(float(info["metric"]))
+            rows.append({"what": "printing actions replayed with white noise: mean metric",
+                         "noise_std": std, "value": float(np.mean(metrics))})  # fmt: skip
+            print(f"noise {std}: {np.mean(metrics):.3f}", flush=True)
+    finally:
+        env.close()
+    with out.open("w", newline="") as f:
+        w = csv.DictWriter(f, fieldnames=["what", "noise_std", "value"])
+        w.writeheader()
+        w.writerows(rows)
+    write_meta(out)
+    print(f"teacher-forced action RMS {rows[0]['value']:.3f}; wrote {out}")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
