@@ -935,6 +935,7 @@ def headline() -> str:
         names = {
             "ppo_residual": "residual PPO",
             "ppo_bc": "PPO pretrained by cloning",
+            "ppo_bc_e100": "PPO pretrained by cloning (100 epochs)",
             "ppo": "PPO",
             "sac": "SAC",
             "tqc_her": "TQC+HER",
@@ -1172,6 +1173,60 @@ def kernel_ab() -> str:
     return _table(head, rows) + "\n\n" + provenance(path)
 
 
+def bc_search(env: str = "WriteShape-v1") -> str:
+    path = RESULTS / f"bc_search_{env}.csv"
+    rows = [
+        [
+            r["targets"],
+            r["demonstration_pairs"],
+            _g(r["action_noise"], 2),
+            f"{r['net_width']} x 2",
+            r["epochs"],
+            _g(r["mse_after"], 2),
+            f"{_g(r['validation_mean_metric'])} [{_g(r['validation_ci_low'])}, "
+            f"{_g(r['validation_ci_high'])}]",
+            f"{float(r['collect_wall_s']) + float(r['fit_wall_s']):.0f}",
+        ]
+        for r in _csv(path)
+    ]
+    head = ["training targets", "pairs", "action noise", "policy", "epochs", "action MSE",
+            "validation metric (mean, 95% CI)", "collect + fit (s)"]  # fmt: skip
+    out = _table(head, rows) + "\n\n" + provenance(path)
+    diag_path = RESULTS / f"bc_search_{env}_diagnosis.csv"
+    if diag_path.is_file():
+        diag = _csv(diag_path)
+        replays = ", ".join(
+            f"{_g(r['noise_std'], 2)}: {_g(r['value'], 2)}" for r in diag if r["noise_std"]
+        )
+        out += (
+            "\n\nWhere the error comes from (`python benchmarks/bench_bc_search.py --diagnose 5`,"
+            " the 256 x 2 policy of 30 epochs, on the validation targets): teacher-forced on"
+            " the printing actions' own states, its actions are within an RMS of "
+            f"{_g(diag[0]['value'], 2)} of them; the printing actions replayed with white "
+            f"noise of std (noise: mean metric) {replays}.\n\n" + provenance(diag_path)
+        )
+    return out
+
+
+def study_wall(name: str = "ablation_wall") -> str:
+    path = RESULTS / f"{name}.csv"
+    rows = [
+        [
+            r["study"],
+            f"{r['runs']} ({r['failed']} fail)",
+            f"{float(r['wall_s']) / 60:.1f}",
+            f"{float(r['worker_s']) / 60:.1f}",
+            _g(r["worker_over_wall"], 3),
+            f"{float(r['longest_run_s']):.0f}",
+            f"{r['same_as_reference']} of {r['reference_runs']}",
+        ]
+        for r in _csv(path)
+    ]
+    head = ["whole study on the 2-core machine", "runs", "wall (min)", "worker time (min)",
+            "worker / wall", "longest run (s)", "same as committed"]  # fmt: skip
+    return _table(head, rows) + "\n\n" + provenance(path)
+
+
 TABLES: dict[str, Callable[[], str]] = {
     "scene-keys": scene_keys,
     "builtin-scenes": builtin_scenes,
@@ -1199,6 +1254,8 @@ TABLES: dict[str, Callable[[], str]] = {
     "contact-scenes": contact_scenes,
     "preconditioners": preconditioners,
     "contact-newton": contact_newton,
+    "bc-search": bc_search,
+    "study-wall": study_wall,
     "ablation": ablation,
     "gravity": gravity,
     "fast_jets": fast_jets,
