@@ -373,3 +373,70 @@ def test_many_runs_refusals_are_one_line(argv, needle, capsys, monkeypatch):
     err = capsys.readouterr().err
     assert len(err.strip().splitlines()) == 1 and needle in err and "Traceback" not in err, err
     assert not Path("/nonexistent/never-written").exists()
+
+
+def _descendants(pid: int) -> set[int]:
+    """Every process below ``pid`` (Linux /proc)."""
+    out, todo = set(), [pid]
+    while todo:
+        p = todo.pop()
+        try:
+            kids = Path(f"/proc/{p}/task/{p}/children").read_text().split()
+        except OSError:
+            continue
+        for k in map(int, kids):
+            if k not in out:
+                out.add(k)
+                todo.append(k)
+    return out
+
+
+def _alive(pid: int) -> bool:
+    try:
+        state = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0]
+    except OSError:
+        return False
+    return state != "Z"
+
+
+@pytest.mark.skipif(not Path("/proc/self/task").is_dir(), reason="needs Linux /proc")
+def test_sigterm_to_the_campaign_stops_its_pool_workers(tmp_path):
+    """A SIGTERM to the campaign's process alone (as ``pkill -f``) is handled like Ctrl-C:
+    the pool's workers are stopped with it, never left training into the run directories,
+    and it exits with 143."""
+    out = tmp_path / "out"
+    path = _campaign_file(tmp_path, out)
+    data = yaml.safe_load(path.read_text())
+    data["runs"][0]["timesteps"] = 200_000  # long enough to be killed mid-run
+    path.write_text(yaml.safe_dump(data))
+    dirs = [Path(r.run_dir) for r in load_campaign(path).runs]
+    cmd = [sys.executable, "-m", "bathprint.agents.campaign", str(path), "--quiet",
+           "--workers", "2"]  # fmt: skip
+    proc = subprocess.Popen(cmd, env=_env(), cwd=tmp_path, start_new_session=True,
+                            stdout=subprocess.PIPE, stderr=subprocess.STDOUT)  # fmt: skip
+    workers: set[int] = set()
+    try:
+        deadline = time.monotonic() + 120
+        while time.monotonic() < deadline and proc.poll() is None:
+            if any((d / "run.json").is_file() for d in dirs):
+                break
+            time.sleep(0.05)
+        assert proc.poll() is None, proc.communicate()[0].decode()
+        workers = _descendants(proc.pid)
+        assert workers
+        proc.send_signal(signal.SIGTERM)  # the campaign's process only, not its group
+        output = proc.communicate(timeout=60)[0].decode()
+        assert proc.returncode == 143, output
+        assert "interrupted (SIGTERM)" in output
+        deadline = time.monotonic() + 15
+        while time.monotonic() < deadline and any(_alive(p) for p in workers):
+            time.sleep(0.1)
+        assert not any(_alive(p) for p in workers)
+    finally:
+        if proc.poll() is None:
+            os.killpg(proc.pid, signal.SIGKILL)
+        for p in workers | _descendants(proc.pid):  # never leave a worker behind
+            try:
+                os.kill(p, signal.SIGKILL)
+            except ProcessLookupError:
+                pass

@@ -33,7 +33,9 @@ targets (``OUT/<Env>/.../test/``), and writes per environment::
 
 Rerunning the command resumes: finished runs and evaluations are kept, runs a kill left
 ``running`` or ``interrupted`` continue from their last checkpoint (``--resume``), those
-without a checkpoint start over.
+without a checkpoint start over. SIGTERM is handled like Ctrl-C
+(:func:`bathprint.interrupt.signals_interrupt`): the pool's workers are stopped with the
+campaign, which exits with 143.
 """
 
 from __future__ import annotations
@@ -43,6 +45,7 @@ import csv
 import json
 import os
 import shutil
+import signal
 import sys
 from collections.abc import Iterator, Sequence
 from dataclasses import asdict, dataclass, field
@@ -52,6 +55,7 @@ from typing import Any
 import numpy as np
 
 from bathprint.errors import ConfigError
+from bathprint.interrupt import exit_code, signals_interrupt
 
 #: keys of a campaign file and of one of its run groups
 CAMPAIGN_KEYS = ("out", "episodes", "baselines", "reference", "runs", "seed")
@@ -762,7 +766,13 @@ def main(argv: Sequence[str] | None = None) -> int:
         if args.report_only:
             written = {e: write_results(camp, e) for e in camp.envs}
         else:
-            written = run_campaign(camp, args.workers, args.scheduler, not args.quiet)
+            # SIGTERM as Ctrl-C: the pool's workers are stopped, not left training unseen
+            with signals_interrupt():
+                written = run_campaign(camp, args.workers, args.scheduler, not args.quiet)
+    except KeyboardInterrupt as exc:
+        name = signal.Signals(exit_code(exc) - 128).name
+        print(f"campaign: interrupted ({name}); the same command resumes it", file=sys.stderr)
+        return exit_code(exc)
     except (ValueError, FileNotFoundError) as exc:
         print(f"campaign: {exc}", file=sys.stderr)
         return 2
