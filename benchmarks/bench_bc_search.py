@@ -152,6 +152,25 @@ def _fitted(env: object, demos: object, width: int, epochs: int, seed: int) -> t
     return model, fit_policy(model.policy, demos, epochs, 256, 1.0e-3, seed)
 
 
+def _replay_printing(env, k: int, rng, std: float, before_step=None) -> float:
+    """Play validation target k's own printing actions (plus N(0, std) from ``rng``, clipped
+    to [-1, 1], unless ``rng`` is None), calling ``before_step(obs, printing_action)`` before
+    each step; returns the final metric."""
+    u = env.unwrapped
+    obs, _ = env.reset(seed=k, options={"target_index": k})
+    printing = np.asarray(u.actions_for(u.target), np.float32)
+    for t in range(10_000):
+        a = printing[min(t, len(printing) - 1)]
+        if before_step is not None:
+            before_step(obs, a)
+        if rng is not None:
+            a = np.clip(a + rng.normal(0.0, std, a.shape), -1, 1).astype(np.float32)
+        obs, _, term, trunc, info = env.step(a)
+        if term or trunc:
+            break
+    return float(info["metric"])
+
+
 def diagnose(args: argparse.Namespace) -> int:
     """Teacher-forced action error of the cloned policy and noisy replays of the printing
     actions, on the validation targets."""
@@ -166,38 +185,24 @@ def diagnose(args: argparse.Namespace) -> int:
     n, noise, width, epochs = ROWS[args.diagnose]
     n = max(1, round(n * args.targets_scale))
     env = make(args.env, target_set="validation", accuracy="draft")
-    u = env.unwrapped
     rows: list[dict] = []
     try:
         demos = collect_demonstrations(args.env, {"accuracy": "draft"}, n, args.seed, noise)
         model, _ = _fitted(env, demos, width, epochs, args.seed)
-        sq, n_act = 0.0, 0
+        sq = [0.0, 0]  # sum of squared action errors, actions compared
+
+        def compare(obs: np.ndarray, a: np.ndarray) -> None:
+            pred, _ = model.predict(obs, deterministic=True)
+            sq[0] += float(np.sum((np.asarray(pred) - a) ** 2))
+            sq[1] += a.size
+
         for k in range(args.episodes):
-            obs, _ = env.reset(seed=k, options={"target_index": k})
-            printing = np.asarray(u.actions_for(u.target), np.float32)
-            for t in range(10_000):
-                a = printing[min(t, len(printing) - 1)]
-                pred, _ = model.predict(obs, deterministic=True)
-                sq += float(np.sum((np.asarray(pred) - a) ** 2))
-                n_act += a.size
-                obs, _, term, trunc, _ = env.step(a)
-                if term or trunc:
-                    break
+            _replay_printing(env, k, None, 0.0, compare)
         rows.append({"what": "cloned policy, teacher-forced: action RMS to the printing "
-                     "actions", "noise_std": "", "value": (sq / n_act) ** 0.5})  # fmt: skip
+                     "actions", "noise_std": "", "value": (sq[0] / sq[1]) ** 0.5})  # fmt: skip
         rng = np.random.default_rng(args.seed)
         for std in NOISE_STDS:
-            metrics = []
-            for k in range(args.episodes):
-                obs, _ = env.reset(seed=k, options={"target_index": k})
-                printing = np.asarray(u.actions_for(u.target), np.float32)
-                for t in range(10_000):
-                    a = printing[min(t, len(printing) - 1)]
-                    a = np.clip(a + rng.normal(0.0, std, a.shape), -1, 1).astype(np.float32)
-                    obs, _, term, trunc, info = env.step(a)
-                    if term or trunc:
-                        break
-                metrics.append(float(info["metric"]))
+            metrics = [_replay_printing(env, k, rng, std) for k in range(args.episodes)]
             rows.append({"what": "printing actions replayed with white noise: mean metric",
                          "noise_std": std, "value": float(np.mean(metrics))})  # fmt: skip
             print(f"noise {std}: {np.mean(metrics):.3f}", flush=True)

@@ -190,18 +190,14 @@ def test_critic_warmup_trains_the_value_net_only_until_its_step():
                                                      strict=True))
 
 
-def test_bc_search_smoke_writes_its_row_and_resumes(tmp_path, monkeypatch):
+def test_bc_search_smoke_writes_its_row_and_resumes(tmp_path, monkeypatch, load_script):
     """benchmarks/bench_bc_search.py with a tiny budget: one row on the validation targets
     only, written to the CSV; run again, the row is kept, not recomputed."""
-    import importlib.util
     from pathlib import Path
 
     import bathprint.envs.v1 as v1
 
-    script = Path(__file__).resolve().parents[1] / "benchmarks" / "bench_bc_search.py"
-    spec = importlib.util.spec_from_file_location("bench_bc_search", script)
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
+    mod = load_script(Path(__file__).resolve().parents[1] / "benchmarks" / "bench_bc_search.py")
     seen: list[str] = []
     real = v1.BathprintEnvV1.fixed_set_target
 

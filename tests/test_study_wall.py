@@ -3,20 +3,12 @@ runs whose measurements match the reference study's."""
 
 from __future__ import annotations
 
-import importlib.util
 import json
 from pathlib import Path
 
 import pytest
 
 SCRIPT = Path(__file__).resolve().parents[1] / "benchmarks" / "study_wall.py"
-
-
-def _module():
-    spec = importlib.util.spec_from_file_location("study_wall", SCRIPT)
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
-    return mod
 
 
 def _log(path: Path, runs: list[tuple[str, str, float, float]]) -> None:
@@ -30,8 +22,8 @@ def _log(path: Path, runs: list[tuple[str, str, float, float]]) -> None:
     (path / "ablation_runs.jsonl").write_text("\n".join(lines) + "\n")
 
 
-def test_wall_span_worker_time_and_identical_measurements(tmp_path):
-    mod = _module()
+def test_wall_span_worker_time_and_identical_measurements(tmp_path, load_script):
+    mod = load_script(SCRIPT)
     _log(tmp_path / "ref", [("a", "2026-01-01T10:00:10+00:00", 9.0, 1.0),
                             ("b", "2026-01-01T10:00:20+00:00", 5.0, 2.0)])  # fmt: skip
     # two workers: a runs 0-10 s, b 5-15 s (timings differ from the reference's, b's value too)
@@ -44,8 +36,8 @@ def test_wall_span_worker_time_and_identical_measurements(tmp_path):
     assert row["same_as_reference"] == 1 and row["runs"] == 2
 
 
-def test_a_log_of_two_sessions_is_refused(tmp_path):
-    mod = _module()
+def test_a_log_of_two_sessions_is_refused(tmp_path, load_script):
+    mod = load_script(SCRIPT)
     _log(tmp_path / "x", [("a", "2026-01-01T10:00:10+00:00", 10.0, 1.0),
                           ("b", "2026-01-02T10:00:10+00:00", 10.0, 1.0)])  # fmt: skip
     runs = mod.read_runs(tmp_path / "x", "ablation")
