@@ -4,8 +4,9 @@ taken), against the same call through numba's dispatcher, which resolves the typ
 nested records on every call; (2) between compiled kernels: a cached kernel that reads two
 counters, called from a compiled loop with the whole workspace record, with the two
 sub-records that hold the counters, and with the two arrays themselves (the cost grows
-with the number of arrays the argument holds). Same process, interleaved rounds, best of
-each.
+with the number of arrays the argument holds, for the reference counts numba keeps), and
+the first again compiled as the simulator's kernels are, without reference counting
+(``bathprint.core.jit.KERNEL``). Same process, interleaved rounds, best of each.
 
     python benchmarks/bench_call_overhead.py
 """
@@ -19,6 +20,7 @@ from numba import njit
 
 from bathprint import Simulation
 from bathprint.core.integrators import advance
+from bathprint.core.jit import KERNEL
 
 CALLS = 20000
 ROUNDS = 5
@@ -37,6 +39,19 @@ def _reads_parts(cpl, hydro) -> bool:
 @njit(cache=True)
 def _reads_arrays(count, memory) -> bool:
     return count[0] > 0 or memory[0].linearized
+
+
+@njit(**KERNEL)
+def _reads_workspace_uncounted(ws) -> bool:
+    return ws.cpl.count[0] > 0 or ws.hydro.memory[0].linearized
+
+
+@njit(cache=True)
+def _loop_workspace_uncounted(ws, n: int) -> int:
+    s = 0
+    for _ in range(n):
+        s += _reads_workspace_uncounted(ws)
+    return s
 
 
 @njit(cache=True)
@@ -93,7 +108,12 @@ def main() -> None:
     for _ in range(ROUNDS):
         best["simulation"] = min(best["simulation"], per_call_us(through_simulation))
         best["dispatcher"] = min(best["dispatcher"], per_call_us(through_dispatcher))
-    inner = {"workspace": _loop_workspace, "parts": _loop_parts, "arrays": _loop_arrays}
+    inner = {
+        "workspace": _loop_workspace,
+        "parts": _loop_parts,
+        "arrays": _loop_arrays,
+        "workspace_uncounted": _loop_workspace_uncounted,
+    }
     ns = {}
     for name, loop in inner.items():
         loop(sim.ws, 10)
@@ -112,6 +132,7 @@ def main() -> None:
         "ns_per_kernel_call_workspace": ns["workspace"],
         "ns_per_kernel_call_parts": ns["parts"],
         "ns_per_kernel_call_arrays": ns["arrays"],
+        "ns_per_kernel_call_workspace_uncounted": ns["workspace_uncounted"],
     }
     print(
         f"a call that takes no step: {row['us_per_call_simulation']:.1f} us through "
@@ -121,7 +142,8 @@ def main() -> None:
     print(
         f"a kernel called from a kernel: {ns['workspace']:.0f} ns with the workspace "
         f"({row['workspace_arrays']} arrays), {ns['parts']:.0f} ns with two of its parts "
-        f"({row['parts_arrays']} arrays), {ns['arrays']:.0f} ns with two arrays"
+        f"({row['parts_arrays']} arrays), {ns['arrays']:.0f} ns with two arrays; "
+        f"{ns['workspace_uncounted']:.1f} ns with the workspace without reference counting"
     )
     print("wrote", write_csv("call_overhead", [row]))
 

@@ -19,13 +19,13 @@ _STAMP = _PACKAGE / "__pycache__" / "kernel_sources.sha1"
 @functools.cache
 def _sources_hash() -> str:
     """Hash of the kernel sources: modules with numba functions, and the index layout
-    and the records (their constants and types are compiled into the kernels). Other
-    modules do not invalidate. Computed once per process (it reads every source file, and
+    and the records (their constants and types are compiled into the kernels), and the
+    kernels' compile options (core/jit.py). Other modules do not invalidate. Computed once per process (it reads every source file, and
     the environments' target caches key on it at every reset)."""
     h = hashlib.sha1()
     for path in sorted(_PACKAGE.rglob("*.py")):
         text = path.read_bytes()
-        if b"njit" in text or path.name in ("layout.py", "records.py"):
+        if b"njit" in text or path.name in ("layout.py", "records.py", "jit.py"):
             h.update(path.relative_to(_PACKAGE).as_posix().encode())
             h.update(text)
     return h.hexdigest()

@@ -24,6 +24,7 @@ from bathprint.core.effects import (
     viscosity,
 )
 from bathprint.core.freezing import accumulate_tail
+from bathprint.core.jit import KERNEL
 from bathprint.core.layout import (
     E_CONTACT,
     E_DRAG,
@@ -38,7 +39,7 @@ from bathprint.core.layout import (
 from bathprint.core.topology import free_nodes
 
 
-@njit(cache=True)
+@njit(**KERNEL)
 def assemble(model, rod, stage, out, calls: np.ndarray, energies: np.ndarray) -> None:
     """Total force on every node into ``out.force``; ``-(cx dF/dx + cv dF/dv + ca dF/da)``
     on the free nodes into ``out.band`` when ``stage.jac``; each effect's energy into

@@ -10,8 +10,10 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+from bathprint.core.jit import KERNEL
 
-@njit(cache=True)
+
+@njit(**KERNEL)
 def band_clear(band: np.ndarray, n: int) -> None:
     """Zero the first ``n`` rows of a band matrix."""
     w = band.shape[1]
@@ -20,7 +22,7 @@ def band_clear(band: np.ndarray, n: int) -> None:
             band[i, k] = 0.0
 
 
-@njit(cache=True)
+@njit(**KERNEL)
 def band_lu(band: np.ndarray, n: int, kl: int, ku: int, piv: np.ndarray) -> int:
     """Factor the leading n x n band matrix in place. Returns 0, or k+1 for a zero pivot."""
     ku2 = ku + kl
@@ -53,7 +55,7 @@ def band_lu(band: np.ndarray, n: int, kl: int, ku: int, piv: np.ndarray) -> int:
     return 0
 
 
-@njit(cache=True)
+@njit(**KERNEL)
 def band_solve(band: np.ndarray, n: int, kl: int, ku: int, piv: np.ndarray, b: np.ndarray) -> None:
     """Solve A x = b in place (b overwritten by x) with the factors from :func:`band_lu`."""
     ku2 = ku + kl
@@ -77,7 +79,7 @@ def band_solve(band: np.ndarray, n: int, kl: int, ku: int, piv: np.ndarray, b: n
         b[i] = s / band[i, kl]
 
 
-@njit(cache=True)
+@njit(**KERNEL)
 def band_matvec(band: np.ndarray, n: int, kl: int, ku: int, x: np.ndarray, y: np.ndarray) -> None:
     """y = A x for an unfactored band matrix (kl sub-, ku super-diagonals)."""
     for i in range(n):
@@ -87,7 +89,7 @@ def band_matvec(band: np.ndarray, n: int, kl: int, ku: int, x: np.ndarray, y: np
         y[i] = s
 
 
-@njit(cache=True)
+@njit(**KERNEL)
 def add_blocks_matvec(cpl, x: np.ndarray, y: np.ndarray) -> None:
     """y += B x for the off-band 3x3 blocks ``cpl`` (:class:`bathprint.core.records.
     Couplings`: block k at node block (row[k], col[k]))."""

@@ -35,6 +35,8 @@ from dataclasses import dataclass
 
 from numba import njit
 
+from bathprint.core.jit import KERNEL
+
 RAYLEIGH_WAVELENGTH = 2.0 * math.pi / 0.697  # lambda / r_i
 DROP_DIAMETER = (6.0 * RAYLEIGH_WAVELENGTH) ** (1.0 / 3.0)  # n / r_i
 
@@ -72,7 +74,7 @@ INNER_FLUIDS: dict[str, InnerFluid] = {
 }
 
 
-@njit(cache=True)
+@njit(**KERNEL)
 def stiffness_factors(phi: float, slug_fraction: float) -> tuple[float, float, float, float]:
     """(bend factor, stretch factor, drop diameter / r, spacing / r) for inner fraction phi."""
     if phi <= 0.0:

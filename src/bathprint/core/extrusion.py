@@ -24,6 +24,7 @@ from numba import njit
 
 from bathprint.core.composite import stiffness_factors
 from bathprint.core.effects.gelation import set_material
+from bathprint.core.jit import KERNEL
 from bathprint.core.layout import (
     GEL_SURFACE,
     MAT_BEND_FACTOR,
@@ -40,7 +41,7 @@ from bathprint.core.layout import (
 )
 
 
-@njit(cache=True)
+@njit(**KERNEL)
 def _interval(table: np.ndarray, t: float) -> int:
     """Index k of the knot interval [t_k, t_k+1) holding t (-1 before the first knot): the
     smallest k with t < t_k+1, or the last knot's index; by bisection, since environments
@@ -59,7 +60,7 @@ def _interval(table: np.ndarray, t: float) -> int:
     return lo
 
 
-@njit(cache=True)
+@njit(**KERNEL)
 def flow_rate(flow: np.ndarray, t: float) -> tuple[float, float]:
     """(Q_outer, Q_inner) in m^3/s at time t."""
     k = _interval(flow, t)
@@ -74,7 +75,7 @@ def flow_rate(flow: np.ndarray, t: float) -> tuple[float, float]:
     )
 
 
-@njit(cache=True)
+@njit(**KERNEL)
 def extruded_length(flow: np.ndarray, flow_cum: np.ndarray, area: float, t: float) -> float:
     """S(t) = int_0^t (Q_o + Q_i)/A dt (m), exact for the piecewise-linear table."""
     k = _interval(flow, t)
@@ -85,7 +86,7 @@ def extruded_length(flow: np.ndarray, flow_cum: np.ndarray, area: float, t: floa
     return flow_cum[k, 0] + 0.5 * (qk + qo + qi) * (t - flow[k, 0]) / area
 
 
-@njit(cache=True)
+@njit(**KERNEL)
 def inner_volume(flow: np.ndarray, flow_cum: np.ndarray, t: float) -> float:
     """int_0^t Q_i dt (m^3), exact for the piecewise-linear table."""
     k = _interval(flow, t)
@@ -140,7 +141,7 @@ def flow_step(
     return new, cum
 
 
-@njit(cache=True)
+@njit(**KERNEL)
 def time_at_extruded_length(
     flow: np.ndarray, flow_cum: np.ndarray, area: float, s: float, t_hi: float
 ) -> float:
@@ -165,7 +166,7 @@ def time_at_extruded_length(
     return 0.5 * (t_lo + t_hi)
 
 
-@njit(cache=True)
+@njit(**KERNEL)
 def needle_state(needle: np.ndarray, t: float, p: np.ndarray, d: np.ndarray, v: np.ndarray) -> None:
     """Needle tip position p (m), unit direction d and tip velocity v (m/s) at time t."""
     k = _interval(needle, t)
@@ -188,7 +189,7 @@ def needle_state(needle: np.ndarray, t: float, p: np.ndarray, d: np.ndarray, v: 
         d[a] /= nd
 
 
-@njit(cache=True)
+@njit(**KERNEL)
 def set_boundary(model, rod, t: float, scratch) -> None:
     """Place the needle tip and the ghost node at time t and grow the inlet segment.
 
@@ -227,7 +228,7 @@ def set_boundary(model, rod, t: float, scratch) -> None:
     seg_rest[tip] = 0.0
 
 
-@njit(cache=True)
+@njit(**KERNEL)
 def material_row(
     phi: float, birth: float, t_now: float, direction: np.ndarray, p, row: np.ndarray
 ) -> None:
@@ -280,7 +281,7 @@ def material_row(
         row[MAT_KAPPA_X + 2] = mag * (-(d0 * u1 - d1 * u0))
 
 
-@njit(cache=True)
+@njit(**KERNEL)
 def segment_material(s_a: float, s_b: float, t_now: float, model, row: np.ndarray, scratch) -> None:
     """Material record of the gel that left the needle between extruded lengths s_a < s_b.
 
@@ -304,7 +305,7 @@ def segment_material(s_a: float, s_b: float, t_now: float, model, row: np.ndarra
     material_row(phi, t_mid, t_now, d, p, row)
 
 
-@njit(cache=True)
+@njit(**KERNEL)
 def _hash_unit(seed: float, counter: int, salt: int) -> float:
     """Counter-based pseudo-random number in [-1, 1): same value whatever the chunking."""
     x = (int(seed) * 2654435761 + counter * 97531 + salt * 1013904223 + 12345) & 0xFFFFFFFF
@@ -315,7 +316,7 @@ def _hash_unit(seed: float, counter: int, salt: int) -> float:
     return (x & 0xFFFFFF) / float(0x800000) - 1.0
 
 
-@njit(cache=True)
+@njit(**KERNEL)
 def split_inlet(model, rod, t: float, split_count: int, scratch) -> int:
     """Split the inlet segment of the (whole) rod in two; returns the new node count.
 
@@ -383,7 +384,7 @@ def split_inlet(model, rod, t: float, split_count: int, scratch) -> int:
     return n_nodes + 1
 
 
-@njit(cache=True)
+@njit(**KERNEL)
 def refresh_inlet_material(model, rod, t: float, scratch) -> None:
     """Re-derive the growing inlet segment's record from everything extruded into it."""
     if not model.params[0].clamped:
@@ -399,7 +400,7 @@ def refresh_inlet_material(model, rod, t: float, scratch) -> None:
         seg_mat[out + 1, c] = row[c]
 
 
-@njit(cache=True)
+@njit(**KERNEL)
 def transport_curvature(
     pos_old: np.ndarray, pos_new: np.ndarray, n_seg: int, seg_mat: np.ndarray
 ) -> None:

@@ -42,6 +42,7 @@ from bathprint.core.extrusion import (
     transport_curvature,
 )
 from bathprint.core.freezing import tail_load
+from bathprint.core.jit import KERNEL
 from bathprint.core.layout import (
     C_CONTACT_REJECTIONS,
     C_DAMPED_NEWTON,
@@ -125,7 +126,7 @@ V_KA = V_KV + MAX_STAGES  # stage accelerations, MAX_STAGES rows
 N_VECS = V_KA + MAX_STAGES
 
 
-@njit(cache=True, inline="always")
+@njit(**KERNEL, inline="always")
 def active_rod(state, ws, frozen: int) -> Rod:
     """The rod past the ``frozen`` tail nodes, as views (no copies); node 0 is its free end."""
     f = frozen
@@ -140,7 +141,7 @@ def active_rod(state, ws, frozen: int) -> Rod:
     )
 
 
-@njit(cache=True, inline="always")
+@njit(**KERNEL, inline="always")
 def _out(state, ws, band, cpl) -> Out:
     """Where a force evaluation of the current step writes."""
     whole = active_rod(state, ws, 0)
@@ -159,7 +160,7 @@ def _out(state, ws, band, cpl) -> Out:
     )
 
 
-@njit(cache=True, inline="always")
+@njit(**KERNEL, inline="always")
 def _error_root(err: float, integrator: int) -> float:
     """err^(1/(p_hat + 1)), p_hat the order of the embedded solution: the factor by which
     the error norm scales the next step."""
@@ -168,7 +169,7 @@ def _error_root(err: float, integrator: int) -> float:
     return math.sqrt(err)
 
 
-@njit(cache=True)
+@njit(**KERNEL)
 def _worst_node(vec: np.ndarray, nd: int) -> int:
     best = -1.0
     node = 0
@@ -182,7 +183,7 @@ def _worst_node(vec: np.ndarray, nd: int) -> int:
     return node
 
 
-@njit(cache=True)
+@njit(**KERNEL)
 def _rms(vec: np.ndarray, nd: int, ws) -> float:
     """RMS over the whole filament: the frozen tail counts with zero (``norm_extra``)."""
     s = 0.0
@@ -191,7 +192,7 @@ def _rms(vec: np.ndarray, nd: int, ws) -> float:
     return math.sqrt(s / max(nd + ws.solver[0].norm_extra, 1.0))
 
 
-@njit(cache=True)
+@njit(**KERNEL)
 def _stage_solve(model, rod, state, ws, hg: float, t_stage: float) -> bool:
     """Newton solve of one implicit stage for the free node positions ``rod.pos``."""
     p = model.params[0]
@@ -278,7 +279,7 @@ def _stage_solve(model, rod, state, ws, hg: float, t_stage: float) -> bool:
     return False
 
 
-@njit(cache=True)
+@njit(**KERNEL)
 def _filtered_norm(model, rod, state, ws, hg: float, t: float) -> float:
     """RMS of the error estimate filtered through the stage matrix (Shampine's filter).
 
@@ -303,7 +304,7 @@ def _filtered_norm(model, rod, state, ws, hg: float, t: float) -> float:
     return _rms(rhs, nd, ws)
 
 
-@njit(cache=True)
+@njit(**KERNEL)
 def _implicit_step(model, rod, state, ws, h: float, t: float) -> float:
     """One SDIRK step (SDIRK2, SDIRK4, or backward Euler); returns the scaled error norm,
     or -1 on failure.
@@ -395,7 +396,7 @@ def _implicit_step(model, rod, state, ws, h: float, t: float) -> float:
     return _filtered_norm(model, rod, state, ws, hg, t + h) / scale
 
 
-@njit(cache=True)
+@njit(**KERNEL)
 def explicit_step(model, rod, state, ws, h: float, t: float) -> float:
     """Forward Euler (overdamped) or symplectic Euler (inertial); returns 0, or -1.
 
@@ -449,7 +450,7 @@ def explicit_step(model, rod, state, ws, h: float, t: float) -> float:
     return 0.0
 
 
-@njit(cache=True)
+@njit(**KERNEL)
 def _max_strain_change(pos0, rod, p) -> tuple[float, int]:
     """Largest change of a segment's length over the step, relative to its rest length;
     a strain beyond ``numerics.max_strain`` counts as a change beyond the bound.
@@ -483,7 +484,7 @@ def _max_strain_change(pos0, rod, p) -> tuple[float, int]:
     return worst, worst_seg
 
 
-@njit(cache=True)
+@njit(**KERNEL)
 def _check_state(rod, p, info) -> int:
     """Non-finite values or stretch past the bound: a status code, with the node in info."""
     pos, vel, seg_rest = rod.pos, rod.vel, rod.seg_rest
@@ -506,7 +507,7 @@ def _check_state(rod, p, info) -> int:
     return STATUS_OK
 
 
-@njit(cache=True)
+@njit(**KERNEL)
 def buckling_time(rod, p) -> float:
     """Time over which the fastest buckling mode of the most compressed segment grows by e:
     1 / sigma, where sigma is the largest root of m sigma^2 + 2 mu_s sigma = Delta with
@@ -541,14 +542,14 @@ def buckling_time(rod, p) -> float:
     return best
 
 
-@njit(cache=True)
+@njit(**KERNEL)
 def _rests_on_floor(pos, seg_mat, node: int, p) -> bool:
     """Node within 5% of its radius of the floor contact height (z_floor + r)."""
     r = seg_mat[node, MAT_RADIUS]
     return pos[3 * node + 2] <= p.floor_z + 1.05 * r
 
 
-@njit(cache=True)
+@njit(**KERNEL)
 def _proposed_step(model, state, ws) -> float:
     """The next step: fixed, or the controller's, bounded by the largest step, the inlet's
     growth (``numerics.max_inlet_growth`` node spacings), the buckling rate and, with
@@ -580,7 +581,7 @@ def _proposed_step(model, state, ws) -> float:
     return h
 
 
-@njit(cache=True)
+@njit(**KERNEL)
 def _attempt(model, state, ws, h: float) -> tuple[float, int]:
     """Take one step of size h on the active rod; returns (scaled error, or -1 on failure;
     which bound set it: CAUSE_*)."""
@@ -640,7 +641,7 @@ def _attempt(model, state, ws, h: float) -> tuple[float, int]:
     return err, cause
 
 
-@njit(cache=True)
+@njit(**KERNEL)
 def _reject(model, state, ws, h: float, err: float, cause: int) -> int:
     """Restore the state of the step's start and shrink the next step; a status code."""
     p = model.params[0]
@@ -679,7 +680,7 @@ def _reject(model, state, ws, h: float, err: float, cause: int) -> int:
     return STATUS_OK
 
 
-@njit(cache=True)
+@njit(**KERNEL)
 def _accept(model, state, ws, h: float, h_taken: float, err: float) -> int:
     """After an accepted step: check the state, carry the curvature and the frozen tail
     along, set the next step, give birth to nodes at the inlet, update the material, and
@@ -749,7 +750,7 @@ def _accept(model, state, ws, h: float, h_taken: float, err: float) -> int:
     return STATUS_OK
 
 
-@njit(cache=True)
+@njit(**KERNEL)
 def advance(model, state, ws, t_end: float, max_steps: int) -> int:
     """Integrate from ``state.clock[0]`` to t_end; returns a STATUS_* code (on failure
     ``state.info`` holds [time, node, value]).

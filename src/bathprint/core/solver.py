@@ -31,19 +31,20 @@ from numba import njit
 
 from bathprint.core.banded import add_blocks_matvec, band_lu, band_matvec, band_solve
 from bathprint.core.effects.hydrodynamics import apply_nonlocal
+from bathprint.core.jit import KERNEL
 from bathprint.core.layout import C_KRYLOV_FAILURES, C_KRYLOV_ITERATIONS, KL, KU
 
 KRYLOV_MAX_RESTARTS = 10  # restarts of KRYLOV_RESTART iterations each before a solve stalls
 
 
-@njit(cache=True, inline="always")
+@njit(**KERNEL, inline="always")
 def off_band(ws) -> bool:
     """True when the last assembled Newton matrix has blocks off the band (or a nonlocal
     part: hydrodynamics with the implicit coupling)."""
     return ws.cpl.count[0] > 0 or ws.hydro.memory[0].linearized
 
 
-@njit(cache=True)
+@njit(**KERNEL)
 def factor(ws, nd: int) -> bool:
     """Factorise the assembled Newton matrix's band (``ws.band``) in place (keeping an
     unfactored copy when couplings off the band need it for GMRES); False if singular."""
@@ -55,7 +56,7 @@ def factor(ws, nd: int) -> bool:
     return band_lu(ws.band, nd, KL, KU, ws.piv) == 0
 
 
-@njit(cache=True)
+@njit(**KERNEL)
 def solve(ws, nd: int, rhs: np.ndarray, counters: np.ndarray, rtol: float) -> bool:
     """Overwrite ``rhs`` with the Newton matrix's inverse applied to it (with couplings off
     the band: to a residual ``rtol`` of the right-hand side); False if GMRES stalled."""
@@ -65,13 +66,13 @@ def solve(ws, nd: int, rhs: np.ndarray, counters: np.ndarray, rtol: float) -> bo
     return _gmres(ws, nd, rhs, counters, rtol)
 
 
-@njit(cache=True)
+@njit(**KERNEL)
 def damping_times(ws, nd: int, x: np.ndarray, y: np.ndarray) -> None:
     """y = D x with D the damping / mass matrix assembled into ``ws.band2``."""
     band_matvec(ws.band2, nd, KL, KU, x, y)
 
 
-@njit(cache=True)
+@njit(**KERNEL)
 def matvec(ws, nd: int, x: np.ndarray, y: np.ndarray) -> None:
     """y = A x, A = the unfactored band (``ws.krylov.band_a``) plus the off-band blocks (and
     the nonlocal part of hydrodynamics, :func:`bathprint.core.effects.hydrodynamics.
@@ -82,7 +83,7 @@ def matvec(ws, nd: int, x: np.ndarray, y: np.ndarray) -> None:
         apply_nonlocal(ws, nd, x, y)
 
 
-@njit(cache=True)
+@njit(**KERNEL)
 def _off_band_times(ws, nd: int, v: np.ndarray, z: np.ndarray, y: np.ndarray) -> None:
     """y = A z for z = M^-1 v: since M is the LU of the band B, B z = v (to the LU's
     round-off), and A z = v + (A - B) z needs only the blocks off the band and the nonlocal
@@ -94,7 +95,7 @@ def _off_band_times(ws, nd: int, v: np.ndarray, z: np.ndarray, y: np.ndarray) ->
         apply_nonlocal(ws, nd, z, y)
 
 
-@njit(cache=True)
+@njit(**KERNEL)
 def _dot(a: np.ndarray, b: np.ndarray, nd: int) -> float:
     s = 0.0
     for k in range(nd):
@@ -102,7 +103,7 @@ def _dot(a: np.ndarray, b: np.ndarray, nd: int) -> float:
     return s
 
 
-@njit(cache=True)
+@njit(**KERNEL)
 def _gmres(ws, nd: int, b: np.ndarray, counters: np.ndarray, rtol: float) -> bool:
     """Restarted GMRES for A x = b, right-preconditioned by the banded LU (in ``ws.band``):
     minimise |b - A M^-1 u| over the Krylov space, x = M^-1 u. The preconditioned vectors

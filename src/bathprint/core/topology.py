@@ -10,14 +10,16 @@ from __future__ import annotations
 
 from numba import njit
 
+from bathprint.core.jit import KERNEL
 
-@njit(cache=True, inline="always")
+
+@njit(**KERNEL, inline="always")
 def free_nodes(n_nodes: int, p) -> int:
     """Number of nodes the integrator moves."""
     return n_nodes - 2 if p.clamped else n_nodes
 
 
-@njit(cache=True, inline="always")
+@njit(**KERNEL, inline="always")
 def filament_segments(n_nodes: int, p) -> int:
     """Number of material segments (the ghost segment excluded)."""
     return n_nodes - 2 if p.clamped else n_nodes - 1

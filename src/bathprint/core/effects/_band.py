@@ -5,10 +5,11 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+from bathprint.core.jit import KERNEL
 from bathprint.core.layout import KL
 
 
-@njit(cache=True, inline="always")
+@njit(**KERNEL, inline="always")
 def add_block(band: np.ndarray, n_free: int, i: int, j: int, blk: np.ndarray, scale: float) -> None:
     """Add ``scale * blk`` (3x3) at node block (i, j); prescribed nodes (>= n_free) are skipped."""
     if i >= n_free or j >= n_free:
@@ -19,7 +20,7 @@ def add_block(band: np.ndarray, n_free: int, i: int, j: int, blk: np.ndarray, sc
             band[r, 3 * j + b - r + KL] += scale * blk[a, b]
 
 
-@njit(cache=True, inline="always")
+@njit(**KERNEL, inline="always")
 def add_diag(band: np.ndarray, n_free: int, i: int, a: int, value: float) -> None:
     """Add ``value`` to the diagonal entry of node i, component a."""
     if i >= n_free:
@@ -27,7 +28,7 @@ def add_diag(band: np.ndarray, n_free: int, i: int, a: int, value: float) -> Non
     band[3 * i + a, KL] += value
 
 
-@njit(cache=True, inline="always")
+@njit(**KERNEL, inline="always")
 def add_coupling(
     band: np.ndarray, cpl, n_free: int, i: int, j: int, blk: np.ndarray, scale: float
 ) -> None:

@@ -45,6 +45,8 @@ import math
 import numpy as np
 from numba import njit
 
+from bathprint.core.jit import KERNEL
+
 EULER_GAMMA = 0.5772156649015329
 SQRT_E = math.sqrt(math.e)
 RE_STAR = 8.0 * math.exp(0.5 - EULER_GAMMA)  # Lamb: D = ln(RE_STAR / Re), 7.4055
@@ -63,7 +65,7 @@ B_T = 1.360453
 Q_T = 0.288122
 
 
-@njit(cache=True)
+@njit(**KERNEL)
 def _ein_series(z: float) -> float:
     """Ein(z) by its power series sum (-1)^(k+1) z^k / (k k!) (used for 0 <= z <= 1)."""
     term = z
@@ -77,7 +79,7 @@ def _ein_series(z: float) -> float:
     return total
 
 
-@njit(cache=True)
+@njit(**KERNEL)
 def _e1_fraction(z: float) -> float:
     """E1(z) by its continued fraction (modified Lentz; used for z > 1)."""
     tiny = 1e-300
@@ -97,7 +99,7 @@ def _e1_fraction(z: float) -> float:
     return h * math.exp(-z)
 
 
-@njit(cache=True)
+@njit(**KERNEL)
 def e1(z: float) -> float:
     """Exponential integral E1(z) for z > 0."""
     if z <= 1.0:
@@ -105,7 +107,7 @@ def e1(z: float) -> float:
     return _e1_fraction(z)
 
 
-@njit(cache=True)
+@njit(**KERNEL)
 def ein(z: float) -> float:
     """Ein(z) = int_0^z (1 - e^-t)/t dt for z >= 0 (= gamma + ln z + E1(z))."""
     if z <= 1.0:
@@ -113,7 +115,7 @@ def ein(z: float) -> float:
     return EULER_GAMMA + math.log(z) + _e1_fraction(z)
 
 
-@njit(cache=True)
+@njit(**KERNEL)
 def _smootherstep(s: float) -> tuple[float, float]:
     """Quintic smoothstep w(s) = 6s^5 - 15s^4 + 10s^3 on [0, 1] and dw/ds (C^2 at ends)."""
     if s <= 0.0:
@@ -123,7 +125,7 @@ def _smootherstep(s: float) -> tuple[float, float]:
     return s * s * s * (10.0 + s * (-15.0 + 6.0 * s)), 30.0 * s * s * (1.0 - s) * (1.0 - s)
 
 
-@njit(cache=True)
+@njit(**KERNEL)
 def cheng_g(re: float) -> tuple[float, float]:
     """G = Re C_D of Cheng (2013) and dG/dRe (Re > 0)."""
     g1 = CHENG_A * re ** (1.0 + CHENG_P)
@@ -138,7 +140,7 @@ def cheng_g(re: float) -> tuple[float, float]:
     return g1 + g2 + g3, dg1 + dg2 + dg3
 
 
-@njit(cache=True)
+@njit(**KERNEL)
 def lamb_g(re: float, l_over_a: float) -> tuple[float, float]:
     """G = Re C_D = 8 pi / D_n of Lamb's law with the finite-length cut-off, and dG/dRe.
 
@@ -157,7 +159,7 @@ def lamb_g(re: float, l_over_a: float) -> tuple[float, float]:
     return g, -g * ddn / dn
 
 
-@njit(cache=True)
+@njit(**KERNEL)
 def normal_g(re: float, l_over_a: float) -> tuple[float, float]:
     """Blended G(Re) = Re C_D for the normal drag and dG/dRe (Re >= 0; Re > 0 if L = inf)."""
     if re <= RE_BLEND_LO:
@@ -171,7 +173,7 @@ def normal_g(re: float, l_over_a: float) -> tuple[float, float]:
     return (1.0 - w) * gl + w * gh, (1.0 - w) * dgl + w * dgh + dw / (re * span) * (gh - gl)
 
 
-@njit(cache=True)
+@njit(**KERNEL)
 def normal_coefficients(u: float, d: float, mu: float, rho: float, length: float):
     """(f_n/U, df_n/dU) in Pa s for normal relative speed u >= 0; f_n/U -> 4 pi mu/ln(L/a)."""
     re = rho * u * d / mu
@@ -179,14 +181,14 @@ def normal_coefficients(u: float, d: float, mu: float, rho: float, length: float
     return 0.5 * mu * g, 0.5 * mu * (g + re * dg)
 
 
-@njit(cache=True)
+@njit(**KERNEL)
 def normal_drag(u: float, d: float, mu: float, rho: float, length: float):
     """Normal drag per length f_n (N/m) at normal relative speed u >= 0, and df_n/dU."""
     g, fp = normal_coefficients(u, d, mu, rho, length)
     return g * u, fp
 
 
-@njit(cache=True)
+@njit(**KERNEL)
 def tangential_log(re_l: float, l_over_a: float) -> tuple[float, float]:
     """D_t (f_t = 2 pi mu U / D_t) and U dD_t/dU, from Re_L = U L / nu >= 0 and L/a."""
     if re_l <= 0.0:
@@ -213,7 +215,7 @@ def tangential_log(re_l: float, l_over_a: float) -> tuple[float, float]:
     return dt, u_dt
 
 
-@njit(cache=True)
+@njit(**KERNEL)
 def tangential_coefficients(u: float, d: float, mu: float, rho: float, length: float):
     """(f_t/U, df_t/dU) in Pa s for tangential relative speed u >= 0; f_t/U -> mu_s."""
     dt, u_dt = tangential_log(rho * u * length / mu, 2.0 * length / d)
@@ -221,14 +223,14 @@ def tangential_coefficients(u: float, d: float, mu: float, rho: float, length: f
     return g, g * (dt - u_dt) / dt
 
 
-@njit(cache=True)
+@njit(**KERNEL)
 def tangential_drag(u: float, d: float, mu: float, rho: float, length: float):
     """Tangential drag per length f_t (N/m) at tangential relative speed u >= 0, and df_t/dU."""
     g, fp = tangential_coefficients(u, d, mu, rho, length)
     return g * u, fp
 
 
-@njit(cache=True)
+@njit(**KERNEL)
 def law(ux, uy, uz, tx, ty, tz, d, mu, rho, len_n, len_t, force, jac_u, jac_t) -> float:
     """Force per length F (N/m) of the finite_re law into ``force`` (3,), dF/du and dF/dt
     (Pa s; N/m per unit of t) into ``jac_u``, ``jac_t`` (3, 3); returns -F.u (W/m).

@@ -44,6 +44,8 @@ import math
 import numpy as np
 from numba import njit
 
+from bathprint.core.jit import KERNEL
+
 PARALLEL_TOL = 1e-6
 """sin^2 of the angle between two segments below which they count as parallel: the closest
 points are then the middle of their overlap (or the nearest ends), which changes the
@@ -65,12 +67,12 @@ _H3 = 83492791
 # closest points and distance
 
 
-@njit(cache=True, inline="always")
+@njit(**KERNEL, inline="always")
 def _clamp01(v: float) -> float:
     return 0.0 if v < 0.0 else (1.0 if v > 1.0 else v)
 
 
-@njit(cache=True)
+@njit(**KERNEL)
 def closest_params(pos, i0: int, i1: int, i2: int, i3: int):
     """Closest-point parameters of segments A = (x_i0, x_i1) and B = (x_i2, x_i3).
 
@@ -146,13 +148,13 @@ def closest_params(pos, i0: int, i1: int, i2: int, i3: int):
     return s_best, t_best, s_free, t_free, best
 
 
-@njit(cache=True)
+@njit(**KERNEL)
 def segment_distance(pos, i0: int, i1: int, i2: int, i3: int) -> float:
     """Minimum distance (m) between segments (x_i0, x_i1) and (x_i2, x_i3)."""
     return math.sqrt(closest_params(pos, i0, i1, i2, i3)[4])
 
 
-@njit(cache=True)
+@njit(**KERNEL)
 def _distance_derivs(
     pos, i0, i1, i2, i3, s, t, s_free, t_free, d_floor, grad, hess, with_hess=True
 ) -> float:
@@ -283,7 +285,7 @@ def _distance_derivs(
     return d
 
 
-@njit(cache=True)
+@njit(**KERNEL)
 def segment_distance_derivs(pos, i0: int, i1: int, i2: int, i3: int, d_floor: float, grad, hess):
     """Distance d (m) between segments (x_i0, x_i1), (x_i2, x_i3), its gradient into grad (12)
     and Hessian (1/m) into hess (12x12), coordinates ordered [x_i0, x_i1, x_i2, x_i3].
@@ -294,7 +296,7 @@ def segment_distance_derivs(pos, i0: int, i1: int, i2: int, i3: int, d_floor: fl
     return _distance_derivs(pos, i0, i1, i2, i3, s, t, s_free, t_free, d_floor, grad, hess)
 
 
-@njit(cache=True, inline="always")
+@njit(**KERNEL, inline="always")
 def penalty(p: float, k_c: float, width: float):
     """Penalty energy (J) and its first two derivatives with respect to the penetration p (m).
 
@@ -312,7 +314,7 @@ def penalty(p: float, k_c: float, width: float):
     )
 
 
-@njit(cache=True)
+@njit(**KERNEL)
 def segment_pair_energy(
     pos, i0: int, i1: int, i2: int, i3: int, delta: float, k_c: float, width: float, grad, hess
 ):
@@ -368,14 +370,14 @@ def min_separation_for(delta: float, dl: float) -> int:
     return max(2, math.ceil(1.6 * delta / dl))
 
 
-@njit(cache=True, inline="always")
+@njit(**KERNEL, inline="always")
 def _bucket(cx: int, cy: int, cz: int, n_buckets: int) -> int:
     h = (cx * _H1) ^ (cy * _H2) ^ (cz * _H3)
     b = h % n_buckets
     return b + n_buckets if b < 0 else b
 
 
-@njit(cache=True, inline="always")
+@njit(**KERNEL, inline="always")
 def _boxes_near(pos, i: int, j: int, gap: float) -> bool:
     """True if the bounding boxes of segments i and j are within ``gap`` on every axis."""
     for c in range(3):
@@ -388,7 +390,7 @@ def _boxes_near(pos, i: int, j: int, gap: float) -> bool:
     return True
 
 
-@njit(cache=True)
+@njit(**KERNEL)
 def build_candidate_pairs(
     pos,
     n_nodes: int,
@@ -503,7 +505,7 @@ def build_candidate_pairs(
     return n_pairs
 
 
-@njit(cache=True)
+@njit(**KERNEL)
 def brute_force_pairs(
     pos, seg_first: int, seg_last: int, search_dist: float, min_separation: int, pairs_out
 ) -> int:
@@ -520,7 +522,7 @@ def brute_force_pairs(
     return n_pairs
 
 
-@njit(cache=True, inline="always")
+@njit(**KERNEL, inline="always")
 def _disp(pos0, pos, frozen: int, g: int, c: int) -> float:
     """Displacement of coordinate c of node g over a step: pos0 holds the active nodes (from
     ``frozen``); a frozen node moves with the first active node (the tail's translation)."""
@@ -528,7 +530,7 @@ def _disp(pos0, pos, frozen: int, g: int, c: int) -> float:
     return pos[3 * (k + frozen) + c] - pos0[3 * k + c]
 
 
-@njit(cache=True)
+@njit(**KERNEL)
 def step_bound(pos0, pos, frozen: int, pairs, n_pairs: int, n_nodes: int, skin: float, out, x):
     """How close a step comes to letting segments pass through each other: a ratio, < 1
     when the step is provably crossing-free. ``pos``: the whole rod's positions (m, flat)
@@ -589,7 +591,7 @@ def step_bound(pos0, pos, frozen: int, pairs, n_pairs: int, n_nodes: int, skin: 
     return worst
 
 
-@njit(cache=True)
+@njit(**KERNEL)
 def _start_distance(pos0, pos, frozen: int, i: int, j: int, x) -> float:
     """Distance of segments i, j at the start of the step (frozen nodes had not moved);
     ``x`` (12,) scratch."""

@@ -41,13 +41,15 @@ import math
 import numpy as np
 from numba import njit
 
+from bathprint.core.jit import KERNEL
+
 SQRT_E_HALF = 0.5 * math.sqrt(math.e)  # delta = r sqrt(e)/2 (Lighthill 1976)
 GL2 = 0.5 / math.sqrt(3.0)  # 2-point Gauss-Legendre nodes at 1/2 -+ GL2 of the unit interval
 FAR_RATIO = 6.0  # pieces beyond this many lengths: the 2-point Gauss rule
 LAM_MIN = 1.0  # floor of the local window's logarithm (a window shorter than e delta)
 
 
-@njit(cache=True, inline="always")
+@njit(**KERNEL, inline="always")
 def _seg_integrals(y0, y1, y2, a0, a1, a2, t0, t1, t2, lo, hi, eps2):
     """J0..J3 and the perpendicular offset d of target y from the line A + l t, l in [lo, hi]."""
     w0 = y0 - a0
@@ -78,7 +80,7 @@ def _seg_integrals(y0, y1, y2, a0, a1, a2, t0, t1, t2, lo, hi, eps2):
     return j0, j1, j2, j3, d0, d1, d2
 
 
-@njit(cache=True, inline="always")
+@njit(**KERNEL, inline="always")
 def point_velocity(r0, r1, r2, f0, f1, f2, eps2):
     """8 pi mu x the velocity at R of a (regularised) point Stokeslet of strength f."""
     rr = r0 * r0 + r1 * r1 + r2 * r2
@@ -89,7 +91,7 @@ def point_velocity(r0, r1, r2, f0, f1, f2, eps2):
     return iso * f0 + rf * r0, iso * f1 + rf * r1, iso * f2 + rf * r2
 
 
-@njit(cache=True, inline="always")
+@njit(**KERNEL, inline="always")
 def _screen(dist2: float, screen: float) -> float:
     """exp(-R / l), 1 without screening (l = inf)."""
     if screen >= 1e300:
@@ -97,7 +99,7 @@ def _screen(dist2: float, screen: float) -> float:
     return math.exp(-math.sqrt(dist2) / screen)
 
 
-@njit(cache=True, inline="always")
+@njit(**KERNEL, inline="always")
 def add_piece(y0, y1, y2, a0, a1, a2, t0, t1, t2, ln, lo, hi, f0, f1, f2, eps2, far2, screen):
     """8 pi mu x the velocity at y of the fraction [lo, hi] of a segment (A, tangent t, length
     ln) carrying f: exact, or the 2-point Gauss rule when far; screened by exp(-R/l) (at the
@@ -132,7 +134,7 @@ def add_piece(y0, y1, y2, a0, a1, a2, t0, t1, t2, ln, lo, hi, f0, f1, f2, eps2, 
     )
 
 
-@njit(cache=True)
+@njit(**KERNEL)
 def nonlocal_flow(
     targets, target_s, n_targets, pos, node_s, n_seg, seg_force, screen, mu, eps, a_cut,
     s_period, out_vel,
@@ -226,7 +228,7 @@ def nonlocal_flow(
         out_vel[3 * k + 2] = c * u2
 
 
-@njit(cache=True, inline="always")
+@njit(**KERNEL, inline="always")
 def window_log(a_minus: float, a_plus: float, r: float) -> float:
     """Lam = ln(max(a_-, delta)/delta) + ln(max(a_+, delta)/delta), delta = r sqrt(e)/2, at
     least LAM_MIN (a window shorter than e delta is not slender)."""
@@ -235,7 +237,7 @@ def window_log(a_minus: float, a_plus: float, r: float) -> float:
     return max(lam, LAM_MIN)
 
 
-@njit(cache=True, inline="always")
+@njit(**KERNEL, inline="always")
 def window_coefficients(a_minus: float, a_plus: float, r: float, mu: float):
     """(xi_par, xi_perp) in Pa s: the local resistance of the straight window (a_-, a_+) of a
     filament of radius r, f = xi_par (u.t) t + xi_perp (u - (u.t) t)."""
@@ -243,7 +245,7 @@ def window_coefficients(a_minus: float, a_plus: float, r: float, mu: float):
     return 4.0 * math.pi * mu / lam, 8.0 * math.pi * mu / (lam + 2.0)
 
 
-@njit(cache=True, inline="always")
+@njit(**KERNEL, inline="always")
 def window_lengths(a_minus: float, a_plus: float, r: float):
     """(L_n, L_t): the lengths of the finite_re law's normal and tangential logarithms
     ln(L/r) that make its zero-speed limit the window's resistance: xi_perp = 4 pi mu /
@@ -255,7 +257,7 @@ def window_lengths(a_minus: float, a_plus: float, r: float):
 # ---- the fast multipole method (fmm3dpy, outside numba) ----------------------------------
 
 
-@njit(cache=True)
+@njit(**KERNEL)
 def gauss_sources(pos, n_seg, seg_force, src, charge) -> None:
     """Two Gauss points per segment: src[3, 2 n_seg] (m) and charge[3, 2 n_seg] = (l/2) f (N)."""
     for j in range(n_seg):
@@ -273,7 +275,7 @@ def gauss_sources(pos, n_seg, seg_force, src, charge) -> None:
             charge[a, 2 * j + 1] = hl * seg_force[3 * j + a]
 
 
-@njit(cache=True)
+@njit(**KERNEL)
 def near_correction(pos, node_s, n_targets, n_seg, seg_force, mu, eps, a_cut, out) -> None:
     """At each target node, replace the Gauss points of the segments near in arclength
     (within a_cut + FAR_RATIO x the longest segment) by the exact clipped integral."""

@@ -46,6 +46,7 @@ from bathprint.core.effects._segment_geometry import (
     penalty,
     segment_distance,
 )
+from bathprint.core.jit import KERNEL
 from bathprint.core.layout import MAT_RADIUS
 from bathprint.core.topology import filament_segments, free_nodes
 
@@ -71,7 +72,7 @@ def min_separation_for(delta: float, dl: float) -> int:
     return max(2, math.ceil(1.6 * delta / dl))
 
 
-@njit(cache=True)
+@njit(**KERNEL)
 def _delta_max(model, rod) -> float:
     """The largest contact distance on the rod (m)."""
     p = model.params[0]
@@ -81,7 +82,7 @@ def _delta_max(model, rod) -> float:
     return 2.0 * p.contact_distance_factor * r_max
 
 
-@njit(cache=True)
+@njit(**KERNEL)
 def _motion(pos, ref, n_nodes: int, first: int, shift0, shift1, shift2) -> float:
     """max_i |(pos_i + s_i) - ref_i - c| over nodes 0..n-1, c the centre of the displacement
     box, s_i = (shift0, shift1, shift2) for nodes before ``first`` (the frozen tail's pending
@@ -107,7 +108,7 @@ def _motion(pos, ref, n_nodes: int, first: int, shift0, shift1, shift2) -> float
     return math.sqrt(m2)
 
 
-@njit(cache=True)
+@njit(**KERNEL)
 def prepare(model, whole, frozen: int, contact) -> bool:
     """At the start of a step: the candidate pairs (rebuilt only when needed), each pair's
     allowance (how far its nodes may move relative to each other in the step), and the
@@ -221,7 +222,7 @@ def prepare(model, whole, frozen: int, contact) -> bool:
     return True
 
 
-@njit(cache=True)
+@njit(**KERNEL)
 def check(model, whole, pos0, frozen: int, contact) -> float:
     """The no-pass-through ratio of a step from ``pos0`` (the active nodes at its start) to
     the whole rod's positions now: < 1 when no segments can have crossed and no pair outside
@@ -300,7 +301,7 @@ def check(model, whole, pos0, frozen: int, contact) -> float:
     return worst
 
 
-@njit(cache=True)
+@njit(**KERNEL)
 def _step_motion(pos, pos0, n_nodes: int, f: int, sh0, sh1, sh2, motion) -> float:
     """The largest node displacement of the step relative to the common motion (m): active
     nodes from pos0 (from f) to pos, frozen nodes by the tail's pending translation; each
@@ -336,7 +337,7 @@ def _step_motion(pos, pos0, n_nodes: int, f: int, sh0, sh1, sh2, motion) -> floa
     return math.sqrt(m2)
 
 
-@njit(cache=True, inline="always")
+@njit(**KERNEL, inline="always")
 def _pair_motion(motion, i: int, j: int) -> float:
     """A bound (m) on the relative displacement of the nodes of segments i and j:
     |dx_a - dx_b| <= |dx_a - c| + |dx_b - c| for any c, taken with c the common motion
@@ -347,7 +348,7 @@ def _pair_motion(motion, i: int, j: int) -> float:
     return min(common, still)
 
 
-@njit(cache=True)
+@njit(**KERNEL)
 def accepted(contact, h: float) -> None:
     """After an accepted step of h (s): remember its ratio and step for the next step's
     size, and set the near margin from its motion."""
@@ -359,7 +360,7 @@ def accepted(contact, h: float) -> None:
     )
 
 
-@njit(cache=True)
+@njit(**KERNEL)
 def step_limit(contact) -> float:
     """A bound on the next step (s) from the last one's no-pass-through ratio r: steps scale
     the relative motion, so a step of TARGET_RATIO / r times the last keeps the ratio near
@@ -370,7 +371,7 @@ def step_limit(contact) -> float:
     return mem.last_step * TARGET_RATIO / mem.last_ratio
 
 
-@njit(cache=True)
+@njit(**KERNEL)
 def accumulate(model, rod, stage, out) -> float:
     """Add contact (and friction) forces of the candidate pairs, and their Jacobian with the
     blocks between distant nodes into ``out.cpl``; return the contact energy (J).
@@ -467,7 +468,7 @@ def accumulate(model, rod, stage, out) -> float:
     return energy
 
 
-@njit(cache=True, inline="always")
+@njit(**KERNEL, inline="always")
 def _friction(vel, i, j, nodes, s, t, grad, normal, mu_f, eps, force, out, n_free, cv, do_jac):
     """Regularised Coulomb friction on the tangential relative velocity of the closest
     points of segments i, j (whole-filament numbers; ``nodes``: active-rod numbers, < 0 in

@@ -18,6 +18,7 @@ import numpy as np
 from numba import njit
 
 from bathprint.core.effects._band import add_block
+from bathprint.core.jit import KERNEL
 from bathprint.core.layout import (
     KL,
     MAT_BEND_FACTOR,
@@ -29,13 +30,13 @@ from bathprint.core.layout import (
 from bathprint.core.topology import filament_segments, free_nodes
 
 
-@njit(cache=True, inline="always")
+@njit(**KERNEL, inline="always")
 def _bending_stiffness(seg_mat: np.ndarray, j: int) -> float:
     r = seg_mat[j, MAT_RADIUS]
     return seg_mat[j, MAT_YOUNGS_MODULUS] * seg_mat[j, MAT_BEND_FACTOR] * math.pi * r**4 / 4.0
 
 
-@njit(cache=True, inline="always")
+@njit(**KERNEL, inline="always")
 def bend_energy_grad_hess(
     e1: np.ndarray,
     e2: np.ndarray,
@@ -158,7 +159,7 @@ def bend_energy_grad_hess(
     return energy
 
 
-@njit(cache=True, inline="always")
+@njit(**KERNEL, inline="always")
 def add_stencil_force(force: np.ndarray, i: int, grad: np.ndarray) -> None:
     """Add -dE/dx of node i's bending stencil from ``grad`` = dE/d(e1, e2) (e1 = x_i -
     x_{i-1}, e2 = x_{i+1} - x_i): +g1 on node i-1, g2 - g1 on node i, -g2 on node i+1."""
@@ -169,7 +170,7 @@ def add_stencil_force(force: np.ndarray, i: int, grad: np.ndarray) -> None:
         force[b3 + 3 + a] -= grad[3 + a]
 
 
-@njit(cache=True, inline="always")
+@njit(**KERNEL, inline="always")
 def add_bend_hessian(band: np.ndarray, n_free: int, i: int, hess: np.ndarray, cx: float) -> None:
     """Add cx * d2E/dx2 of node i's bending stencil to ``band``, from the edge Hessian
     ``hess`` = [[H11, H12], [H21, H22]] (e1 = x_i - x_{i-1}, e2 = x_{i+1} - x_i): the node
@@ -205,7 +206,7 @@ def add_bend_hessian(band: np.ndarray, n_free: int, i: int, hess: np.ndarray, cx
                     band[row, off + b] += cx * v
 
 
-@njit(cache=True)
+@njit(**KERNEL)
 def accumulate(model, rod, stage, out) -> float:
     """Add stretching and bending forces (and cx * Hessian); return the elastic energy (J)."""
     p = model.params[0]

@@ -4,8 +4,10 @@ from __future__ import annotations
 
 from numba import njit
 
+from bathprint.core.jit import KERNEL
 
-@njit(cache=True)
+
+@njit(**KERNEL)
 def accumulate(model, rod, stage, out) -> float:
     """Add the end load to node 0; return its potential energy -P.x0 (J)."""
     load = model.params[0].end_load

@@ -43,6 +43,7 @@ import numpy as np
 from numba import njit
 
 from bathprint.core.composite import stiffness_factors
+from bathprint.core.jit import KERNEL
 from bathprint.core.layout import (
     GEL_SURFACE,
     MAT_BEND_FACTOR,
@@ -56,7 +57,7 @@ from bathprint.core.layout import (
 from bathprint.core.topology import filament_segments
 
 
-@njit(cache=True)
+@njit(**KERNEL)
 def modulus(age: float, p) -> float:
     """E (Pa) of gel of the given age (s); ``p`` is the model's parameter record."""
     e0 = p.gel_initial_modulus
@@ -89,7 +90,7 @@ def neumann_lambda(beta: float) -> float:
     return 0.5 * (lo + hi)
 
 
-@njit(cache=True)
+@njit(**KERNEL)
 def _front_function(eps: float) -> tuple[float, float]:
     """F(eps) = 1 - xi^2 + 2 xi^2 ln xi with xi = 1 - eps, and dF/d eps = -4 xi ln xi.
     Small eps by the series F = 2 eps^2 - sum_{k >= 3} 4 eps^k / (k (k-1) (k-2)), which
@@ -111,7 +112,7 @@ def _front_function(eps: float) -> tuple[float, float]:
     return 1.0 - xi * xi + 2.0 * xi * xi * log_xi, deriv
 
 
-@njit(cache=True)
+@njit(**KERNEL)
 def core_fraction(age: float, radius: float, p) -> float:
     """xi = r_c / r, the ungelled core's share of the radius after ``age`` (s) in the bath,
     from t = r^2 / (8 lambda^2 D) F(1 - xi) (see the module docstring): 1 at age 0, 0 once
@@ -142,7 +143,7 @@ def core_fraction(age: float, radius: float, p) -> float:
     return 1.0 - eps
 
 
-@njit(cache=True)
+@njit(**KERNEL)
 def shell_factors(xi: float, p) -> tuple[float, float]:
     """(bend, stretch) factors of a set shell around a core of radius xi r, relative to a
     full rod of the shell's modulus: 1 - xi^4 + (E_c/E_s) xi^4 and 1 - xi^2 + (E_c/E_s) xi^2."""
@@ -152,7 +153,7 @@ def shell_factors(xi: float, p) -> tuple[float, float]:
     return 1.0 - x4 + ratio * x4, 1.0 - x2 + ratio * x2
 
 
-@njit(cache=True)
+@njit(**KERNEL)
 def set_material(row: np.ndarray, age: float, p) -> None:
     """Fill the gelation fields of a material record ``row`` of the given age (s): its
     modulus (bulk law), or with the surface model the shell's modulus and the bending and
@@ -169,7 +170,7 @@ def set_material(row: np.ndarray, age: float, p) -> None:
         row[MAT_YOUNGS_MODULUS] = modulus(age, p)
 
 
-@njit(cache=True)
+@njit(**KERNEL)
 def node_curvature(pos: np.ndarray, seg_rest: np.ndarray, i: int, out: np.ndarray) -> None:
     """Curvature vector kb / dl (1/m) at interior node i (same dl as the bending energy)."""
     e1x = pos[3 * i] - pos[3 * i - 3]
@@ -188,7 +189,7 @@ def node_curvature(pos: np.ndarray, seg_rest: np.ndarray, i: int, out: np.ndarra
     out[2] = f * (e1x * e2y - e1y * e2x)
 
 
-@njit(cache=True)
+@njit(**KERNEL)
 def update(model, rod, t: float, scratch) -> None:
     """Set each segment's modulus from its age; with memory, relax kappa0 toward kappa.
     A material effect: called once per accepted step on the whole rod (frozen tail too)."""
@@ -211,7 +212,7 @@ def update(model, rod, t: float, scratch) -> None:
         seg_mat[j, MAT_YOUNGS_MODULUS] = e_new
 
 
-@njit(cache=True)
+@njit(**KERNEL)
 def _segment_curvature(pos, seg_rest, n_nodes: int, j: int, ka, kb) -> bool:
     """Mean curvature vector of segment j's interior end nodes into ``kb``; False if none."""
     count = 0
@@ -230,7 +231,7 @@ def _segment_curvature(pos, seg_rest, n_nodes: int, j: int, ka, kb) -> bool:
     return True
 
 
-@njit(cache=True)
+@njit(**KERNEL)
 def _update_surface(model, rod, t: float, scratch) -> None:
     """The surface model's update: the shell's factors from each segment's age; with memory,
     kappa0 relaxes toward kappa by the ratio of the old to the new bending stiffness."""

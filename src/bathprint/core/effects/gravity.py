@@ -15,13 +15,14 @@ import math
 from numba import njit
 
 from bathprint.core.effects._band import add_diag
+from bathprint.core.jit import KERNEL
 from bathprint.core.layout import MAT_DENSITY, MAT_RADIUS
 from bathprint.core.topology import filament_segments, free_nodes
 
 AIR_DENSITY = 1.2  # kg/m^3
 
 
-@njit(cache=True, inline="always")
+@njit(**KERNEL, inline="always")
 def bath_density(p, z: float, ramp: float = 0.0) -> tuple[float, float]:
     """Bath density (kg/m^3) at height z (m) and its z-derivative; ``ramp`` (m) is the
     width of the transition to air above the surface (0: no air, the bath goes on).
@@ -38,7 +39,7 @@ def bath_density(p, z: float, ramp: float = 0.0) -> tuple[float, float]:
     return top + f * (AIR_DENSITY - top), (AIR_DENSITY - top) / ramp
 
 
-@njit(cache=True)
+@njit(**KERNEL)
 def accumulate(model, rod, stage, out) -> float:
     """Add net weight (and its z-Jacobian); return the gravitational potential energy (J)."""
     p = model.params[0]

@@ -36,13 +36,14 @@ from numba import njit
 from bathprint.core.effects._band import add_block
 from bathprint.core.effects.elasticity import add_bend_hessian, add_stencil_force
 from bathprint.core.extrusion import flow_rate
+from bathprint.core.jit import KERNEL
 from bathprint.core.layout import MAT_INNER_FRACTION, MAT_RADIUS
 from bathprint.core.topology import filament_segments, free_nodes
 
 FD_STEP = 1e-6  # relative step of the central differences of the bending x-Jacobian
 
 
-@njit(cache=True, inline="always")
+@njit(**KERNEL, inline="always")
 def _section(seg_mat: np.ndarray, j: int) -> tuple[float, float]:
     """(A, I) of segment j's alginate (m^2, m^4), outside its inner fluid column."""
     r = seg_mat[j, MAT_RADIUS]
@@ -50,7 +51,7 @@ def _section(seg_mat: np.ndarray, j: int) -> tuple[float, float]:
     return math.pi * r * r * (1.0 - phi), 0.25 * math.pi * r**4 * (1.0 - phi * phi)
 
 
-@njit(cache=True)
+@njit(**KERNEL)
 def bend_rate_grad(
     e1: np.ndarray,
     e2: np.ndarray,
@@ -113,7 +114,7 @@ def bend_rate_grad(
     return 0.5 * k * (w0 * w0 + w1 * w1 + w2 * w2)
 
 
-@njit(cache=True)
+@njit(**KERNEL)
 def accumulate(model, rod, stage, out) -> float:
     """Add the viscous forces of stretching and bending (and their Jacobian); return the
     dissipation rate (W)."""
