@@ -1158,7 +1158,7 @@ def fast_jets() -> str:
 
 
 def kernel_ab() -> str:
-    path = RESULTS / "kernel_redesign_ab_final.csv"
+    path = RESULTS / "kernel_ab_uncounted.csv"
     rows = [
         [
             r["workload"],
