@@ -1,11 +1,12 @@
 """The fixed costs of calls: (1) from Python into the time loop (what a short call pays, as
 an environment's control step makes): ``Simulation.advance`` to the current time (no step
 taken), against the same call through numba's dispatcher, which resolves the types of the
-nested records on every call; (2) between compiled kernels: a cached kernel that reads two
-counters, called from a compiled loop with the whole workspace record, with the two
-sub-records that hold the counters, and with the two arrays themselves (the cost grows
-with the number of arrays the argument holds, for the reference counts numba keeps), and
-the first again compiled as the simulator's kernels are, without reference counting
+nested records on every call, and the unboxing of its arguments alone (the same records
+into a compiled function that does nothing); (2) between compiled kernels: a cached kernel
+that reads two counters, called from a compiled loop with the whole workspace record, with
+the two sub-records that hold the counters, and with the two arrays themselves (the cost
+grows with the number of arrays the argument holds, for the reference counts numba keeps),
+and the first again compiled as the simulator's kernels are, without reference counting
 (``bathprint.core.jit.KERNEL``). Same process, interleaved rounds, best of each.
 
     python benchmarks/bench_call_overhead.py
@@ -17,6 +18,7 @@ import time
 
 from _common import write_csv
 from numba import njit
+from numba.core.typing.typeof import Purpose, typeof
 
 from bathprint import Simulation
 from bathprint.core.integrators import advance
@@ -39,6 +41,11 @@ def _reads_parts(cpl, hydro) -> bool:
 @njit(cache=True)
 def _reads_arrays(count, memory) -> bool:
     return count[0] > 0 or memory[0].linearized
+
+
+@njit(cache=True)
+def _takes_records(model, state, ws, t_end: float, budget: int) -> int:
+    return 0
 
 
 @njit(**KERNEL)
@@ -104,10 +111,21 @@ def main() -> None:
     def through_dispatcher() -> None:
         advance(sim.model.record, sim.state, sim.ws, t, 10**9)
 
-    best = {"simulation": float("inf"), "dispatcher": float("inf")}
+    # the same arguments into a compiled function that does nothing: their unboxing
+    args = (sim.model.record, sim.state, sim.ws, float(t), 10**9)
+    _takes_records(*args)
+    sig = tuple(typeof(a, Purpose.argument) for a in args)
+    unbox_entry = _takes_records.overloads[sig].entry_point
+
+    def unboxing_only() -> None:
+        unbox_entry(*args)
+
+    calls = {"simulation": through_simulation, "dispatcher": through_dispatcher,
+             "unboxing": unboxing_only}  # fmt: skip
+    best = dict.fromkeys(calls, float("inf"))
     for _ in range(ROUNDS):
-        best["simulation"] = min(best["simulation"], per_call_us(through_simulation))
-        best["dispatcher"] = min(best["dispatcher"], per_call_us(through_dispatcher))
+        for name, fn in calls.items():
+            best[name] = min(best[name], per_call_us(fn))
     inner = {
         "workspace": _loop_workspace,
         "parts": _loop_parts,
@@ -127,6 +145,8 @@ def main() -> None:
         "us_per_call_simulation": best["simulation"],
         "us_per_call_dispatcher": best["dispatcher"],
         "ratio": best["dispatcher"] / best["simulation"],
+        "us_per_call_unboxing_records": best["unboxing"],
+        "record_arrays": _arrays_in(args),
         "workspace_arrays": _arrays_in(sim.ws),
         "parts_arrays": _arrays_in(sim.ws.cpl) + _arrays_in(sim.ws.hydro),
         "ns_per_kernel_call_workspace": ns["workspace"],
@@ -137,7 +157,8 @@ def main() -> None:
     print(
         f"a call that takes no step: {row['us_per_call_simulation']:.1f} us through "
         f"Simulation.advance, {row['us_per_call_dispatcher']:.1f} us through numba's "
-        f"dispatcher (x{row['ratio']:.2f})"
+        f"dispatcher (x{row['ratio']:.2f}); unboxing its arguments "
+        f"({row['record_arrays']} arrays) alone {row['us_per_call_unboxing_records']:.1f} us"
     )
     print(
         f"a kernel called from a kernel: {ns['workspace']:.0f} ns with the workspace "

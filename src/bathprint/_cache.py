@@ -20,8 +20,9 @@ _STAMP = _PACKAGE / "__pycache__" / "kernel_sources.sha1"
 def _sources_hash() -> str:
     """Hash of the kernel sources: modules with numba functions, and the index layout
     and the records (their constants and types are compiled into the kernels), and the
-    kernels' compile options (core/jit.py). Other modules do not invalidate. Computed once per process (it reads every source file, and
-    the environments' target caches key on it at every reset)."""
+    kernels' compile options (core/jit.py). Other modules do not invalidate. Computed once
+    per process (it reads every source file, and the environments' target caches key on it
+    at every reset)."""
     h = hashlib.sha1()
     for path in sorted(_PACKAGE.rglob("*.py")):
         text = path.read_bytes()
