@@ -68,6 +68,66 @@ def test_demonstrations_are_deterministic(demos):
     np.testing.assert_array_equal(again.actions, demos.actions)
 
 
+def _episodes(d):
+    """The demonstrations split into episodes (an episode starts at the first observation)."""
+    starts = [i for i in range(len(d.obs)) if np.array_equal(d.obs[i], d.obs[0])] + [len(d.obs)]
+    return [d.obs[a:b] for a, b in zip(starts[:-1], starts[1:], strict=True)]
+
+
+def test_replays_play_each_target_again_alternating_clean_and_noisy(demos):
+    two = collect_demonstrations(ENV, KW, 1, seed=0, action_noise=0.15, replays=2)
+    clean, noisy = _episodes(two)  # one target: its clean replay, then its noisy one
+    one = collect_demonstrations(ENV, KW, 1, seed=0)
+    np.testing.assert_array_equal(clean, one.obs)  # the first replay is the clean one
+    assert len(noisy) >= 2 and not np.allclose(noisy[1:], clean[1 : len(noisy)], atol=1e-6)
+    np.testing.assert_array_equal(two.actions[: len(clean)], two.actions[len(clean) :])
+    # one replay is the collection as it was (every other target noisy)
+    again = collect_demonstrations(ENV, KW, 3, seed=0, action_noise=0.15, replays=1,
+                                   noise_correlation=0.0)  # fmt: skip
+    np.testing.assert_array_equal(again.obs, demos.obs)
+
+
+def _played_noise(monkeypatch, **kwargs):
+    """The noise of each noisy episode (what collect_demonstrations played minus its label,
+    recorded at the environment's step) and every played action."""
+    import gymnasium as gym
+
+    import bathprint.envs as envs
+
+    played: list[list[np.ndarray]] = []
+
+    class Record(gym.Wrapper):
+        def reset(self, **kw):
+            played.append([])
+            return self.env.reset(**kw)
+
+        def step(self, action):
+            played[-1].append(np.array(action, np.float64))
+            return self.env.step(action)
+
+    real = envs.make
+    monkeypatch.setattr(envs, "make", lambda *a, **k: Record(real(*a, **k)))
+    d = collect_demonstrations(ENV, KW, 4, seed=0, replays=2, **kwargs)
+    labels = np.split(d.actions.astype(np.float64), np.cumsum([len(e) for e in played])[:-1])
+    noise = [np.stack(e) - a for e, a in zip(played, labels, strict=True)]
+    assert not any(np.any(e) for e in noise[0::2])  # replay 0 of each target is clean
+    return noise[1::2], np.concatenate([np.stack(e) for e in played])
+
+
+@pytest.mark.parametrize("rho", [0.0, 0.9])
+def test_action_noise_has_the_asked_std_and_step_to_step_correlation(monkeypatch, rho):
+    noisy, played = _played_noise(monkeypatch, action_noise=0.15, noise_correlation=rho)
+    assert len(noisy) == 4
+    lag0, lag1, n = 0.0, 0.0, 0
+    for e in noisy:
+        lag0 += float(np.sum(e[:-1] * e[:-1]))
+        lag1 += float(np.sum(e[:-1] * e[1:]))
+        n += e[:-1].size
+    assert np.sqrt(lag0 / n) == pytest.approx(0.15, rel=0.3)
+    assert lag1 / lag0 == pytest.approx(rho, abs=0.15)
+    assert np.all(np.abs(played) <= 1.0)
+
+
 def test_fitting_lowers_the_action_error_and_is_deterministic(demos):
     import torch
 
@@ -128,6 +188,9 @@ def test_tiny_training_with_bc_pretrain_records_it_and_evaluates_step_0(tmp_path
         ({"learning_rate": -1.0}, "bc_pretrain.learning_rate = -1.0"),
         ({"action_noise": float("nan")}, "bc_pretrain.action_noise = nan"),
         ({"critic_warmup_steps": -1}, "bc_pretrain.critic_warmup_steps = -1"),
+        ({"replays": 0}, "bc_pretrain.replays = 0"),
+        ({"noise_correlation": 1.0}, "bc_pretrain.noise_correlation = 1.0"),
+        ({"noise_correlation": -0.5}, "bc_pretrain.noise_correlation = -0.5"),
         ({"targts": 10}, "unknown bc_pretrain key 'targts'"),
         (160, "bc_pretrain = 160"),
     ],

@@ -34,6 +34,8 @@ BC_DEFAULTS: dict[str, Any] = {
     "batch_size": 256,
     "learning_rate": 1.0e-3,  # Adam
     "action_noise": 0.0,  # std of Gaussian noise on the played action, every other episode
+    "noise_correlation": 0.0,  # AR(1) coefficient of that noise from step to step (0: white)
+    "replays": 1,  # episodes per training target (clean and noisy alternate over episodes)
     "critic_warmup_steps": 0,  # environment steps of PPO that update the value net only
 }
 BC_KEYS = tuple(BC_DEFAULTS)
@@ -59,7 +61,7 @@ def bc_settings(value: Any, where: str) -> dict[str, Any] | None:
                 f"{where}: unknown bc_pretrain key {key!r}; allowed: " + ", ".join(BC_KEYS)
             )
         name = f"bc_pretrain.{key}"
-        if key in ("targets", "epochs", "batch_size", "critic_warmup_steps"):
+        if key in ("targets", "epochs", "batch_size", "replays", "critic_warmup_steps"):
             low = 0 if key == "critic_warmup_steps" else 1
             if not (isinstance(v, int) and not isinstance(v, bool) and v >= low):
                 raise ConfigError(f"{where}: {name} = {v!r}; allowed: an integer >= {low}")
@@ -69,6 +71,8 @@ def bc_settings(value: Any, where: str) -> dict[str, Any] | None:
                 raise ConfigError(f"{where}: {name} = {v!r}; allowed: a number > 0")
             if key == "action_noise" and not (number and v >= 0):
                 raise ConfigError(f"{where}: {name} = {v!r}; allowed: a number >= 0")
+            if key == "noise_correlation" and not (number and 0 <= v < 1):
+                raise ConfigError(f"{where}: {name} = {v!r}; allowed: a number in [0, 1)")
             v = float(v)
         out[key] = v
     return out
@@ -86,14 +90,23 @@ class Demonstrations:
 
 
 def collect_demonstrations(
-    env_id: str, env_kwargs: dict[str, Any], n_targets: int, seed: int, action_noise: float = 0.0
+    env_id: str,
+    env_kwargs: dict[str, Any],
+    n_targets: int,
+    seed: int,
+    action_noise: float = 0.0,
+    replays: int = 1,
+    noise_correlation: float = 0.0,
 ) -> Demonstrations:
-    """Replay the printing actions of training targets 0 .. n_targets-1 in a training
-    environment (``env_kwargs`` as training uses them) and record the observation before
-    each action. With ``action_noise`` > 0, every other episode plays the action plus
-    Gaussian noise of that std (seeded by ``seed``; clipped to [-1, 1]) while the label
-    stays the printing action, so that the demonstrations also cover states slightly off
-    the printed path."""
+    """Replay the printing actions of training targets 0 .. n_targets-1, ``replays`` times
+    each, in a training environment (``env_kwargs`` as training uses them) and record the
+    observation before each action. With ``action_noise`` > 0, every other episode (counted
+    over all replays) plays the action plus Gaussian noise of that std (seeded by ``seed``;
+    clipped to [-1, 1]) while the label stays the printing action, so that the
+    demonstrations also cover states off the printed path (DART, Laskey et al. 2017). The
+    noise is white, or with ``noise_correlation`` rho > 0 an AR(1) process of the same
+    stationary std, n_t = rho n_(t-1) + sqrt(1 - rho^2) e_t, whose drift resembles the
+    correlated error of a cloned policy more than white noise does."""
     from bathprint.envs import make
 
     t0 = time.perf_counter()
@@ -115,22 +128,32 @@ def collect_demonstrations(
         obs_rows: list[np.ndarray] = []
         act_rows: list[np.ndarray] = []
         sets: list[str] = []
+        keep = float(noise_correlation)
+        fresh = float(np.sqrt(1.0 - keep * keep))
         for s in range(n_targets):
             sets.append(family.set_of_seed(s))
             if sets[-1] != "train":  # the seed ranges are disjoint; a guard all the same
                 raise RuntimeError(f"seed {s} is a {sets[-1]} target, not a training target")
             target = family.get(s)
             actions = np.asarray(u.actions_for(target), np.float32)
-            obs, _ = env.reset(seed=int(seed) * 100_003 + s, options={"target": target})
-            noisy = action_noise > 0 and s % 2 == 1
-            for t in range(len(actions) + 10_000):
-                a = actions[min(t, len(actions) - 1)]
-                obs_rows.append(np.asarray(obs, np.float32))
-                act_rows.append(a)
-                played = np.clip(a + rng.normal(0.0, action_noise, a.shape), -1, 1) if noisy else a
-                obs, _, term, trunc, _ = env.step(np.asarray(played, np.float32))
-                if term or trunc:
-                    break
+            for r in range(int(replays)):
+                obs, _ = env.reset(seed=int(seed) * 100_003 + s, options={"target": target})
+                noisy = action_noise > 0 and (s * int(replays) + r) % 2 == 1
+                drift = rng.normal(0.0, action_noise, actions.shape[1]) if noisy and keep else None
+                for t in range(len(actions) + 10_000):
+                    a = actions[min(t, len(actions) - 1)]
+                    obs_rows.append(np.asarray(obs, np.float32))
+                    act_rows.append(a)
+                    played = a
+                    if drift is not None:
+                        if t > 0:
+                            drift = keep * drift + fresh * rng.normal(0.0, action_noise, a.shape)
+                        played = np.clip(a + drift, -1, 1)
+                    elif noisy:
+                        played = np.clip(a + rng.normal(0.0, action_noise, a.shape), -1, 1)
+                    obs, _, term, trunc, _ = env.step(np.asarray(played, np.float32))
+                    if term or trunc:
+                        break
     finally:
         env.close()
     return Demonstrations(
@@ -212,7 +235,13 @@ def pretrain(
             "raw observations while the policy sees normalised ones; set norm_obs: false"
         )
     demos = collect_demonstrations(
-        env_id, env_kwargs, int(settings["targets"]), seed, float(settings["action_noise"])
+        env_id,
+        env_kwargs,
+        int(settings["targets"]),
+        seed,
+        float(settings["action_noise"]),
+        int(settings["replays"]),
+        float(settings["noise_correlation"]),
     )
     fit = fit_policy(
         model.policy,
