@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import json
 import os
+import shutil
 import signal
 import subprocess
 import sys
@@ -209,6 +210,11 @@ def test_a_killed_campaign_resumes_and_ends_in_one_table(tmp_path, capsys, monke
     assert len(list(kept.glob("tiny/seed*/episodes.csv.gz"))) == 2
     assert list(kept.glob("baselines/oracle/*/episodes.csv"))
     assert not list(kept.rglob("checkpoints")) and not list(kept.rglob("model_*_steps.zip"))
+    # the exported copy alone rebuilds the same table (the committed results can be checked)
+    shutil.copytree(kept, tmp_path / "copy" / "CoilRadius-v1")
+    assert campaign_main([str(path), "--quiet", "--report-only", "--out",
+                          str(tmp_path / "copy")]) == 0  # fmt: skip
+    assert (tmp_path / "copy" / "CoilRadius-v1" / "results.md").read_text() == table
 
 
 def test_a_campaign_on_a_local_dask_cluster_ends_in_the_serial_table(tmp_path, monkeypatch):

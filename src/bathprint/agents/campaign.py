@@ -332,7 +332,9 @@ def compute_record(spec: RunSpec) -> dict[str, Any]:
 
 
 def _episodes_file(d: Path) -> Path | None:
-    found = sorted(d.glob("*/episodes.json"))
+    """The episodes of the evaluation in ``d``: episodes.json as the evaluation writes it, or
+    else the episodes.csv of an exported copy (which keeps no JSON)."""
+    found = sorted(d.glob("*/episodes.json")) or sorted(d.glob("*/episodes.csv"))
     return found[0] if found else None
 
 
@@ -509,13 +511,19 @@ def run_campaign(camp: Campaign, workers: int = 1, scheduler: str | None = None,
 
 
 def _test_scores(d: Path) -> dict[str, dict[str, float]]:
-    """{target_key: {metric, is_success}} of the evaluation in ``d``."""
+    """{target_key: {metric, is_success}} of the evaluation in ``d`` (its episodes.json, or
+    the episodes.csv that :func:`export` keeps)."""
     found = _episodes_file(d)
     if found is None:
         return {}
+    if found.suffix == ".csv":
+        with found.open(newline="") as f:
+            rows: list[dict[str, Any]] = list(csv.DictReader(f))
+    else:
+        rows = json.loads(found.read_text())
     return {
         r["target_key"]: {"metric": float(r["metric"]), "is_success": float(r["is_success"])}
-        for r in json.loads(found.read_text())
+        for r in rows
     }
 
 
