@@ -2,15 +2,17 @@
 size make a cloned policy write WriteShape-v1's targets.
 
 Each row clones a fresh PPO policy (``MlpPolicy``, two tanh layers of ``net_width``) on the
-printing actions of the first ``targets`` training targets (every other one replayed with
-N(0, ``action_noise``) on the played action; :func:`bathprint.agents.imitation.
+printing actions of the first ``targets`` training targets, each played ``replays`` times
+(every other episode with N(0, ``action_noise``) on the played action, white or, with
+``noise_correlation`` rho, AR(1) from step to step; :func:`bathprint.agents.imitation.
 collect_demonstrations`), for ``epochs`` passes (:func:`~bathprint.agents.imitation.
 fit_policy`, Adam 1e-3, batches of 256), and plays the cloned policy deterministically on
 the 16 validation targets (target k with seed k, as the validation callback plays them).
-No PPO step is taken and the test targets are never read. The row chosen here is the
-``bc_pretrain`` of ``agents/ppo_bc.yml`` for the environment.
+No PPO step is taken and the test targets are never read. ``--seed`` seeds the noise and
+the fit (rows are kept per seed). The row chosen here is the ``bc_pretrain`` of
+``agents/ppo_bc.yml`` for the environment.
 
-    python benchmarks/bench_bc_search.py                 # all rows (about 10 min on a core)
+    python benchmarks/bench_bc_search.py                 # all rows (about 25 min on a core)
     python benchmarks/bench_bc_search.py --rows 0 --targets-scale 0.02   # a smoke run
 
 Rows already in the CSV are kept (the search resumes after a kill); ``--fresh`` starts over.
@@ -35,27 +37,37 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from _common import RESULTS, write_meta  # noqa: E402
 
-#: (training targets, action noise std, net width, epochs); the last row is agents/ppo_bc.yml's
-ROWS: list[tuple[int, float, int, int]] = [
-    (160, 0.15, 128, 30),  # CoilRadius-v1's setting
-    (1024, 0.0, 128, 30),
-    (1024, 0.15, 128, 30),
-    (1024, 0.15, 128, 60),
-    (1024, 0.3, 128, 60),
-    (1024, 0.15, 256, 30),
-    (1024, 0.15, 256, 100),
+#: (training targets, action noise std, net width, epochs, replays, noise correlation)
+ROWS: list[tuple[int, float, int, int, int, float]] = [
+    (160, 0.15, 128, 30, 1, 0.0),  # CoilRadius-v1's setting
+    (1024, 0.0, 128, 30, 1, 0.0),
+    (1024, 0.15, 128, 30, 1, 0.0),
+    (1024, 0.15, 128, 60, 1, 0.0),
+    (1024, 0.3, 128, 60, 1, 0.0),
+    (1024, 0.15, 256, 30, 1, 0.0),
+    (1024, 0.15, 256, 100, 1, 0.0),
+    # each target played twice (clean, noisy); noise correlated from step to step
+    (1024, 0.15, 256, 30, 2, 0.0),
+    (1024, 0.15, 256, 30, 1, 0.9),
+    (1024, 0.15, 256, 30, 2, 0.9),
+    (1024, 0.3, 256, 30, 2, 0.9),
+    (1024, 0.15, 256, 30, 2, 0.7),
 ]
 NOISE_STDS = (0.0, 0.05, 0.1, 0.2, 0.4)  # white noise on replayed printing actions (--diagnose)
 FIELDS = [
-    "targets", "action_noise", "net_width", "epochs", "demonstration_pairs", "mse_after",
+    "targets", "action_noise", "net_width", "epochs", "replays", "noise_correlation", "seed",
+    "demonstration_pairs", "mse_after",
     "validation_mean_metric", "validation_ci_low", "validation_ci_high",
     "validation_success_rate", "collect_wall_s", "fit_wall_s",
 ]  # fmt: skip
 
 
 def _key(row: dict) -> tuple:
+    """A row's settings and seed (rows written before replays, correlation and seed were
+    columns are replays 1, white noise, seed 0)."""
     return (int(row["targets"]), float(row["action_noise"]), int(row["net_width"]),
-            int(row["epochs"]))  # fmt: skip
+            int(row["epochs"]), int(row.get("replays") or 1),
+            float(row.get("noise_correlation") or 0.0), int(row.get("seed") or 0))  # fmt: skip
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -94,23 +106,26 @@ def main(argv: list[str] | None = None) -> int:
     picked = range(len(ROWS)) if args.rows is None else [int(i) for i in args.rows.split(",")]
     todo = []
     for i in picked:
-        n, noise, width, epochs = ROWS[i]
-        todo.append((max(1, round(n * args.targets_scale)), noise, width, epochs))
+        n, noise, width, epochs, replays, rho = ROWS[i]
+        n = max(1, round(n * args.targets_scale))
+        todo.append((n, noise, width, epochs, replays, rho, args.seed))
     todo = [r for r in todo if r not in have]
-    demos_cache: dict[tuple[int, float], object] = {}
+    for r in done:  # rows of earlier versions of this file: fill the new columns
+        r.update(zip(("replays", "noise_correlation", "seed"), _key(r)[4:], strict=True))
+    demos_cache: dict[tuple[int, float, int, float], object] = {}
     env_kwargs = {"accuracy": "draft"}
     val_env = make(args.env, target_set="validation", **env_kwargs)
     try:
-        for n, noise, width, epochs in todo:
-            if (n, noise) not in demos_cache:
-                demos_cache[(n, noise)] = collect_demonstrations(
-                    args.env, env_kwargs, n, args.seed, noise
+        for n, noise, width, epochs, replays, rho, _ in todo:
+            if (n, noise, replays, rho) not in demos_cache:
+                demos_cache[(n, noise, replays, rho)] = collect_demonstrations(
+                    args.env, env_kwargs, n, args.seed, noise, replays, rho
                 )
-            demos = demos_cache[(n, noise)]
+            demos = demos_cache[(n, noise, replays, rho)]
+            what = f"{n} targets x {replays}, noise {noise} (rho {rho}), {width}x2, {epochs} epochs"
             model, fit = _fitted(val_env, demos, width, epochs, args.seed)
             metrics, success = [], []
-            for k in track(range(args.episodes), description=f"{n} targets, {noise}, "
-                           f"{width}x2, {epochs} epochs"):  # fmt: skip
+            for k in track(range(args.episodes), description=what):
                 ep = run_episode(val_env, model, seed=k, target_index=k)
                 metrics.append(ep.metrics["metric"])
                 success.append(ep.is_success)
@@ -118,6 +133,7 @@ def main(argv: list[str] | None = None) -> int:
             _, lo, hi = bootstrap_ci(np.mean, m[None, :], seed=args.seed)
             row = {
                 "targets": n, "action_noise": noise, "net_width": width, "epochs": epochs,
+                "replays": replays, "noise_correlation": rho, "seed": args.seed,
                 "demonstration_pairs": len(demos.obs), "mse_after": fit["mse_after"],
                 "validation_mean_metric": float(m.mean()), "validation_ci_low": lo,
                 "validation_ci_high": hi, "validation_success_rate": float(np.mean(success)),
@@ -129,11 +145,8 @@ def main(argv: list[str] | None = None) -> int:
                 w.writeheader()
                 w.writerows(done)
             write_meta(out)
-            print(
-                f"{n} targets, noise {noise}, {width}x2, {epochs} epochs: validation "
-                f"{m.mean():.3f} [{lo:.3f}, {hi:.3f}] ({time.strftime('%H:%M:%S')})",
-                flush=True,
-            )
+            print(f"{what}: validation {m.mean():.3f} [{lo:.3f}, {hi:.3f}] "
+                  f"({time.strftime('%H:%M:%S')})", flush=True)  # fmt: skip
     finally:
         val_env.close()
     print(f"wrote {out}")
@@ -182,12 +195,13 @@ def diagnose(args: argparse.Namespace) -> int:
     torch.set_num_threads(1)
     name = args.env.split("/")[-1]
     out = Path(args.out) if args.out else RESULTS / f"bc_search_{name}_diagnosis.csv"
-    n, noise, width, epochs = ROWS[args.diagnose]
+    n, noise, width, epochs, replays, rho = ROWS[args.diagnose]
     n = max(1, round(n * args.targets_scale))
     env = make(args.env, target_set="validation", accuracy="draft")
     rows: list[dict] = []
     try:
-        demos = collect_demonstrations(args.env, {"accuracy": "draft"}, n, args.seed, noise)
+        demos = collect_demonstrations(args.env, {"accuracy": "draft"}, n, args.seed, noise,
+                                       replays, rho)  # fmt: skip
         model, _ = _fitted(env, demos, width, epochs, args.seed)
         sq = [0.0, 0]  # sum of squared action errors, actions compared
 

@@ -1173,24 +1173,34 @@ def kernel_ab() -> str:
     return _table(head, rows) + "\n\n" + provenance(path)
 
 
+def _noise_kind(correlation: str | None) -> str:
+    """'white', or the AR(1) coefficient of correlated noise."""
+    rho = float(correlation or 0.0)
+    return "white" if rho == 0.0 else f"AR(1), rho {rho:g}"
+
+
 def bc_search(env: str = "WriteShape-v1") -> str:
     path = RESULTS / f"bc_search_{env}.csv"
     rows = [
         [
             r["targets"],
+            r.get("replays") or "1",
             r["demonstration_pairs"],
             _g(r["action_noise"], 2),
+            _noise_kind(r.get("noise_correlation")),
             f"{r['net_width']} x 2",
             r["epochs"],
             _g(r["mse_after"], 2),
             f"{_g(r['validation_mean_metric'])} [{_g(r['validation_ci_low'])}, "
             f"{_g(r['validation_ci_high'])}]",
+            r.get("seed") or "0",
             f"{float(r['collect_wall_s']) + float(r['fit_wall_s']):.0f}",
         ]
         for r in _csv(path)
     ]
-    head = ["training targets", "pairs", "action noise", "policy", "epochs", "action MSE",
-            "validation metric (mean, 95% CI)", "collect + fit (s)"]  # fmt: skip
+    head = ["training targets", "replays", "pairs", "action noise", "noise", "policy",
+            "epochs", "action MSE", "validation metric (mean, 95% CI)", "seed",
+            "collect + fit (s)"]  # fmt: skip
     out = _table(head, rows) + "\n\n" + provenance(path)
     diag_path = RESULTS / f"bc_search_{env}_diagnosis.csv"
     if diag_path.is_file():
