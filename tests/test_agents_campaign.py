@@ -215,6 +215,13 @@ def test_a_killed_campaign_resumes_and_ends_in_one_table(tmp_path, capsys, monke
     assert campaign_main([str(path), "--quiet", "--report-only", "--out",
                           str(tmp_path / "copy")]) == 0  # fmt: skip
     assert (tmp_path / "copy" / "CoilRadius-v1" / "results.md").read_text() == table
+    # the campaign itself, pointed at the copy, neither deletes nor retrains its runs (a copy
+    # keeps one selected model per group and no final models): a new seed can be added to it
+    before = sorted(str(f) for f in (tmp_path / "copy").rglob("*"))
+    assert campaign_main([str(path), "--quiet", "--out", str(tmp_path / "copy")]) == 0
+    assert "resuming" not in capsys.readouterr().out
+    assert sorted(str(f) for f in (tmp_path / "copy").rglob("*")) == before
+    assert (tmp_path / "copy" / "CoilRadius-v1" / "results.md").read_text() == table
 
 
 def test_a_campaign_on_a_local_dask_cluster_ends_in_the_serial_table(tmp_path, monkeypatch):

@@ -280,7 +280,11 @@ def run_state(run_dir: str | Path) -> str:
     except ConfigError:
         return "restart"
     status = info.get("status", "running")
-    if status == "done" and (run_dir / "final_model.zip").is_file():
+    # done: the final model is there, or (an exported copy, which keeps no final model) the
+    # selected model's test evaluation is
+    if status == "done" and (
+        (run_dir / "final_model.zip").is_file() or _episodes_file(run_dir / "test") is not None
+    ):
         return "done"
     return "resume" if checkpoints(run_dir) else "restart"
 
@@ -372,6 +376,8 @@ def _task(kind: str, payload: dict[str, Any]) -> dict[str, Any]:
         rec = train_one(spec)
         best = Path(spec.run_dir) / "eval" / "best_model.zip"
         if not best.is_file():
+            if _episodes_file(Path(spec.run_dir) / "test") is not None:
+                return rec  # an exported copy keeps the test evaluation, not every model
             raise RuntimeError(f"{spec.run_dir}: no validation-selected eval/best_model.zip")
         evaluate_one(str(best), spec.env_id, Path(spec.run_dir) / "test", payload["episodes"],
                      payload["eval_seed"])
