@@ -15,7 +15,7 @@ import pytest
 from bathprint.analysis import validation as V
 from bathprint.core import layout as L
 from bathprint.core.assemble import assemble
-from bathprint.core.effects.viscosity import bend_rate_grad
+from bathprint.core.effects.viscosity import BEND_HESS_WORK, bend_rate_grad, bend_rate_grad_hess
 from bathprint.core.records import Rod, Stage
 from bathprint.core.scene import load_scene
 from bathprint.core.simulation import Simulation
@@ -123,3 +123,57 @@ def test_the_inlet_segment_is_not_strained_by_its_growth() -> None:
 def test_bad_viscosity_values_name_the_key(key: str, value: float) -> None:
     with pytest.raises(SceneError, match=key.replace(".", r"\.")):
         load_scene("paper_simulation", {"effects": ["elasticity", "drag", "viscosity"], key: value})
+
+
+def _stencils() -> list[tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]]:
+    """(e1, e2, u1, u2): random stencils, nearly straight ones (turning 1e-3 rad) and
+    strongly bent ones (turning about 2.6 rad), edges of unequal lengths, u nonzero."""
+    rng = np.random.default_rng(11)
+    out = []
+    for kind in ("random", "straight", "bent"):
+        for _ in range(8):
+            e1 = rng.normal(size=3) * rng.uniform(0.5, 2.0)
+            if kind == "random":
+                e2 = rng.normal(size=3)
+            else:
+                t1 = e1 / np.linalg.norm(e1)
+                n = np.cross(t1, rng.normal(size=3))
+                n /= np.linalg.norm(n)
+                angle = 1e-3 if kind == "straight" else 2.6
+                e2 = (np.cos(angle) * t1 + np.sin(angle) * n) * rng.uniform(0.5, 2.0)
+            out.append((e1, e2, rng.normal(size=3), rng.normal(size=3)))
+    return out
+
+
+def _central_differences(e1, e2, u1, u2, k, step=1e-6) -> np.ndarray:
+    """d grad/de of bend_rate_grad by central differences (relative step ``step``), column
+    by column: the oracle of the analytic derivative (and the Jacobian's former method)."""
+    out = np.zeros((6, 6))
+    gp, gm, jtmp = np.zeros(6), np.zeros(6), np.zeros(18)
+    for c in range(6):
+        x = [e1.copy(), e2.copy()]
+        h = step * np.linalg.norm(x[c // 3])
+        x[c // 3][c % 3] += h
+        bend_rate_grad(x[0], x[1], u1, u2, k, gp, jtmp)
+        x[c // 3][c % 3] -= 2.0 * h
+        bend_rate_grad(x[0], x[1], u1, u2, k, gm, jtmp)
+        out[:, c] = (gp - gm) / (2.0 * h)
+    return out
+
+
+def test_the_analytic_bending_jacobian_matches_central_differences() -> None:
+    """bend_rate_grad_hess: the same energy, gradient and Jh as bend_rate_grad, and
+    d grad/de within 1e-7 (relative to its largest entry) of central differences, on
+    random, nearly straight and strongly bent stencils."""
+    k = 3.7
+    for e1, e2, u1, u2 in _stencils():
+        grad, jhat, g_ref, j_ref = np.zeros(6), np.zeros(18), np.zeros(6), np.zeros(18)
+        work, dgrad = np.full(BEND_HESS_WORK, np.nan), np.full((6, 6), np.nan)
+        energy = bend_rate_grad_hess(e1, e2, u1, u2, k, grad, jhat, work, dgrad)
+        assert energy == bend_rate_grad(e1, e2, u1, u2, k, g_ref, j_ref)
+        np.testing.assert_array_equal(grad, g_ref)
+        np.testing.assert_array_equal(jhat, j_ref)
+        fd = _central_differences(e1, e2, u1, u2, k)
+        scale = np.abs(dgrad).max()
+        assert scale > 0.0
+        np.testing.assert_allclose(dgrad, fd, rtol=0, atol=1e-7 * scale)

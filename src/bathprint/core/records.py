@@ -64,7 +64,7 @@ class Scratch(NamedTuple):
     edges: np.ndarray  # (3, 3) rows: e1, e2 and the natural curvature of a bending stencil
     bend_grad: np.ndarray  # (6,) gradient of a bending stencil in (e1, e2)
     bend_hess: np.ndarray  # (6, 6) its Hessian
-    bend_work: np.ndarray  # (64,) scratch of elasticity.bend_energy_grad_hess
+    bend_work: np.ndarray  # (128,) scratch of elasticity's and viscosity's bending stencils
     pair_grad: np.ndarray  # (12,) gradient of a segment pair's distance (contact)
     pair_hess: np.ndarray  # (12, 12) its Hessian
     step_work: np.ndarray  # (3,) scratch of the contact step bound
@@ -243,7 +243,7 @@ def new_scratch() -> Scratch:
         edges=np.zeros((3, 3)),
         bend_grad=np.zeros(6),
         bend_hess=np.zeros((6, 6)),
-        bend_work=np.zeros(64),
+        bend_work=np.zeros(128),
         pair_grad=np.zeros(12),
         pair_hess=np.zeros((12, 12)),
         step_work=np.zeros(3),

@@ -20,10 +20,9 @@ costs O(kb^2), and only a spin about the tangent (which a rod without a material
 cannot tell from deformation) is resisted. A and I are the alginate's section outside a
 concentric column of co-extruded inner fluid of volume fraction phi: A = pi r^2 (1 - phi),
 I = pi r^4 (1 - phi^2) / 4. Strains are measured on the rest section and length (the law
-is a small-strain one, as the elastic one is). The Jacobian is exact in the velocities;
-in the positions it is exact for stretching and, for bending, central differences of each
-stencil's force (twelve per stencil, two per coordinate, relative step 1e-6). Returns the
-dissipation rate 2D (W), as drag does.
+is a small-strain one, as the elastic one is). The Jacobian is exact, in the velocities
+and in the positions (for bending, the derivative of each stencil's force in its edges is
+analytic: ``bend_rate_grad_hess``). Returns the dissipation rate 2D (W), as drag does.
 """
 
 from __future__ import annotations
@@ -39,8 +38,6 @@ from bathprint.core.extrusion import flow_rate
 from bathprint.core.jit import KERNEL
 from bathprint.core.layout import MAT_INNER_FRACTION, MAT_RADIUS
 from bathprint.core.topology import filament_segments, free_nodes
-
-FD_STEP = 1e-6  # relative step of the central differences of the bending x-Jacobian
 
 
 @njit(**KERNEL, inline="always")
@@ -112,6 +109,209 @@ def bend_rate_grad(
     for c in range(6):
         grad[c] = k * (jhat[c] * w0 + jhat[6 + c] * w1 + jhat[12 + c] * w2)
     return 0.5 * k * (w0 * w0 + w1 * w1 + w2 * w2)
+
+
+# offsets in the scratch of bend_rate_grad_hess (flat float64, BEND_HESS_WORK entries)
+_J, _W, _E, _U, _T, _G, _DQ, _GP, _EJ = 0, 18, 36, 42, 48, 54, 60, 66, 72
+_KB, _JU, _WV, _N = 84, 87, 90, 93
+BEND_HESS_WORK = 96
+
+
+@njit(**KERNEL, inline="always")
+def _add_skew(mat: np.ndarray, row: int, col: int, c: np.ndarray, off: int, scale: float) -> None:
+    """mat[row:row+3, col:col+3] += scale [c]x, c = c[off:off+3] ([c]x v = c x v)."""
+    mat[row, col + 1] -= scale * c[off + 2]
+    mat[row, col + 2] += scale * c[off + 1]
+    mat[row + 1, col] += scale * c[off + 2]
+    mat[row + 1, col + 2] -= scale * c[off]
+    mat[row + 2, col] -= scale * c[off + 1]
+    mat[row + 2, col + 1] += scale * c[off]
+
+
+@njit(**KERNEL)
+def bend_rate_grad_hess(
+    e1: np.ndarray,
+    e2: np.ndarray,
+    u1: np.ndarray,
+    u2: np.ndarray,
+    k: float,
+    grad: np.ndarray,
+    jhat: np.ndarray,
+    work: np.ndarray,
+    dgrad_de: np.ndarray,
+) -> float:
+    """``bend_rate_grad`` (its return value, ``grad`` and ``jhat``) and the exact derivative
+    of ``grad`` in the edges at fixed u: ``dgrad_de[c, q]`` = d grad_c / d e_q (6 x 6, over
+    [e1, e2]); ``work`` is scratch of ``BEND_HESS_WORK`` or more entries.
+
+    d grad/de = k (Jh^T W + M), W = d(Jh u)/de at fixed u (3 x 6) and
+    M = d(Jh^T lam)/de at fixed lam = w (6 x 6). With J = dkb/de, g = dD/de, q = g.u,
+    h_s = 1/(2|e_s|^2), A = sum_s h_s (e_s u_s^T - u_s e_s^T) = -[n]x (n = sum_s h_s e_s x
+    u_s), R_s = e_s (kb.u_s) - u_s (kb.e_s), H_D = d2D/de2 (blocks (l2/l1)(I - t1 t1^T),
+    I + t1 t2^T, I + t2 t1^T, (l1/l2)(I - t2 t2^T)) and kb.lam = 2 (e1 x e2).lam / D:
+
+    W_r = (-(J u) g_r^T + 2 P_r - q J_r - kb (dq/de_r)^T) / D + A J_r
+          + h_r ((kb.u_r) I - u_r kb^T) - 4 h_r^2 R_r e_r^T,   P_1 = -[u2]x, P_2 = [u1]x;
+    M = (2 H_psi - (kb.lam) H_D - J^T lam g^T - g lam^T J) / D   (the Hessian of kb.lam;
+          H_psi = d2((e1 x e2).lam)/de2: -[lam]x in block (1, 2), [lam]x in (2, 1))
+        + blocks (s, r): h_s ((e_s.lam) I - lam e_s^T) J_r
+          + [r = s] (h_s (kb lam^T - lam kb^T) - 4 h_s^2 (kb (e_s.lam) - lam (e_s.kb)) e_s^T).
+    """
+    for a in range(3):
+        work[_E + a] = e1[a]
+        work[_E + 3 + a] = e2[a]
+        work[_U + a] = u1[a]
+        work[_U + 3 + a] = u2[a]
+    l1 = math.sqrt(e1[0] * e1[0] + e1[1] * e1[1] + e1[2] * e1[2])
+    l2 = math.sqrt(e2[0] * e2[0] + e2[1] * e2[1] + e2[2] * e2[2])
+    inv_d = 1.0 / (l1 * l2 + e1[0] * e2[0] + e1[1] * e2[1] + e1[2] * e2[2])
+    work[_KB] = 2.0 * (e1[1] * e2[2] - e1[2] * e2[1]) * inv_d
+    work[_KB + 1] = 2.0 * (e1[2] * e2[0] - e1[0] * e2[2]) * inv_d
+    work[_KB + 2] = 2.0 * (e1[0] * e2[1] - e1[1] * e2[0]) * inv_d
+    r21 = l2 / l1
+    r12 = l1 / l2
+    h1 = 0.5 / (e1[0] * e1[0] + e1[1] * e1[1] + e1[2] * e1[2])
+    h2 = 0.5 / (e2[0] * e2[0] + e2[1] * e2[1] + e2[2] * e2[2])
+    kbe1 = kbe2 = 0.0
+    for a in range(3):
+        kbe1 += work[_KB + a] * e1[a]
+        kbe2 += work[_KB + a] * e2[a]
+    for a in range(3):
+        work[_T + a] = e1[a] / l1
+        work[_T + 3 + a] = e2[a] / l2
+        work[_G + a] = r21 * e1[a] + e2[a]
+        work[_G + 3 + a] = r12 * e2[a] + e1[a]
+    # J = dkb/de = (2 [C_1, C_2] - kb g^T) / D and Jh = J + h_s [kb]x [e_s]x, flat 3 x 6
+    # (row m at 6 m), evaluated as bend_rate_grad does: the same jhat, grad and energy
+    # to the bit
+    jm = work[_J : _J + 18].reshape((3, 6))
+    for m in range(3):
+        for c in range(6):
+            jm[m, c] = -(work[_KB + m] * work[_G + c] * inv_d)
+    _add_skew(jm, 0, 0, work, _E + 3, -2.0 * inv_d)
+    _add_skew(jm, 0, 3, work, _E, 2.0 * inv_d)
+    for s in range(2):
+        h = h1 if s == 0 else h2
+        kbe = kbe1 if s == 0 else kbe2
+        for m in range(3):
+            for a in range(3):
+                rot = work[_E + 3 * s + m] * work[_KB + a] - (kbe if m == a else 0.0)
+                jhat[6 * m + 3 * s + a] = jm[m, 3 * s + a] + h * rot
+    # J u, w = Jh u, the gradient k Jh^T w, dq/de, n
+    for m in range(3):
+        sj = 0.0
+        sw = 0.0
+        for c in range(6):
+            sj += jm[m, c] * work[_U + c]
+            sw += jhat[6 * m + c] * work[_U + c]
+        work[_JU + m] = sj
+        work[_WV + m] = sw
+    w0 = work[_WV]
+    w1 = work[_WV + 1]
+    w2 = work[_WV + 2]
+    for c in range(6):
+        grad[c] = k * (jhat[c] * w0 + jhat[6 + c] * w1 + jhat[12 + c] * w2)
+    energy = 0.5 * k * (w0 * w0 + w1 * w1 + w2 * w2)
+    t1u1 = 0.0
+    t2u2 = 0.0
+    q = 0.0  # g.u = dD/dt
+    kbu1 = kbu2 = 0.0
+    for a in range(3):
+        t1u1 += work[_T + a] * u1[a]
+        t2u2 += work[_T + 3 + a] * u2[a]
+        q += work[_G + a] * u1[a] + work[_G + 3 + a] * u2[a]
+        kbu1 += work[_KB + a] * u1[a]
+        kbu2 += work[_KB + a] * u2[a]
+    for a in range(3):
+        t1a = work[_T + a]
+        t2a = work[_T + 3 + a]
+        work[_DQ + a] = r21 * (u1[a] - t1a * t1u1) + u2[a] + t1a * t2u2
+        work[_DQ + 3 + a] = r12 * (u2[a] - t2a * t2u2) + u1[a] + t2a * t1u1
+    work[_N] = h1 * (e1[1] * u1[2] - e1[2] * u1[1]) + h2 * (e2[1] * u2[2] - e2[2] * u2[1])
+    work[_N + 1] = h1 * (e1[2] * u1[0] - e1[0] * u1[2]) + h2 * (e2[2] * u2[0] - e2[0] * u2[2])
+    work[_N + 2] = h1 * (e1[0] * u1[1] - e1[1] * u1[0]) + h2 * (e2[0] * u2[1] - e2[1] * u2[0])
+    n0 = work[_N]
+    n1 = work[_N + 1]
+    n2 = work[_N + 2]
+    # --- W = d(Jh u)/de, flat 3 x 6 ---
+    wm = work[_W : _W + 18].reshape((3, 6))
+    for r in range(2):
+        h = h1 if r == 0 else h2
+        kbu = kbu1 if r == 0 else kbu2
+        kbe = kbe1 if r == 0 else kbe2
+        for a in range(3):
+            col = 3 * r + a
+            c0 = jm[0, col]
+            c1 = jm[1, col]
+            c2 = jm[2, col]
+            # (A J_r)[:, a] = -n x J_r[:, a]
+            wm[0, col] = n2 * c1 - n1 * c2
+            wm[1, col] = n0 * c2 - n2 * c0
+            wm[2, col] = n1 * c0 - n0 * c1
+            ga = work[_G + col]
+            dqa = work[_DQ + col]
+            kba = work[_KB + a]
+            ea = work[_E + col]
+            for m in range(3):
+                rm = work[_E + 3 * r + m] * kbu - work[_U + 3 * r + m] * kbe
+                wm[m, col] += inv_d * (
+                    -work[_JU + m] * ga - q * jm[m, col] - work[_KB + m] * dqa
+                ) - h * (work[_U + 3 * r + m] * kba + 4.0 * h * rm * ea)
+            wm[a, col] += h * kbu
+    _add_skew(wm, 0, 0, work, _U + 3, -2.0 * inv_d)
+    _add_skew(wm, 0, 3, work, _U, 2.0 * inv_d)
+    # --- d grad/de = k (Jh^T W + M), M = d(Jh^T w)/de at fixed w: the Hessian of kb.w,
+    # then the rotation part ---
+    phi = 0.0
+    el1 = el2 = 0.0
+    for a in range(3):
+        phi += work[_KB + a] * work[_WV + a]
+        el1 += e1[a] * work[_WV + a]
+        el2 += e2[a] * work[_WV + a]
+    for c in range(6):  # J^T w = d(kb.w)/de, and e_s^T J
+        work[_GP + c] = jm[0, c] * work[_WV] + jm[1, c] * work[_WV + 1] + jm[2, c] * work[_WV + 2]
+        work[_EJ + c] = e1[0] * jm[0, c] + e1[1] * jm[1, c] + e1[2] * jm[2, c]
+        work[_EJ + 6 + c] = e2[0] * jm[0, c] + e2[1] * jm[1, c] + e2[2] * jm[2, c]
+    for s in range(2):
+        hs = h1 if s == 0 else h2
+        el = el1 if s == 0 else el2
+        for r in range(2):
+            # H_D's block (s, r): c_sr I + d_sr t_s t_r^T
+            d_sr = (-r21 if s == 0 else -r12) if r == s else 1.0
+            for m in range(3):
+                row = 3 * s + m
+                pt = phi * d_sr * work[_T + row]
+                gpr = work[_GP + row]
+                gr = work[_G + row]
+                wv = work[_WV + m]
+                j0 = jhat[row]
+                j1 = jhat[6 + row]
+                j2 = jhat[12 + row]
+                for a in range(3):
+                    col = 3 * r + a
+                    v = -inv_d * (pt * work[_T + col] + gpr * work[_G + col] + gr * work[_GP + col])
+                    v += hs * (el * jm[m, col] - wv * work[_EJ + 6 * s + col])
+                    v += j0 * wm[0, col] + j1 * wm[1, col] + j2 * wm[2, col]
+                    dgrad_de[row, col] = k * v
+    for s in range(2):
+        hs = h1 if s == 0 else h2
+        el = el1 if s == 0 else el2
+        ek = kbe1 if s == 0 else kbe2
+        c_ss = r21 if s == 0 else r12
+        for m in range(3):
+            row = 3 * s + m
+            kbm = work[_KB + m]
+            wv = work[_WV + m]
+            rot = 4.0 * hs * (kbm * el - wv * ek)
+            for a in range(3):
+                v = kbm * work[_WV + a] - wv * work[_KB + a] - rot * work[_E + 3 * s + a]
+                dgrad_de[row, 3 * s + a] += k * hs * v
+        for a in range(3):  # the identities of H_D
+            dgrad_de[3 * s + a, 3 * s + a] -= k * inv_d * phi * c_ss
+            dgrad_de[3 * s + a, 3 - 3 * s + a] -= k * inv_d * phi
+    _add_skew(dgrad_de, 0, 3, work, _WV, -2.0 * k * inv_d)
+    _add_skew(dgrad_de, 3, 0, work, _WV, 2.0 * k * inv_d)
+    return energy
 
 
 @njit(**KERNEL)
@@ -200,9 +400,7 @@ def accumulate(model, rod, stage, out) -> float:
     hess = sc.bend_hess
     work = sc.bend_work
     jhat = work[0:18]
-    jtmp = work[18:36]
-    gp = work[36:42]
-    gm = work[42:48]
+    hwork = work[18 : 18 + BEND_HESS_WORK]
     for i in range(1, n_nodes - 1):
         ja = i - 1
         jb = i if i < n_seg else i - 1  # the ghost segment carries the inlet's material
@@ -217,31 +415,17 @@ def accumulate(model, rod, stage, out) -> float:
                 u2[a] -= carried * d_hat[a]
             elif i == inlet + 1:  # e1 ends at the tip (e2: tip to ghost, both carried)
                 u1[a] -= carried * d_hat[a]
-        power += 2.0 * bend_rate_grad(e1, e2, u1, u2, k, grad, jhat)
+        if not do_jac or cx == 0.0:
+            power += 2.0 * bend_rate_grad(e1, e2, u1, u2, k, grad, jhat)
+        else:  # hess = d grad/de, exact
+            power += 2.0 * bend_rate_grad_hess(e1, e2, u1, u2, k, grad, jhat, hwork, hess)
         add_stencil_force(force, i, grad)  # (the edge forces are -grad, as elasticity's)
         if not do_jac:
             continue
-        # edge forces F = -grad: -dF/du = k Jh^T Jh (cv), -dF/de = d grad/de (cx, central
-        # differences of the stencil's gradient, column by column)
+        # edge forces F = -grad: -dF/du = k Jh^T Jh (cv), -dF/de = d grad/de (cx)
         for r in range(6):
             for c in range(6):
-                hess[r, c] = (
-                    cv
-                    * k
-                    * (jhat[r] * jhat[c] + jhat[6 + r] * jhat[6 + c] + jhat[12 + r] * jhat[12 + c])
-                )
-        if cx != 0.0:
-            for c in range(6):
-                e = e1 if c < 3 else e2
-                a = c % 3
-                saved = e[a]
-                h = FD_STEP * math.sqrt(e[0] * e[0] + e[1] * e[1] + e[2] * e[2])
-                e[a] = saved + h
-                bend_rate_grad(e1, e2, u1, u2, k, gp, jtmp)
-                e[a] = saved - h
-                bend_rate_grad(e1, e2, u1, u2, k, gm, jtmp)
-                e[a] = saved
-                for r in range(6):
-                    hess[r, c] += cx * (gp[r] - gm[r]) / (2.0 * h)
+                jtj = jhat[r] * jhat[c] + jhat[6 + r] * jhat[6 + c] + jhat[12 + r] * jhat[12 + c]
+                hess[r, c] = cv * k * jtj + (cx * hess[r, c] if cx != 0.0 else 0.0)
         add_bend_hessian(band, n_free, i, hess, 1.0)
     return power
