@@ -512,3 +512,41 @@ def test_a_damaged_checkpoint_is_named_on_resume(tmp_path, capsys):
     )
     info = json.loads((out / "run.json").read_text())
     assert info["status"] == "failed" and "cannot be loaded" in info["error"]
+
+
+def test_side_by_side_lays_panels_out_in_order_and_holds_the_shorter_episode():
+    import numpy as np
+
+    from bathprint.envs.play import side_by_side
+
+    a = [np.full((20, 30, 3), 10 * k, np.uint8) for k in range(3)]
+    b = [np.full((20, 40, 3), 200, np.uint8)]
+    frames = side_by_side([("a", a), ("b", b)])
+    assert len(frames) == 3 and frames[0].shape == (20 + 18, 70, 3)
+    for k, f in enumerate(frames):
+        assert np.array_equal(f[18:, :30], a[k])  # panel a, under its caption band
+        assert np.array_equal(f[18:, 30:], b[0])  # panel b holds its only frame
+    assert (frames[0][:18] < 255).any()  # a caption is drawn
+    with pytest.raises(ValueError, match="at least one frame"):
+        side_by_side([("a", a), ("b", [])])
+    half = side_by_side([("a", a * 2), ("b", b)], scale=0.5, every=2)  # 6 frames: 0, 2, 4, 5
+    assert len(half) == 4 and half[0].shape == (10 + 18, 35, 3)
+
+
+def test_evaluate_writes_the_policies_side_by_side(tmp_path, capsys):
+    from PIL import Image
+
+    gif = tmp_path / "cmp.gif"
+    argv = ["evaluate", "constant", "oracle", "--env", "CoilRadius-v1", "--episodes", "1",
+            "--images", "0", "--out", str(tmp_path / "eval"), "--quiet"]  # fmt: skip
+    assert cli_main([*argv, "--side-by-side", str(gif)]) == 0
+    widths = [Image.open(tmp_path / "eval" / n / "episode_0.gif").size[0]
+              for n in ("constant", "oracle")]  # fmt: skip
+    from bathprint.agents.evaluate import SIDE_BY_SIDE_SCALE
+
+    with Image.open(gif) as im:
+        assert im.size[0] == sum(round(w * SIDE_BY_SIDE_SCALE) for w in widths)
+        assert im.n_frames > 1
+    capsys.readouterr()
+    _refused(capsys, [*argv, "--side-by-side", str(tmp_path / "x.png")], "side_by_side", ".gif")
+    _refused(capsys, [*argv, "--no-animation", "--side-by-side", str(gif)], "animate")

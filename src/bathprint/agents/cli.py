@@ -163,6 +163,13 @@ def _evaluate_parser() -> argparse.ArgumentParser:
     )
     ap.add_argument("--images", type=int, default=3, help="episodes to draw as PNG")
     ap.add_argument("--no-animation", action="store_true", help="skip the GIF of episode 0")
+    ap.add_argument(
+        "--side-by-side",
+        default=None,
+        metavar="GIF",
+        help="also write episode 0 of every policy side by side (in the order given, each "
+        "captioned with its final metric; 0.6 of the size, every second frame) to this .gif",
+    )
     ap.add_argument("--quiet", action="store_true")
     return ap
 
@@ -186,6 +193,7 @@ def evaluate_main(argv: Sequence[str] | None = None) -> int:
                 images=args.images,
                 animate=not args.no_animation,
                 progress=not args.quiet,
+                side_by_side=args.side_by_side,
             )
     except KeyboardInterrupt as exc:
         print(

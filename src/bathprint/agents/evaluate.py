@@ -254,6 +254,12 @@ def collect_summaries(out: str | Path) -> list[dict[str, Any]]:
     return sorted(found, key=lambda s: (order.get(s["policy"], len(order)), s["policy"]))
 
 
+#: the side-by-side GIF of :func:`evaluate_many`: this fraction of the render size, every
+#: this many frames of episode 0's (itself every second step), to keep the file small
+SIDE_BY_SIDE_SCALE = 0.6
+SIDE_BY_SIDE_EVERY = 2
+
+
 def evaluate_many(
     specs: Sequence[str],
     env_id: str,
@@ -265,16 +271,25 @@ def evaluate_many(
     animate: bool = True,
     progress: bool = True,
     target_set: str | None = None,
+    side_by_side: str | Path | None = None,
 ) -> list[dict[str, Any]]:
     """Evaluate each policy; returns their summaries. ``OUT/table.md`` and ``table.json``
     are rebuilt from every policy evaluated into ``OUT`` so far with the same environment,
-    episodes and seed, so evaluations made one at a time add up to one table."""
+    episodes and seed, so evaluations made one at a time add up to one table. With
+    ``side_by_side`` (a .gif path), episode 0 of every policy is also written there, the
+    policies side by side in the order given, each captioned with its final metric (at
+    :data:`SIDE_BY_SIDE_SCALE` of the size, every :data:`SIDE_BY_SIDE_EVERY`-th frame)."""
     from bathprint.agents import planning
     from bathprint.agents.policies import BASELINES, PLANNERS, baseline_name
     from bathprint.envs import resolve_id
 
     out = Path(out)
     _check_episodes(episodes)
+    if side_by_side is not None and (not animate or Path(side_by_side).suffix != ".gif"):
+        raise ConfigError(
+            f"side_by_side = {str(side_by_side)!r}: needs the animation of episode 0 "
+            "(animate true) and a path ending in .gif"
+        )
     for spec in specs:  # every policy checked before the first is evaluated
         name = baseline_name(spec)
         if name in PLANNERS:
@@ -293,11 +308,22 @@ def evaluate_many(
         trained_files(spec)
         _run_settings(spec, accuracy, resolve_id(env_id))
     summaries = []
+    panels: list[tuple[str, list[np.ndarray]]] = []
     for spec in specs:
-        _, summary, _ = evaluate_policy_spec(
+        label, summary, eps = evaluate_policy_spec(
             spec, env_id, episodes, seed, out, accuracy, images, animate, progress, target_set
         )
         summaries.append(summary)
+        panels.append((f"{label}: metric {eps[0].metrics['metric']:.3f}", eps[0].frames))
+    if side_by_side is not None:
+        from bathprint.envs.core import BathprintEnv
+        from bathprint.envs.play import side_by_side as compose
+        from bathprint.envs.play import write_animation
+
+        Path(side_by_side).parent.mkdir(parents=True, exist_ok=True)
+        fps = float(BathprintEnv.metadata["render_fps"])
+        frames = compose(panels, scale=SIDE_BY_SIDE_SCALE, every=SIDE_BY_SIDE_EVERY)
+        write_animation(frames, Path(side_by_side), fps / SIDE_BY_SIDE_EVERY)
     first = summaries[0]
     where = first.get("target_set", "eval")
     same = [

@@ -93,6 +93,39 @@ def write_animation(frames: list[np.ndarray], path: Path, fps: float) -> Path:
     return path
 
 
+def side_by_side(
+    panels: list[tuple[str, list[np.ndarray]]], scale: float = 1.0, every: int = 1
+) -> list[np.ndarray]:
+    """Frames of several episodes laid side by side, each panel captioned (``panels``:
+    (caption, RGB frames) in order), resized by ``scale`` and keeping every ``every``-th
+    frame and the last; a shorter episode holds its last frame. For comparing an agent with
+    the oracle on one target."""
+    from PIL import Image, ImageDraw
+
+    if not panels or any(not frames for _, frames in panels):
+        raise ValueError("side_by_side: every panel needs at least one frame")
+    if not (scale > 0 and every >= 1):
+        raise ValueError(f"side_by_side: scale = {scale}, every = {every}; need > 0 and >= 1")
+    n = max(len(frames) for _, frames in panels)
+    steps = [*range(0, n - 1, every), n - 1]
+    height = max(round(frames[0].shape[0] * scale) for _, frames in panels)
+    band = 18  # caption band (px)
+    out: list[np.ndarray] = []
+    for t in steps:
+        row = []
+        for caption, frames in panels:
+            pic = Image.fromarray(frames[min(t, len(frames) - 1)][..., :3])
+            if scale != 1.0:
+                size = (round(pic.width * scale), round(pic.height * scale))
+                pic = pic.resize(size, Image.Resampling.LANCZOS)
+            img = Image.new("RGB", (pic.width, height + band), "white")
+            img.paste(pic, (0, band))
+            ImageDraw.Draw(img).text((4, 3), caption, fill="black")
+            row.append(np.asarray(img))
+        out.append(np.concatenate(row, axis=1))
+    return out
+
+
 FIXED_SETS = ("eval", "validation", "test")
 
 
