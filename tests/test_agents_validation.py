@@ -533,9 +533,18 @@ def test_side_by_side_lays_panels_out_in_order_and_holds_the_shorter_episode():
     assert len(half) == 4 and half[0].shape == (10 + 18, 35, 3)
 
 
-def test_evaluate_writes_the_policies_side_by_side(tmp_path, capsys):
+def test_evaluate_writes_the_policies_side_by_side(tmp_path, capsys, monkeypatch):
+    import numpy as np
     from PIL import Image
 
+    import bathprint.envs.core as core
+
+    # small stand-in frames: the layout is under test here, not the drawing (which costs
+    # most of an evaluation's time and is tested with the environments)
+    calls = iter(range(10**6))  # each frame differs (a GIF merges identical frames)
+    monkeypatch.setattr(
+        core.BathprintEnv, "render", lambda self: np.full((40, 60, 3), next(calls) % 256, np.uint8)
+    )
     gif = tmp_path / "cmp.gif"
     argv = ["evaluate", "constant", "oracle", "--env", "CoilRadius-v1", "--episodes", "1",
             "--images", "0", "--out", str(tmp_path / "eval"), "--quiet"]  # fmt: skip
