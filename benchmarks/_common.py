@@ -72,11 +72,11 @@ def write_meta(path: Path) -> Path:
     return out
 
 
-def write_csv(name: str, rows: list[dict]) -> Path:
-    """Write rows (dicts with the same keys) to benchmarks/results/NAME.csv, and its
-    provenance to NAME.meta.json."""
-    RESULTS.mkdir(exist_ok=True)
-    path = RESULTS / f"{name}.csv"
+def write_csv(name: str | Path, rows: list[dict]) -> Path:
+    """Write rows (dicts with the same keys) to benchmarks/results/NAME.csv (or to the path
+    ``name``, when it is a Path), and its provenance to NAME.meta.json."""
+    path = name if isinstance(name, Path) else RESULTS / f"{name}.csv"
+    path.parent.mkdir(parents=True, exist_ok=True)
     with path.open("w", newline="") as f:
         w = csv.DictWriter(f, fieldnames=list(rows[0]))
         w.writeheader()

@@ -14,7 +14,6 @@ prints, per run, when the tip reaches the floor and when and where the run fails
 from __future__ import annotations
 
 import argparse
-import csv
 import math
 import sys
 from pathlib import Path
@@ -22,7 +21,7 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from _common import RESULTS, write_meta  # noqa: E402
+from _common import RESULTS, write_csv  # noqa: E402
 
 FLOOR_TOUCH_M = 0.5e-3  # the tip "reaches the floor" when its centre line is this close
 
@@ -85,12 +84,7 @@ def main(argv: list[str] | None = None) -> int:
             flush=True,
         )  # fmt: skip
         table += [{"q_outer_ml_min": q, "seed_um": seed, "end": end, **r} for r in rows]
-    with out.open("w", newline="") as f:
-        w = csv.DictWriter(f, fieldnames=list(table[0]))
-        w.writeheader()
-        w.writerows(table)
-    write_meta(out)
-    print(f"wrote {out}")
+    print(f"wrote {write_csv(out, table)}")
     return 0
 
 

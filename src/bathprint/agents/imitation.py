@@ -139,18 +139,16 @@ def collect_demonstrations(
             for r in range(int(replays)):
                 obs, _ = env.reset(seed=int(seed) * 100_003 + s, options={"target": target})
                 noisy = action_noise > 0 and (s * int(replays) + r) % 2 == 1
-                drift = rng.normal(0.0, action_noise, actions.shape[1]) if noisy and keep else None
+                drift = np.zeros(actions.shape[1])
                 for t in range(len(actions) + 10_000):
                     a = actions[min(t, len(actions) - 1)]
                     obs_rows.append(np.asarray(obs, np.float32))
                     act_rows.append(a)
                     played = a
-                    if drift is not None:
-                        if t > 0:
-                            drift = keep * drift + fresh * rng.normal(0.0, action_noise, a.shape)
+                    if noisy:  # AR(1), started from its stationary law (white for rho = 0)
+                        e = rng.normal(0.0, action_noise, a.shape)
+                        drift = e if t == 0 else keep * drift + fresh * e
                         played = np.clip(a + drift, -1, 1)
-                    elif noisy:
-                        played = np.clip(a + rng.normal(0.0, action_noise, a.shape), -1, 1)
                     obs, _, term, trunc, _ = env.step(np.asarray(played, np.float32))
                     if term or trunc:
                         break
