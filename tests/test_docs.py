@@ -58,7 +58,8 @@ def test_readme_commands_set_up_and_run():
     assert text.index("Set up and run the default scene") < text.index("Set up and run the tests")
     assert run.strip().endswith("bathprint simulate")
     assert "-c requirements/constraints.txt" in run and "-c requirements/constraints.txt" in tests
-    assert tests.strip().endswith("python -m pytest -q -n auto --dist loadfile") and "ruff check" in tests
+    assert tests.strip().endswith("python -m pytest -q -n auto --dist loadfile")
+    assert "ruff check" in tests
     ci = (ROOT / ".ci" / "run").read_text()
     assert "Set up and run the tests" in ci and "mkdocs build --strict" in ci
 
