@@ -1049,6 +1049,26 @@ def contact_newton() -> str:
     )
 
 
+def compile_times() -> str:
+    path = RESULTS / "compile.csv"
+    label = {
+        "wrappers": "every kernel with its CPython wrapper (`BATHPRINT_KERNEL_WRAPPERS=1`)",
+        "callees": "kernels called only from kernels without one (default)",
+    }
+    rows = [
+        [
+            label.get(r["variant"], r["variant"]),
+            r["cold_total_s"],
+            f"{float(r['cold_vs_wrappers']):.2f}×",
+            r["warm_total_s"],
+            "yes" if r["same_result"] == "True" else "**no**",
+        ]
+        for r in _csv(path)
+    ]
+    head = ["kernels", "cold start (s)", "vs wrappers", "warm start (s)", "same result"]
+    return _table(head, rows) + "\n\n" + provenance(path)
+
+
 def preconditioners() -> str:
     path = RESULTS / "preconditioners.csv"
     rows = [
@@ -1270,6 +1290,7 @@ TABLES: dict[str, Callable[[], str]] = {
     "gravity": gravity,
     "fast_jets": fast_jets,
     "kernel-ab": kernel_ab,
+    "compile": compile_times,
     **{f"campaign-{e}": (lambda e=e: campaign(e)) for e in CAMPAIGN_ENVS},
 }
 

@@ -43,7 +43,6 @@ from __future__ import annotations
 import argparse
 import csv
 import json
-import os
 import shutil
 import signal
 import sys
@@ -415,7 +414,7 @@ def _iter_serial(tasks: list[tuple[str, dict[str, Any]]]) -> Iterator[tuple[int,
 def _iter_pool(tasks: list[tuple[str, dict[str, Any]]], workers: int) -> Iterator[tuple[int, Any]]:
     from concurrent.futures import ProcessPoolExecutor, as_completed
 
-    from bathprint.studies.sweep import _mp_context
+    from bathprint.studies.sweep import _mp_context, stop_pool
 
     pool = ProcessPoolExecutor(max_workers=max(1, min(workers, len(tasks))),
                                mp_context=_mp_context())
@@ -429,14 +428,10 @@ def _iter_pool(tasks: list[tuple[str, dict[str, Any]]], workers: int) -> Iterato
                 yield futures[fut], exc
         finished = True
     finally:  # interrupted: stop the workers now (their runs resume from checkpoints)
-        procs = list((getattr(pool, "_processes", None) or {}).values())
-        pool.shutdown(wait=finished, cancel_futures=not finished)
-        if not finished:
-            for proc in procs:
-                try:
-                    os.kill(proc.pid, 9)
-                except (ProcessLookupError, PermissionError, TypeError, ValueError):
-                    pass
+        if finished:
+            pool.shutdown(wait=True)
+        else:
+            stop_pool(pool)
 
 
 def _iter_dask(tasks: list[tuple[str, dict[str, Any]]], scheduler: str,

@@ -10,7 +10,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from bathprint.core.jit import KERNEL
+from bathprint.core.jit import KERNEL, kernel
 
 
 @njit(**KERNEL)
@@ -89,7 +89,7 @@ def band_matvec(band: np.ndarray, n: int, kl: int, ku: int, x: np.ndarray, y: np
         y[i] = s
 
 
-@njit(**KERNEL)
+@kernel
 def add_blocks_matvec(cpl, x: np.ndarray, y: np.ndarray) -> None:
     """y += B x for the off-band 3x3 blocks ``cpl`` (:class:`bathprint.core.records.
     Couplings`: block k at node block (row[k], col[k]))."""

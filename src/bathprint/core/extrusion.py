@@ -24,7 +24,7 @@ from numba import njit
 
 from bathprint.core.composite import stiffness_factors
 from bathprint.core.effects.gelation import set_material
-from bathprint.core.jit import KERNEL
+from bathprint.core.jit import KERNEL, kernel
 from bathprint.core.layout import (
     GEL_SURFACE,
     MAT_BEND_FACTOR,
@@ -189,7 +189,7 @@ def needle_state(needle: np.ndarray, t: float, p: np.ndarray, d: np.ndarray, v: 
         d[a] /= nd
 
 
-@njit(**KERNEL)
+@kernel
 def set_boundary(model, rod, t: float, scratch) -> None:
     """Place the needle tip and the ghost node at time t and grow the inlet segment.
 
@@ -281,7 +281,7 @@ def material_row(
         row[MAT_KAPPA_X + 2] = mag * (-(d0 * u1 - d1 * u0))
 
 
-@njit(**KERNEL)
+@kernel
 def segment_material(s_a: float, s_b: float, t_now: float, model, row: np.ndarray, scratch) -> None:
     """Material record of the gel that left the needle between extruded lengths s_a < s_b.
 
@@ -316,7 +316,7 @@ def _hash_unit(seed: float, counter: int, salt: int) -> float:
     return (x & 0xFFFFFF) / float(0x800000) - 1.0
 
 
-@njit(**KERNEL)
+@kernel
 def split_inlet(model, rod, t: float, split_count: int, scratch) -> int:
     """Split the inlet segment of the (whole) rod in two; returns the new node count.
 
@@ -384,7 +384,7 @@ def split_inlet(model, rod, t: float, split_count: int, scratch) -> int:
     return n_nodes + 1
 
 
-@njit(**KERNEL)
+@kernel
 def refresh_inlet_material(model, rod, t: float, scratch) -> None:
     """Re-derive the growing inlet segment's record from everything extruded into it."""
     if not model.params[0].clamped:

@@ -42,7 +42,7 @@ from bathprint.core.extrusion import (
     transport_curvature,
 )
 from bathprint.core.freezing import tail_load
-from bathprint.core.jit import KERNEL
+from bathprint.core.jit import KERNEL, kernel
 from bathprint.core.layout import (
     C_CONTACT_REJECTIONS,
     C_DAMPED_NEWTON,
@@ -183,7 +183,7 @@ def _worst_node(vec: np.ndarray, nd: int) -> int:
     return node
 
 
-@njit(**KERNEL)
+@kernel
 def _rms(vec: np.ndarray, nd: int, ws) -> float:
     """RMS over the whole filament: the frozen tail counts with zero (``norm_extra``)."""
     s = 0.0
@@ -192,7 +192,7 @@ def _rms(vec: np.ndarray, nd: int, ws) -> float:
     return math.sqrt(s / max(nd + ws.solver[0].norm_extra, 1.0))
 
 
-@njit(**KERNEL)
+@kernel
 def _stage_solve(model, rod, state, ws, hg: float, t_stage: float) -> bool:
     """Newton solve of one implicit stage for the free node positions ``rod.pos``."""
     p = model.params[0]
@@ -279,7 +279,7 @@ def _stage_solve(model, rod, state, ws, hg: float, t_stage: float) -> bool:
     return False
 
 
-@njit(**KERNEL)
+@kernel
 def _filtered_norm(model, rod, state, ws, hg: float, t: float) -> float:
     """RMS of the error estimate filtered through the stage matrix (Shampine's filter).
 
@@ -304,7 +304,7 @@ def _filtered_norm(model, rod, state, ws, hg: float, t: float) -> float:
     return _rms(rhs, nd, ws)
 
 
-@njit(**KERNEL)
+@kernel
 def _implicit_step(model, rod, state, ws, h: float, t: float) -> float:
     """One SDIRK step (SDIRK2, SDIRK4, or backward Euler); returns the scaled error norm,
     or -1 on failure.
@@ -450,7 +450,7 @@ def explicit_step(model, rod, state, ws, h: float, t: float) -> float:
     return 0.0
 
 
-@njit(**KERNEL)
+@kernel
 def _max_strain_change(pos0, rod, p) -> tuple[float, int]:
     """Largest change of a segment's length over the step, relative to its rest length;
     a strain beyond ``numerics.max_strain`` counts as a change beyond the bound.
@@ -484,7 +484,7 @@ def _max_strain_change(pos0, rod, p) -> tuple[float, int]:
     return worst, worst_seg
 
 
-@njit(**KERNEL)
+@kernel
 def _check_state(rod, p, info) -> int:
     """Non-finite values or stretch past the bound: a status code, with the node in info."""
     pos, vel, seg_rest = rod.pos, rod.vel, rod.seg_rest
@@ -507,7 +507,7 @@ def _check_state(rod, p, info) -> int:
     return STATUS_OK
 
 
-@njit(**KERNEL)
+@kernel
 def buckling_time(rod, p) -> float:
     """Time over which the fastest buckling mode of the most compressed segment grows by e:
     1 / sigma, where sigma is the largest root of m sigma^2 + 2 mu_s sigma = Delta with
@@ -549,7 +549,7 @@ def _rests_on_floor(pos, seg_mat, node: int, p) -> bool:
     return pos[3 * node + 2] <= p.floor_z + 1.05 * r
 
 
-@njit(**KERNEL)
+@kernel
 def _proposed_step(model, state, ws) -> float:
     """The next step: fixed, or the controller's, bounded by the largest step, the inlet's
     growth (``numerics.max_inlet_growth`` node spacings), the buckling rate and, with
@@ -581,7 +581,7 @@ def _proposed_step(model, state, ws) -> float:
     return h
 
 
-@njit(**KERNEL)
+@kernel
 def _attempt(model, state, ws, h: float) -> tuple[float, int]:
     """Take one step of size h on the active rod; returns (scaled error, or -1 on failure;
     which bound set it: CAUSE_*)."""
@@ -641,7 +641,7 @@ def _attempt(model, state, ws, h: float) -> tuple[float, int]:
     return err, cause
 
 
-@njit(**KERNEL)
+@kernel
 def _reject(model, state, ws, h: float, err: float, cause: int) -> int:
     """Restore the state of the step's start and shrink the next step; a status code."""
     p = model.params[0]
@@ -680,7 +680,7 @@ def _reject(model, state, ws, h: float, err: float, cause: int) -> int:
     return STATUS_OK
 
 
-@njit(**KERNEL)
+@kernel
 def _accept(model, state, ws, h: float, h_taken: float, err: float) -> int:
     """After an accepted step: check the state, carry the curvature and the frozen tail
     along, set the next step, give birth to nodes at the inlet, update the material, and

@@ -31,7 +31,7 @@ from numba import njit
 
 from bathprint.core.banded import add_blocks_matvec, band_lu, band_matvec, band_solve
 from bathprint.core.effects.hydrodynamics import apply_nonlocal
-from bathprint.core.jit import KERNEL
+from bathprint.core.jit import KERNEL, kernel
 from bathprint.core.layout import C_KRYLOV_FAILURES, C_KRYLOV_ITERATIONS, KL, KU
 
 KRYLOV_MAX_RESTARTS = 10  # restarts of KRYLOV_RESTART iterations each before a solve stalls
@@ -44,7 +44,7 @@ def off_band(ws) -> bool:
     return ws.cpl.count[0] > 0 or ws.hydro.memory[0].linearized
 
 
-@njit(**KERNEL)
+@kernel
 def factor(ws, nd: int) -> bool:
     """Factorise the assembled Newton matrix's band (``ws.band``) in place (keeping an
     unfactored copy when couplings off the band need it for GMRES); False if singular."""
@@ -56,7 +56,7 @@ def factor(ws, nd: int) -> bool:
     return band_lu(ws.band, nd, KL, KU, ws.piv) == 0
 
 
-@njit(**KERNEL)
+@kernel
 def solve(ws, nd: int, rhs: np.ndarray, counters: np.ndarray, rtol: float) -> bool:
     """Overwrite ``rhs`` with the Newton matrix's inverse applied to it (with couplings off
     the band: to a residual ``rtol`` of the right-hand side); False if GMRES stalled."""
@@ -66,13 +66,13 @@ def solve(ws, nd: int, rhs: np.ndarray, counters: np.ndarray, rtol: float) -> bo
     return _gmres(ws, nd, rhs, counters, rtol)
 
 
-@njit(**KERNEL)
+@kernel
 def damping_times(ws, nd: int, x: np.ndarray, y: np.ndarray) -> None:
     """y = D x with D the damping / mass matrix assembled into ``ws.band2``."""
     band_matvec(ws.band2, nd, KL, KU, x, y)
 
 
-@njit(**KERNEL)
+@kernel
 def matvec(ws, nd: int, x: np.ndarray, y: np.ndarray) -> None:
     """y = A x, A = the unfactored band (``ws.krylov.band_a``) plus the off-band blocks (and
     the nonlocal part of hydrodynamics, :func:`bathprint.core.effects.hydrodynamics.
@@ -83,7 +83,7 @@ def matvec(ws, nd: int, x: np.ndarray, y: np.ndarray) -> None:
         apply_nonlocal(ws, nd, x, y)
 
 
-@njit(**KERNEL)
+@kernel
 def _off_band_times(ws, nd: int, v: np.ndarray, z: np.ndarray, y: np.ndarray) -> None:
     """y = A z for z = M^-1 v: since M is the LU of the band B, B z = v (to the LU's
     round-off), and A z = v + (A - B) z needs only the blocks off the band and the nonlocal
@@ -103,7 +103,7 @@ def _dot(a: np.ndarray, b: np.ndarray, nd: int) -> float:
     return s
 
 
-@njit(**KERNEL)
+@kernel
 def _gmres(ws, nd: int, b: np.ndarray, counters: np.ndarray, rtol: float) -> bool:
     """Restarted GMRES for A x = b, right-preconditioned by the banded LU (in ``ws.band``):
     minimise |b - A M^-1 u| over the Krylov space, x = M^-1 u. The preconditioned vectors

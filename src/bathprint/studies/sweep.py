@@ -360,20 +360,34 @@ def _iter_pool(
         if finished:
             pool.shutdown(wait=True)
         else:  # interrupted or failed: drop queued work and stop the running runs now
-            procs = list((getattr(pool, "_processes", None) or {}).values())
-            pool.shutdown(wait=False, cancel_futures=True)
-            for proc in procs:
-                # by pid: the workers ignore SIGTERM, and when a SIGTERM to the process
-                # group has ended the forkserver, proc.is_alive() wrongly says False
-                try:
-                    os.kill(proc.pid, signal.SIGKILL)
-                except (ProcessLookupError, PermissionError, TypeError, ValueError):
-                    pass
-            for proc in procs:
-                try:
-                    proc.join(timeout=5.0)
-                except (ValueError, AssertionError):  # closed by the pool / not our child
-                    pass
+            stop_pool(pool)
+
+
+def stop_pool(pool: ProcessPoolExecutor) -> None:
+    """Stop a process pool now: drop its queued work, kill its workers, and wait for its
+    management thread.
+
+    The workers are killed by pid: they ignore SIGTERM, and when a SIGTERM to the process
+    group has ended the forkserver, ``proc.is_alive()`` wrongly says False. The management
+    thread closes its wake-up pipe when it sees the workers gone; left running, it can
+    close it while the interpreter's exit hook writes to it (``OSError: Bad file
+    descriptor``, printed as an ignored exception after a clean stop, Python 3.11).
+    """
+    procs = list((getattr(pool, "_processes", None) or {}).values())
+    pool.shutdown(wait=False, cancel_futures=True)
+    for proc in procs:
+        try:
+            os.kill(proc.pid, signal.SIGKILL)
+        except (ProcessLookupError, PermissionError, TypeError, ValueError):
+            pass
+    for proc in procs:
+        try:
+            proc.join(timeout=5.0)
+        except (ValueError, AssertionError):  # closed by the pool / not our child
+            pass
+    manager = getattr(pool, "_executor_manager_thread", None)
+    if manager is not None and manager.is_alive():
+        manager.join(timeout=5.0)
 
 
 def _iter_dask(

@@ -18,17 +18,15 @@ from __future__ import annotations
 
 import math
 
-from numba import njit
-
 from bathprint.core.assemble import assemble
 from bathprint.core.effects.hydrodynamics import flow
-from bathprint.core.jit import KERNEL
+from bathprint.core.jit import kernel
 from bathprint.core.layout import HYDRO_LAGGED
 from bathprint.core.records import Stage
 from bathprint.core.topology import filament_segments, free_nodes
 
 
-@njit(**KERNEL)
+@kernel
 def _flow_at_state(model, rod, out, state, t: float, target) -> None:
     """The nonlocal flow at the rod's current state (time t) into ``target``: one force
     evaluation of the listed effects, in which the hydrodynamics kernel records the sources
@@ -39,7 +37,7 @@ def _flow_at_state(model, rod, out, state, t: float, target) -> None:
     flow(rod.pos, rod.node_s, n_seg + 1, n_seg, out.hydro, target)
 
 
-@njit(**KERNEL)
+@kernel
 def prepare(model, rod, out, state) -> None:
     """At a step's start: the flow at the current state into ``out.hydro.u_nl``, taken from
     the last attempted step when that was accepted and no node was born since (else
@@ -67,7 +65,7 @@ def prepare(model, rod, out, state) -> None:
     mem.u_nodes = n
 
 
-@njit(**KERNEL)
+@kernel
 def check(model, rod, out, state, h: float, norm_extra: float) -> float:
     """After an attempted step of h to the rod's current state: the flow there (kept for
     the next step) and the lag error (h/2) RMS(u_nl(t + h) - u_nl(t)) in units of the error

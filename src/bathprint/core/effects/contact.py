@@ -46,7 +46,7 @@ from bathprint.core.effects._segment_geometry import (
     penalty,
     segment_distance,
 )
-from bathprint.core.jit import KERNEL
+from bathprint.core.jit import KERNEL, kernel
 from bathprint.core.layout import MAT_RADIUS
 from bathprint.core.topology import filament_segments, free_nodes
 
@@ -72,7 +72,7 @@ def min_separation_for(delta: float, dl: float) -> int:
     return max(2, math.ceil(1.6 * delta / dl))
 
 
-@njit(**KERNEL)
+@kernel
 def _delta_max(model, rod) -> float:
     """The largest contact distance on the rod (m)."""
     p = model.params[0]
@@ -108,7 +108,7 @@ def _motion(pos, ref, n_nodes: int, first: int, shift0, shift1, shift2) -> float
     return math.sqrt(m2)
 
 
-@njit(**KERNEL)
+@kernel
 def prepare(model, whole, frozen: int, contact) -> bool:
     """At the start of a step: the candidate pairs (rebuilt only when needed), each pair's
     allowance (how far its nodes may move relative to each other in the step), and the
@@ -222,7 +222,7 @@ def prepare(model, whole, frozen: int, contact) -> bool:
     return True
 
 
-@njit(**KERNEL)
+@kernel
 def check(model, whole, pos0, frozen: int, contact) -> float:
     """The no-pass-through ratio of a step from ``pos0`` (the active nodes at its start) to
     the whole rod's positions now: < 1 when no segments can have crossed and no pair outside
@@ -348,7 +348,7 @@ def _pair_motion(motion, i: int, j: int) -> float:
     return min(common, still)
 
 
-@njit(**KERNEL)
+@kernel
 def accepted(contact, h: float) -> None:
     """After an accepted step of h (s): remember its ratio and step for the next step's
     size, and set the near margin from its motion."""
@@ -360,7 +360,7 @@ def accepted(contact, h: float) -> None:
     )
 
 
-@njit(**KERNEL)
+@kernel
 def step_limit(contact) -> float:
     """A bound on the next step (s) from the last one's no-pass-through ratio r: steps scale
     the relative motion, so a step of TARGET_RATIO / r times the last keeps the ratio near
@@ -371,7 +371,7 @@ def step_limit(contact) -> float:
     return mem.last_step * TARGET_RATIO / mem.last_ratio
 
 
-@njit(**KERNEL)
+@kernel
 def accumulate(model, rod, stage, out) -> float:
     """Add contact (and friction) forces of the candidate pairs, and their Jacobian with the
     blocks between distant nodes into ``out.cpl``; return the contact energy (J).

@@ -28,12 +28,12 @@ from numba import njit
 
 from bathprint.core.effects._band import add_block
 from bathprint.core.effects._drag_laws import law
-from bathprint.core.jit import KERNEL
+from bathprint.core.jit import KERNEL, kernel
 from bathprint.core.layout import DRAG_FINITE_RE, MAT_RADIUS
 from bathprint.core.topology import filament_segments, free_nodes
 
 
-@njit(**KERNEL)
+@kernel
 def accumulate(model, rod, stage, out) -> float:
     """Add drag forces (and -cv dF/dv - cx dF/dx); return the dissipation rate (W)."""
     p = model.params[0]
@@ -103,7 +103,7 @@ def add_law_share(
     add_block(out.band, n_free, i, j, blk, -cx)
 
 
-@njit(**KERNEL)
+@kernel
 def _accumulate_finite_re(model, rod, stage, out) -> float:
     """The finite_re law: each node gets (l/2) F(u, t) of each of its segments."""
     p = model.params[0]

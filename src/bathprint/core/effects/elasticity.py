@@ -18,7 +18,7 @@ import numpy as np
 from numba import njit
 
 from bathprint.core.effects._band import add_block
-from bathprint.core.jit import KERNEL
+from bathprint.core.jit import KERNEL, kernel
 from bathprint.core.layout import (
     KL,
     MAT_BEND_FACTOR,
@@ -206,7 +206,7 @@ def add_bend_hessian(band: np.ndarray, n_free: int, i: int, hess: np.ndarray, cx
                     band[row, off + b] += cx * v
 
 
-@njit(**KERNEL)
+@kernel
 def accumulate(model, rod, stage, out) -> float:
     """Add stretching and bending forces (and cx * Hessian); return the elastic energy (J)."""
     p = model.params[0]

@@ -2,12 +2,10 @@
 
 from __future__ import annotations
 
-from numba import njit
-
-from bathprint.core.jit import KERNEL
+from bathprint.core.jit import kernel
 
 
-@njit(**KERNEL)
+@kernel
 def accumulate(model, rod, stage, out) -> float:
     """Add the end load to node 0; return its potential energy -P.x0 (J)."""
     load = model.params[0].end_load

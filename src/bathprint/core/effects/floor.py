@@ -16,7 +16,7 @@ import math
 from numba import njit
 
 from bathprint.core.effects._band import add_block, add_diag
-from bathprint.core.jit import KERNEL
+from bathprint.core.jit import KERNEL, kernel
 from bathprint.core.layout import MAT_RADIUS
 from bathprint.core.topology import filament_segments, free_nodes
 
@@ -35,7 +35,7 @@ def friction_block(blk, mu_n: float, ux: float, uy: float, s: float) -> None:
             blk[a, b] = mu_n * ((1.0 if a == b else 0.0) / s - u[a] * u[b] / s3)
 
 
-@njit(**KERNEL)
+@kernel
 def accumulate(model, rod, stage, out) -> float:
     """Add contact and friction forces (with Jacobian); return the contact energy (J)."""
     p = model.params[0]

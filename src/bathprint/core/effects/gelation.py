@@ -43,7 +43,7 @@ import numpy as np
 from numba import njit
 
 from bathprint.core.composite import stiffness_factors
-from bathprint.core.jit import KERNEL
+from bathprint.core.jit import KERNEL, kernel
 from bathprint.core.layout import (
     GEL_SURFACE,
     MAT_BEND_FACTOR,
@@ -189,7 +189,7 @@ def node_curvature(pos: np.ndarray, seg_rest: np.ndarray, i: int, out: np.ndarra
     out[2] = f * (e1x * e2y - e1y * e2x)
 
 
-@njit(**KERNEL)
+@kernel
 def update(model, rod, t: float, scratch) -> None:
     """Set each segment's modulus from its age; with memory, relax kappa0 toward kappa.
     A material effect: called once per accepted step on the whole rod (frozen tail too)."""
@@ -231,7 +231,7 @@ def _segment_curvature(pos, seg_rest, n_nodes: int, j: int, ka, kb) -> bool:
     return True
 
 
-@njit(**KERNEL)
+@kernel
 def _update_surface(model, rod, t: float, scratch) -> None:
     """The surface model's update: the shell's factors from each segment's age; with memory,
     kappa0 relaxes toward kappa by the ratio of the old to the new bending stiffness."""

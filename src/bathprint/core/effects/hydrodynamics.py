@@ -64,7 +64,7 @@ from bathprint.core.effects._stokeslet import (
     window_lengths,
 )
 from bathprint.core.effects.drag import add_law_share
-from bathprint.core.jit import KERNEL
+from bathprint.core.jit import KERNEL, kernel
 from bathprint.core.layout import DRAG_FINITE_RE, HYDRO_IMPLICIT, KL, KU, MAT_RADIUS
 from bathprint.core.topology import filament_segments, free_nodes
 
@@ -75,7 +75,7 @@ from bathprint.core.topology import filament_segments, free_nodes
 OSEEN_FACTOR = 2.0
 
 
-@njit(**KERNEL)
+@kernel
 def geometry(rod, n_seg: int, a_cut: float, hyd) -> None:
     """Each filament node's share of the length (``hyd.weight``) and its window sides
     (``hyd.sides``: a_-, a_+, clipped at the ends; arclength is the material coordinate)."""
@@ -124,7 +124,7 @@ def _window_law(p, hyd, i: int, r: float, u0, u1, u2, tt, f3, du, dt) -> float:
     return power
 
 
-@njit(**KERNEL)
+@kernel
 def sources(model, rod, out, n_free: int, n_seg: int) -> None:
     """The force per length on the fluid: at free nodes the other effects' force (in
     ``out.force`` when this runs, after them) over the node's share of the length; at a
@@ -195,7 +195,7 @@ def flow(pos, node_s, n_targets: int, n_seg: int, hyd, out_vel) -> None:
     )  # fmt: skip
 
 
-@njit(**KERNEL)
+@kernel
 def remember(model, hyd) -> None:
     """Copy what the operator needs of the model into ``hyd.memory``."""
     p = model.params[0]
@@ -208,7 +208,7 @@ def remember(model, hyd) -> None:
     mem.fmm_precision = p.hydro_fmm_precision
 
 
-@njit(**KERNEL)
+@kernel
 def accumulate(model, rod, stage, out) -> float:
     """Add the drag of the local windows at the velocity relative to the nonlocal flow (and
     its Jacobian); with the implicit coupling evaluate that flow from the other effects'
@@ -278,7 +278,7 @@ def accumulate(model, rod, stage, out) -> float:
     return power
 
 
-@njit(**KERNEL)
+@kernel
 def apply_nonlocal(ws, nd: int, x: np.ndarray, y: np.ndarray) -> None:
     """y += R M_nl W^-1 J_other x: the Newton matrix's nonlocal part at the last
     linearisation (implicit coupling), matrix-free: the other effects' Newton matrix (band

@@ -10,16 +10,14 @@ from __future__ import annotations
 
 import math
 
-from numba import njit
-
 from bathprint.core.effects._band import add_block
 from bathprint.core.effects.gravity import bath_density
-from bathprint.core.jit import KERNEL
+from bathprint.core.jit import kernel
 from bathprint.core.layout import MAT_DENSITY, MAT_RADIUS
 from bathprint.core.topology import filament_segments, free_nodes
 
 
-@njit(**KERNEL)
+@kernel
 def accumulate(model, rod, stage, out) -> float:
     """Add -M a (and ca * M); return the kinetic energy 1/2 v.M v (J)."""
     p = model.params[0]

@@ -35,7 +35,7 @@ from numba import njit
 from bathprint.core.effects._band import add_block
 from bathprint.core.effects.elasticity import add_bend_hessian, add_stencil_force
 from bathprint.core.extrusion import flow_rate
-from bathprint.core.jit import KERNEL
+from bathprint.core.jit import KERNEL, kernel
 from bathprint.core.layout import MAT_INNER_FRACTION, MAT_RADIUS
 from bathprint.core.topology import filament_segments, free_nodes
 
@@ -314,7 +314,7 @@ def bend_rate_grad_hess(
     return energy
 
 
-@njit(**KERNEL)
+@kernel
 def accumulate(model, rod, stage, out) -> float:
     """Add the viscous forces of stretching and bending (and their Jacobian); return the
     dissipation rate (W)."""
