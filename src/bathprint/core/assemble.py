@@ -9,6 +9,7 @@ the other effects (whose forces drive the nonlocal flow).
 from __future__ import annotations
 
 import numpy as np
+from numba import njit
 
 from bathprint.core.banded import band_clear
 from bathprint.core.effects import (
@@ -23,7 +24,7 @@ from bathprint.core.effects import (
     viscosity,
 )
 from bathprint.core.freezing import accumulate_tail
-from bathprint.core.jit import kernel
+from bathprint.core.jit import KERNEL
 from bathprint.core.layout import (
     E_CONTACT,
     E_DRAG,
@@ -38,7 +39,7 @@ from bathprint.core.layout import (
 from bathprint.core.topology import free_nodes
 
 
-@kernel
+@njit(**KERNEL)
 def assemble(model, rod, stage, out, calls: np.ndarray, energies: np.ndarray) -> None:
     """Total force on every node into ``out.force``; ``-(cx dF/dx + cv dF/dv + ca dF/da)``
     on the free nodes into ``out.band`` when ``stage.jac``; each effect's energy into

@@ -189,7 +189,7 @@ def needle_state(needle: np.ndarray, t: float, p: np.ndarray, d: np.ndarray, v: 
         d[a] /= nd
 
 
-@kernel
+@njit(**KERNEL)
 def set_boundary(model, rod, t: float, scratch) -> None:
     """Place the needle tip and the ghost node at time t and grow the inlet segment.
 

@@ -37,16 +37,17 @@ from __future__ import annotations
 import math
 
 import numpy as np
+from numba import njit
 
 from bathprint.core.effects._band import add_block
 from bathprint.core.effects.floor import friction_block
 from bathprint.core.effects.gravity import bath_density
-from bathprint.core.jit import kernel
+from bathprint.core.jit import KERNEL
 from bathprint.core.layout import MAT_DENSITY, MAT_RADIUS
 from bathprint.core.topology import free_nodes
 
 
-@kernel
+@njit(**KERNEL)
 def tail_load(model, rod, n_frozen: int, gravity_on: bool, on_floor: bool, ws) -> None:
     """Lumped drag tensor and net weight of the frozen segments 0..n_frozen-1 of the whole
     rod into ``ws.tail`` (``on`` is False when nothing is frozen). ``on_floor``: the tail
@@ -111,7 +112,7 @@ def tail_load(model, rod, n_frozen: int, gravity_on: bool, on_floor: bool, ws) -
     tail.force[2] -= weight
 
 
-@kernel
+@njit(**KERNEL)
 def accumulate_tail(model, rod, stage, out) -> float:
     """Add the frozen tail's load to the active end (node 0 of the active views) and
     cv D + ca M to its Jacobian block; returns the tail drag's dissipation rate

@@ -507,7 +507,7 @@ def _check_state(rod, p, info) -> int:
     return STATUS_OK
 
 
-@kernel
+@njit(**KERNEL)
 def buckling_time(rod, p) -> float:
     """Time over which the fastest buckling mode of the most compressed segment grows by e:
     1 / sigma, where sigma is the largest root of m sigma^2 + 2 mu_s sigma = Delta with

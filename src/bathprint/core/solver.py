@@ -44,7 +44,7 @@ def off_band(ws) -> bool:
     return ws.cpl.count[0] > 0 or ws.hydro.memory[0].linearized
 
 
-@kernel
+@njit(**KERNEL)
 def factor(ws, nd: int) -> bool:
     """Factorise the assembled Newton matrix's band (``ws.band``) in place (keeping an
     unfactored copy when couplings off the band need it for GMRES); False if singular."""
@@ -56,7 +56,7 @@ def factor(ws, nd: int) -> bool:
     return band_lu(ws.band, nd, KL, KU, ws.piv) == 0
 
 
-@kernel
+@njit(**KERNEL)
 def solve(ws, nd: int, rhs: np.ndarray, counters: np.ndarray, rtol: float) -> bool:
     """Overwrite ``rhs`` with the Newton matrix's inverse applied to it (with couplings off
     the band: to a residual ``rtol`` of the right-hand side); False if GMRES stalled."""

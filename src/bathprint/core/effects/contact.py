@@ -108,7 +108,7 @@ def _motion(pos, ref, n_nodes: int, first: int, shift0, shift1, shift2) -> float
     return math.sqrt(m2)
 
 
-@kernel
+@njit(**KERNEL)
 def prepare(model, whole, frozen: int, contact) -> bool:
     """At the start of a step: the candidate pairs (rebuilt only when needed), each pair's
     allowance (how far its nodes may move relative to each other in the step), and the
@@ -371,7 +371,7 @@ def step_limit(contact) -> float:
     return mem.last_step * TARGET_RATIO / mem.last_ratio
 
 
-@kernel
+@njit(**KERNEL)
 def accumulate(model, rod, stage, out) -> float:
     """Add contact (and friction) forces of the candidate pairs, and their Jacobian with the
     blocks between distant nodes into ``out.cpl``; return the contact energy (J).

@@ -33,7 +33,7 @@ from bathprint.core.layout import DRAG_FINITE_RE, MAT_RADIUS
 from bathprint.core.topology import filament_segments, free_nodes
 
 
-@kernel
+@njit(**KERNEL)
 def accumulate(model, rod, stage, out) -> float:
     """Add drag forces (and -cv dF/dv - cx dF/dx); return the dissipation rate (W)."""
     p = model.params[0]

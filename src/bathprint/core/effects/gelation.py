@@ -189,7 +189,7 @@ def node_curvature(pos: np.ndarray, seg_rest: np.ndarray, i: int, out: np.ndarra
     out[2] = f * (e1x * e2y - e1y * e2x)
 
 
-@kernel
+@njit(**KERNEL)
 def update(model, rod, t: float, scratch) -> None:
     """Set each segment's modulus from its age; with memory, relax kappa0 toward kappa.
     A material effect: called once per accepted step on the whole rod (frozen tail too)."""

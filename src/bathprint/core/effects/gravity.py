@@ -15,7 +15,7 @@ import math
 from numba import njit
 
 from bathprint.core.effects._band import add_diag
-from bathprint.core.jit import KERNEL, kernel
+from bathprint.core.jit import KERNEL
 from bathprint.core.layout import MAT_DENSITY, MAT_RADIUS
 from bathprint.core.topology import filament_segments, free_nodes
 
@@ -39,7 +39,7 @@ def bath_density(p, z: float, ramp: float = 0.0) -> tuple[float, float]:
     return top + f * (AIR_DENSITY - top), (AIR_DENSITY - top) / ramp
 
 
-@kernel
+@njit(**KERNEL)
 def accumulate(model, rod, stage, out) -> float:
     """Add net weight (and its z-Jacobian); return the gravitational potential energy (J)."""
     p = model.params[0]

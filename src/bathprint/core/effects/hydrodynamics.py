@@ -208,7 +208,7 @@ def remember(model, hyd) -> None:
     mem.fmm_precision = p.hydro_fmm_precision
 
 
-@kernel
+@njit(**KERNEL)
 def accumulate(model, rod, stage, out) -> float:
     """Add the drag of the local windows at the velocity relative to the nonlocal flow (and
     its Jacobian); with the implicit coupling evaluate that flow from the other effects'
@@ -278,7 +278,7 @@ def accumulate(model, rod, stage, out) -> float:
     return power
 
 
-@kernel
+@njit(**KERNEL)
 def apply_nonlocal(ws, nd: int, x: np.ndarray, y: np.ndarray) -> None:
     """y += R M_nl W^-1 J_other x: the Newton matrix's nonlocal part at the last
     linearisation (implicit coupling), matrix-free: the other effects' Newton matrix (band
