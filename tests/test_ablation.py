@@ -24,10 +24,12 @@ def test_quick_ablation_writes_its_outputs_and_resumes(tmp_path) -> None:
     assert main(argv) == 0
     rows = _read_csv(tmp_path / "ablation.csv")
     n_points = sum(len(pts) for pts, _ in ablation.QUICK.values())
-    names = [v.name for v in ablation.VARIANTS] + [ablation.ALL]
+    names = [v.name for v in (*ablation.VARIANTS, *ablation.COMBINATIONS)] + [ablation.ALL]
     assert len(rows) == n_points * len(names)
     assert [r["variant"] for r in rows[: len(names)]] == names
-    _, missing = ablation.plan(quick=True)
+    planned, missing = ablation.plan(quick=True)
+    pair = [r for r in planned if r["variant"] == "finite_re_hydrodynamics"]
+    assert pair and all(r["overrides"]["drag.model"] == "finite_re" for r in pair)
     base = set(ablation.BASE_EFFECTS)
     available = [v for v in ablation.VARIANTS if v.name not in missing]
     for r in rows:
@@ -37,6 +39,8 @@ def test_quick_ablation_writes_its_outputs_and_resumes(tmp_path) -> None:
         assert r["status"] == "ok", r
         effects = set(r["effects"].split())
         assert base <= effects
+        if r["variant"] == "finite_re_hydrodynamics":
+            assert effects - base - {"floor"} == {"hydrodynamics"}
         if r["variant"] == ablation.ALL:
             assert effects == base | {e for v in available for e in v.effects} | (
                 {"floor"} if r["set"] == "fig1b" else set()
@@ -46,7 +50,7 @@ def test_quick_ablation_writes_its_outputs_and_resumes(tmp_path) -> None:
         assert r["interpenetrates"] == str(gap < ablation.INTERPENETRATION_RATIO)
     md = (tmp_path / "ablation.md").read_text()
     assert "## Relative change against the baseline" in md and "## Every run" in md
-    for v in ablation.VARIANTS:
+    for v in (*ablation.VARIANTS, *ablation.COMBINATIONS):
         assert v.label in md
     assert (tmp_path / "ablation.png").stat().st_size > 10_000
     report = json.loads((tmp_path / "reproduce.json").read_text())
@@ -74,6 +78,11 @@ def test_a_variant_the_scene_refuses_is_not_available_and_left_out_of_all(monkey
             assert "drag.no_such_key" not in r["overrides"]
         elif r["variant"] == "inertia":
             assert r["overrides"]["effects"][-1] == "inertia"
+        elif r["variant"] == "finite_re_hydrodynamics":  # a combination, not in "all"
+            assert r["overrides"]["effects"][-1] == "hydrodynamics"
+            assert "hydrodynamics" not in next(
+                x for x in runs if x["variant"] == ablation.ALL
+            )["overrides"]["effects"]
         else:
             assert r["overrides"]["effects"][-1] in ("gravity", "floor")
 
@@ -169,7 +178,8 @@ def test_the_studies_refuse_bad_options(capsys) -> None:
 def test_the_cost_probe_times_every_variant_at_one_point() -> None:
     costs = ablation.time_variants("fig2", ablation.QUICK["fig2"][0][0], quick=True)
     _, missing = ablation.plan(quick=True)
-    assert list(costs) == [v.name for v in ablation.VARIANTS] + [ablation.ALL]
+    variants = (*ablation.VARIANTS, *ablation.COMBINATIONS)
+    assert list(costs) == [v.name for v in variants] + [ablation.ALL]
     for name, c in costs.items():
         if name in missing:
             assert c["error"].startswith("not available")

@@ -5,9 +5,10 @@ Points: the paper's four Fig. 1B examples (floor 30 mm below the needle, as for 
 points spanning its Fig. 2 range (no floor, as for Fig. 2). Variants: local slender-body
 (Stokes) drag with elasticity and gravity only, then one effect added at a time (inertia,
 self-contact, finite-Reynolds drag, nonlocal hydrodynamics, surface gelation, the solution's
-viscous stress) and all of them together. A variant whose scene keys this build does not
-know (probed by loading its scene) gets "not available" rows and is left out of "all". Per
-run: l (the paper's inset definition and the other three of
+viscous stress), the two that tighten the coils together (finite-Re drag with nonlocal
+hydrodynamics, ``COMBINATIONS``) and all of them together. A variant whose scene keys this
+build does not know (probed by loading its scene) gets "not available" rows and is left out
+of "all". Per run: l (the paper's inset definition and the other three of
 :func:`bathprint.analysis.measure.buckling_length_definitions`), R, Lambda, omega (rad/s and
 Hz), omega R / v, the regime, and the smallest gap between non-adjacent segments over the
 saved frames (:func:`bathprint.analysis.measure.min_gap_ratio`; below
@@ -67,6 +68,17 @@ VARIANTS = (
     Variant("surface_gel", "+ surface gelation", ("gelation",), {"gelation.model": "surface"}),
     Variant("viscosity", "+ solution viscosity", ("viscosity",)),
 )
+# pairs of effects measured together (not one at a time, and not part of "all", which is
+# built from VARIANTS): the two that tighten the coils, without the inertia that stops the
+# fast points; does their product reach the paper's R prefactor (docs/reproduction.md)?
+COMBINATIONS = (
+    Variant(
+        "finite_re_hydrodynamics",
+        "+ finite-Re drag + nonlocal hydrodynamics",
+        ("hydrodynamics",),
+        {"drag.model": "finite_re"},
+    ),
+)
 ALL = "all"
 BASELINE = "stokes"
 
@@ -93,7 +105,7 @@ FULL = {
 # nonlocal hydrodynamics costs O(N^2) per evaluation (260-450 s for a Fig. 1B run at the
 # full budget, measured): the variants with it run on the Fig. 1B points and on this row of
 # the Fig. 2 grid only; their other Fig. 2 rows say "not run"
-NONLOCAL = ("hydrodynamics", "all")
+NONLOCAL = ("hydrodynamics", "finite_re_hydrodynamics", "all")
 FIG2_NONLOCAL = [(0.41, q) for q in (0.3, 0.5, 1.0, 2.0)]
 NOT_RUN = "not run: nonlocal hydrodynamics runs on the d = 0.41 mm row of the Fig. 2 grid only"
 QUICK_BUDGET = Budget(turns=1.0, max_duration_s=0.12, max_segments=60.0)
@@ -164,10 +176,11 @@ def plan(quick: bool = False) -> tuple[list[dict], dict[str, str]]:
     probe_base = base_overrides(*pts2[0], False, budget2)
     missing: dict[str, str] = {}
     available = []
-    for v in VARIANTS:
+    for v in (*VARIANTS, *COMBINATIONS):
         why = _probe(variant_overrides(probe_base, v.effects, v.overrides))
         if why is None:
-            available.append(v)
+            if v in VARIANTS:
+                available.append(v)
         else:
             missing[v.name] = why
     effects = [e for v in available for e in v.effects]
@@ -187,7 +200,7 @@ def plan(quick: bool = False) -> tuple[list[dict], dict[str, str]]:
     for set_name, (pts, budget) in sets.items():
         for d, q in pts:
             base = base_overrides(d, q, set_name == "fig1b", budget)
-            for v in (*VARIANTS, combined):
+            for v in (*VARIANTS, *COMBINATIONS, combined):
                 skipped = (
                     not quick
                     and set_name == "fig2"
