@@ -22,6 +22,18 @@ Writes benchmarks/results/bc_search_<Env>.csv (+ .meta.json).
 targets: its actions teacher-forced on the printing actions' own states (RMS to them), and
 the printing actions replayed with white noise of each std in ``NOISE_STDS`` (the metric an
 uncorrelated action error of that size costs); benchmarks/results/bc_search_<Env>_diagnosis.csv.
+
+``--dagger ROW`` tries DAgger (Ross, Gordon & Bagnell 2011) on that row's cloned policy: each
+of ``--rounds`` rounds plays the current policy (deterministic) on the next
+``--round-targets`` training targets, labels every visited state with an expert's action,
+adds the pairs to the demonstrations and refits for ``--refit-epochs``; after every round
+the policy plays the validation targets. Two experts, both free to query: ``printing`` (the
+target's own printing action at that step: time-indexed) and ``aligned`` (the same with its
+needle velocity mapped by the rotation or reflection about the vertical that best aligns the
+last 15 mm of target with what has been scored, so that it points the way the printed curve
+has turned). Each expert is also played itself, on the validation targets, with the AR(1)
+noise (std 0.15, rho 0.9) whose drift is like a cloned policy's error.
+benchmarks/results/bc_search_<Env>_dagger.csv.
 """
 
 from __future__ import annotations
@@ -82,9 +94,16 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--fresh", action="store_true", help="discard rows already in the CSV")
     ap.add_argument("--diagnose", type=int, default=None, metavar="ROW",
                     help="diagnose one row (teacher-forced, noisy replays) instead")  # fmt: skip
+    ap.add_argument("--dagger", type=int, default=None, metavar="ROW",
+                    help="DAgger rounds on one row's cloned policy instead")  # fmt: skip
+    ap.add_argument("--rounds", type=int, default=3, help="DAgger rounds")
+    ap.add_argument("--round-targets", type=int, default=512, help="targets per DAgger round")
+    ap.add_argument("--refit-epochs", type=int, default=10, help="epochs per DAgger refit")
     args = ap.parse_args(argv)
     if args.diagnose is not None:
         return diagnose(args)
+    if args.dagger is not None:
+        return dagger(args)
 
     import torch
     from rich.progress import track
@@ -228,6 +247,128 @@ def diagnose(args: argparse.Namespace) -> int:
         w.writerows(rows)
     write_meta(out)
     print(f"teacher-forced action RMS {rows[0]['value']:.3f}; wrote {out}")
+    return 0
+
+
+ALIGN_SAMPLES = 30  # the aligned expert's window: the last 30 scored samples (15 mm)
+
+
+def _frame(u) -> np.ndarray:
+    """The 2x2 orthogonal map (rotation or reflection) that best takes the target's last
+    ``ALIGN_SAMPLES`` scored samples onto what has been scored of them (horizontal plane,
+    Kabsch); the identity before 4 are scored."""
+    j = u._n_scored
+    if j < 4:
+        return np.eye(2)
+    k = min(ALIGN_SAMPLES, j)
+    p = u._rec_pts[j - k : j, :2] - u._rec_pts[j - k : j, :2].mean(0)
+    q = u.target.points_mm[j - k : j, :2] - u.target.points_mm[j - k : j, :2].mean(0)
+    w, _, vt = np.linalg.svd(q.T @ p)
+    return vt.T @ w.T
+
+
+def _expert(u, name: str, printing: np.ndarray, t: int) -> np.ndarray:
+    """The expert's action at step t: the printing action, or it with its needle velocity
+    mapped by :func:`_frame` (``aligned``)."""
+    a = printing[min(t, len(printing) - 1)].copy()
+    if name == "aligned":
+        a[1:3] = np.clip(_frame(u) @ a[1:3], -1, 1)
+    return a
+
+
+def _play_expert(env, k: int, name: str, rng, std: float, rho: float) -> float:
+    """Validation target k written by the expert plus AR(1) noise; the final metric."""
+    u = env.unwrapped
+    env.reset(seed=k, options={"target_index": k})
+    printing = np.asarray(u.actions_for(u.target), np.float32)
+    drift = np.zeros(printing.shape[1])
+    for t in range(10_000):
+        e = rng.normal(0.0, std, drift.shape)
+        drift = e if t == 0 else rho * drift + np.sqrt(1 - rho * rho) * e
+        a = np.clip(_expert(u, name, printing, t) + drift, -1, 1).astype(np.float32)
+        _, _, term, trunc, info = env.step(a)
+        if term or trunc:
+            break
+    return float(info["metric"])
+
+
+def dagger(args: argparse.Namespace) -> int:
+    """DAgger rounds with each expert on one row's cloned policy (module doc)."""
+    import torch
+
+    from bathprint.agents.imitation import (
+        Demonstrations,
+        _action_mean,
+        collect_demonstrations,
+        fit_policy,
+    )
+    from bathprint.agents.rollout import run_episode
+    from bathprint.agents.statistics import bootstrap_ci
+    from bathprint.envs import make
+
+    torch.set_num_threads(1)
+    name = args.env.split("/")[-1]
+    out = Path(args.out) if args.out else RESULTS / f"bc_search_{name}_dagger.csv"
+    n, noise, width, epochs, replays, rho = ROWS[args.dagger]
+    n = max(1, round(n * args.targets_scale))
+    kw = {"accuracy": "draft"}
+    val = make(args.env, target_set="validation", **kw)
+    env = make(args.env, target_set="train", **kw)
+    u, rows = env.unwrapped, []
+    demos = collect_demonstrations(args.env, kw, n, args.seed, noise, replays, rho)
+
+    def record(expert: str, rnd: int, pairs: int, mse: float, wall: float, model) -> None:
+        m = np.array([run_episode(val, model, seed=k, target_index=k).metrics["metric"]
+                      for k in range(args.episodes)])  # fmt: skip
+        _, lo, hi = bootstrap_ci(np.mean, m[None, :], seed=args.seed)
+        rows.append({"expert": expert, "round": rnd, "pairs": pairs, "mse_after": mse,
+                     "validation_mean_metric": float(m.mean()), "validation_ci_low": lo,
+                     "validation_ci_high": hi, "round_wall_s": wall})  # fmt: skip
+        print(f"{expert} round {rnd}: {pairs} pairs, mse {mse:.4f}, validation "
+              f"{m.mean():.3f} [{lo:.3f}, {hi:.3f}]", flush=True)  # fmt: skip
+
+    try:
+        for expert in ("printing", "aligned"):
+            rng = np.random.default_rng(args.seed)
+            played = [_play_expert(val, k, expert, rng, 0.15, 0.9) for k in range(args.episodes)]
+            rows.append({"expert": expert, "round": "expert + AR(1) noise 0.15",
+                         "validation_mean_metric": float(np.mean(played))})  # fmt: skip
+            t0 = time.perf_counter()
+            model, fit = _fitted(val, demos, width, epochs, args.seed)
+            record(expert, 0, len(demos.obs), fit["mse_after"], time.perf_counter() - t0, model)
+            obs, act, cursor = [demos.obs], [demos.actions], 0
+            for r in range(1, args.rounds + 1):
+                t0 = time.perf_counter()
+                for _ in range(args.round_targets):
+                    s = cursor % u.printed.train_pool
+                    cursor += 1
+                    target = u.printed.get(s)
+                    printing = np.asarray(u.actions_for(target), np.float32)
+                    o, _ = env.reset(seed=args.seed * 100_003 + s, options={"target": target})
+                    for t in range(10_000):
+                        obs.append(np.asarray(o, np.float32)[None])
+                        act.append(_expert(u, expert, printing, t)[None].astype(np.float32))
+                        with torch.no_grad():
+                            a = _action_mean(model.policy, torch.as_tensor(o[None]))[0].numpy()
+                        o, _, term, trunc, _ = env.step(np.clip(a, -1, 1).astype(np.float32))
+                        if term or trunc:
+                            break
+                agg = Demonstrations(np.concatenate(obs), np.concatenate(act), [], [], 0.0)
+                fit = fit_policy(model.policy, agg, args.refit_epochs, 256, 1.0e-3,
+                                 args.seed + r)  # fmt: skip
+                record(expert, r, len(agg.obs), fit["mse_after"], time.perf_counter() - t0,
+                       model)  # fmt: skip
+    finally:
+        val.close()
+        env.close()
+    fields = ["expert", "round", "pairs", "mse_after", "validation_mean_metric",
+              "validation_ci_low", "validation_ci_high", "round_wall_s"]  # fmt: skip
+    with out.open("w", newline="") as f:
+        w = csv.DictWriter(f, fieldnames=fields)
+        w.writeheader()
+        w.writerows(rows)
+    write_meta(out)
+    print(f"wrote {out}")
     return 0
 
 
