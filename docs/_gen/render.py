@@ -1238,6 +1238,24 @@ def bc_search(env: str = "WriteShape-v1") -> str:
     return out
 
 
+def bc_dagger(env: str = "WriteShape-v1") -> str:
+    path = RESULTS / f"bc_search_{env}_dagger.csv"
+    rows = []
+    for r in _csv(path):
+        if not r["pairs"]:  # the expert itself, played with noise
+            rows.append([r["expert"], r["round"], "–", "–", _g(r["validation_mean_metric"]), "–"])
+            continue
+        rows.append([
+            r["expert"], r["round"], r["pairs"], _g(r["mse_after"], 2),
+            f"{_g(r['validation_mean_metric'])} [{_g(r['validation_ci_low'])}, "
+            f"{_g(r['validation_ci_high'])}]",
+            f"{float(r['round_wall_s']):.0f}",
+        ])  # fmt: skip
+    head = ["expert", "DAgger round", "pairs", "action MSE",
+            "validation metric (mean, 95% CI)", "round (s)"]  # fmt: skip
+    return _table(head, rows) + "\n\n" + provenance(path)
+
+
 def study_wall(name: str = "ablation_wall") -> str:
     path = RESULTS / f"{name}.csv"
     rows = [
@@ -1285,6 +1303,7 @@ TABLES: dict[str, Callable[[], str]] = {
     "preconditioners": preconditioners,
     "contact-newton": contact_newton,
     "bc-search": bc_search,
+    "bc-dagger": bc_dagger,
     "study-wall": study_wall,
     "ablation": ablation,
     "gravity": gravity,
