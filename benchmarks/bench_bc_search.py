@@ -184,19 +184,25 @@ def _fitted(env: object, demos: object, width: int, epochs: int, seed: int) -> t
     return model, fit_policy(model.policy, demos, epochs, 256, 1.0e-3, seed)
 
 
-def _replay_printing(env, k: int, rng, std: float, before_step=None) -> float:
-    """Play validation target k's own printing actions (plus N(0, std) from ``rng``, clipped
-    to [-1, 1], unless ``rng`` is None), calling ``before_step(obs, printing_action)`` before
-    each step; returns the final metric."""
+def _replay_printing(
+    env, k: int, rng, std: float, before_step=None, rho: float = 0.0, expert: str = "printing"
+) -> float:
+    """Play validation target k's own printing actions (the ``aligned`` expert's with
+    ``expert``, :func:`_expert`), plus noise of std ``std`` from ``rng`` (white, or AR(1)
+    with ``rho``; clipped to [-1, 1]; none if ``rng`` is None), calling
+    ``before_step(obs, action)`` before each step; returns the final metric."""
     u = env.unwrapped
     obs, _ = env.reset(seed=k, options={"target_index": k})
     printing = np.asarray(u.actions_for(u.target), np.float32)
+    drift = np.zeros(printing.shape[1])
     for t in range(10_000):
-        a = printing[min(t, len(printing) - 1)]
+        a = _expert(u, expert, printing, t)
         if before_step is not None:
             before_step(obs, a)
         if rng is not None:
-            a = np.clip(a + rng.normal(0.0, std, a.shape), -1, 1).astype(np.float32)
+            e = rng.normal(0.0, std, a.shape)
+            drift = e if t == 0 else rho * drift + np.sqrt(1.0 - rho * rho) * e
+            a = np.clip(a + drift, -1, 1).astype(np.float32)
         obs, _, term, trunc, info = env.step(a)
         if term or trunc:
             break
@@ -276,22 +282,6 @@ def _expert(u, name: str, printing: np.ndarray, t: int) -> np.ndarray:
     return a
 
 
-def _play_expert(env, k: int, name: str, rng, std: float, rho: float) -> float:
-    """Validation target k written by the expert plus AR(1) noise; the final metric."""
-    u = env.unwrapped
-    env.reset(seed=k, options={"target_index": k})
-    printing = np.asarray(u.actions_for(u.target), np.float32)
-    drift = np.zeros(printing.shape[1])
-    for t in range(10_000):
-        e = rng.normal(0.0, std, drift.shape)
-        drift = e if t == 0 else rho * drift + np.sqrt(1 - rho * rho) * e
-        a = np.clip(_expert(u, name, printing, t) + drift, -1, 1).astype(np.float32)
-        _, _, term, trunc, info = env.step(a)
-        if term or trunc:
-            break
-    return float(info["metric"])
-
-
 def dagger(args: argparse.Namespace) -> int:
     """DAgger rounds with each expert on one row's cloned policy (module doc)."""
     import torch
@@ -330,7 +320,8 @@ def dagger(args: argparse.Namespace) -> int:
     try:
         for expert in ("printing", "aligned"):
             rng = np.random.default_rng(args.seed)
-            played = [_play_expert(val, k, expert, rng, 0.15, 0.9) for k in range(args.episodes)]
+            played = [_replay_printing(val, k, rng, 0.15, rho=0.9, expert=expert)
+                      for k in range(args.episodes)]  # fmt: skip
             rows.append({"expert": expert, "round": "expert + AR(1) noise 0.15",
                          "validation_mean_metric": float(np.mean(played))})  # fmt: skip
             t0 = time.perf_counter()
