@@ -6,6 +6,8 @@ step with contact against 2 without. Each row changes one thing and counts steps
 iterations per step and Krylov iterations per Newton iteration, with the wall time as a
 ratio to the default in the same run:
 
+- the globalisation: no line search (``numerics.line_search = "off"``: a solve that
+  stalls halves its updates for the rest of the solve) instead of the residual line search;
 - the linear solve: GMRES to 1e-3 and 1e-6 instead of 0.05 (inexact Newton's forcing term);
   full Newton (a new Jacobian every iteration);
 - the step: at most 0.3 ms;
@@ -15,6 +17,8 @@ ratio to the default in the same run:
 It also classifies the near pairs' closest points after 5 ms (both parameters inside their
 segments, or clamped to an end) and counts the pairs whose class changes over the next
 2 ms: switches between interior and end points make the distance's Hessian jump.
+
+Last, the line search against the stack's size: N = 100 .. 3000 with and without it.
 
     python benchmarks/bench_contact_newton.py
 """
@@ -34,7 +38,8 @@ from bathprint.core.effects._segment_geometry import closest_params
 N_NODES = 300
 DURATION_S = 0.02
 VARIANTS: dict[str, dict] = {
-    "default (GMRES to 0.05, modified Newton)": {},
+    "default (GMRES to 0.05, modified Newton, line search)": {},
+    "no line search (a stalled solve halves its updates)": {"numerics.line_search": "off"},
     "GMRES to 1e-3": {"numerics.krylov_tolerance": 1e-3},
     "GMRES to 1e-6": {"numerics.krylov_tolerance": 1e-6},
     "full Newton": {"numerics.newton": "full"},
@@ -129,7 +134,38 @@ def closest_point_rows() -> list[dict]:
     return [row]
 
 
+def line_search_rows(sizes: list[int]) -> list[dict]:
+    """The pressed stack of N nodes for DURATION_S with and without the line search."""
+    rows = []
+    for n in sizes:
+        row: dict = {"nodes": n}
+        for key, mode in (("off", "off"), ("on", "residual")):
+            sim = coil_stack(n, True, 0.98, {"numerics.line_search": mode})
+            t0 = time.perf_counter()
+            sim.advance(DURATION_S)
+            row[f"wall_s_{key}"] = time.perf_counter() - t0
+            c = sim.counts()
+            row[f"steps_{key}"] = c["steps"]
+            row[f"rejected_{key}"] = c["rejected_steps"]
+            row[f"newton_failures_{key}"] = c["newton_failures"]
+            row[f"newton_per_step_{key}"] = c["newton_iterations"] / c["steps"]
+            row[f"newton_{key}"] = c["newton_iterations"]
+        row["backtracks_on"] = c["line_search_backtracks"]
+        row["newton_ratio"] = row["newton_on"] / row["newton_off"]
+        row["wall_ratio"] = row["wall_s_on"] / row["wall_s_off"]
+        rows.append(row)
+        print(
+            f"N = {n:>5}: Newton per step {row['newton_per_step_off']:.2f} without the line "
+            f"search, {row['newton_per_step_on']:.2f} with; steps {row['steps_off']} / "
+            f"{row['steps_on']}; Newton failures {row['newton_failures_off']} / "
+            f"{row['newton_failures_on']}; wall x{row['wall_ratio']:.2f}"
+        )
+    return rows
+
+
 if __name__ == "__main__":
     print(f"pressed stack, N = {N_NODES}, {DURATION_S * 1e3:g} ms:")
     print("wrote", write_csv("contact_newton", newton_rows()))
     print("wrote", write_csv("contact_closest_points", closest_point_rows()))
+    print(f"the line search against N ({DURATION_S * 1e3:g} ms):")
+    print("wrote", write_csv("contact_line_search", line_search_rows([100, 300, 1000, 3000])))

@@ -44,6 +44,7 @@ from bathprint.core.extrusion import (
 from bathprint.core.freezing import tail_load
 from bathprint.core.jit import KERNEL, kernel
 from bathprint.core.layout import (
+    C_BACKTRACKS,
     C_CONTACT_REJECTIONS,
     C_DAMPED_NEWTON,
     C_FACTORIZATIONS,
@@ -123,7 +124,10 @@ V_RHS = 6
 V_ERR = 7
 V_KV = 8  # stage velocities, MAX_STAGES rows
 V_KA = V_KV + MAX_STAGES  # stage accelerations, MAX_STAGES rows
-N_VECS = V_KA + MAX_STAGES
+V_DX = V_KA + MAX_STAGES  # the last Newton update (the line search's direction)
+N_VECS = V_DX + 1
+ARMIJO = 1e-4  # sufficient decrease of the force residual per unit of the update applied
+MAX_BACKTRACKS = 5  # halvings of an update before its Jacobian is refreshed
 
 
 @njit(**KERNEL, inline="always")
@@ -192,6 +196,28 @@ def _rms(vec: np.ndarray, nd: int, ws) -> float:
     return math.sqrt(s / max(nd + ws.solver[0].norm_extra, 1.0))
 
 
+@njit(**KERNEL, inline="always")
+def _stage_rates(model, rod, ws, nd: int, hg: float, t_stage: float, inertial: bool) -> None:
+    """The stage's boundary nodes at ``t_stage``, and its velocities and accelerations from
+    the free positions (v = (x - x_s) / (h gamma), a = (v - v_s) / (h gamma))."""
+    set_boundary(model, rod, t_stage, ws.scratch)
+    pos, vel, acc = rod.pos, rod.vel, rod.acc
+    sx = ws.vecs[V_SX]
+    sv = ws.vecs[V_SV]
+    for k in range(nd):
+        vel[k] = (pos[k] - sx[k]) / hg
+        acc[k] = (vel[k] - sv[k]) / hg if inertial else 0.0
+
+
+@njit(**KERNEL, inline="always")
+def _norm(vec: np.ndarray, nd: int) -> float:
+    """Euclidean norm of the first ``nd`` entries."""
+    s = 0.0
+    for k in range(nd):
+        s += vec[k] * vec[k]
+    return math.sqrt(s)
+
+
 @kernel
 def _stage_solve(model, rod, state, ws, hg: float, t_stage: float) -> bool:
     """Newton solve of one implicit stage for the free node positions ``rod.pos``."""
@@ -219,15 +245,40 @@ def _stage_solve(model, rod, state, ws, hg: float, t_stage: float) -> bool:
     # test |dX| < newton_tol). With a fast contraction later stages stop after one
     # iteration.
     eta = sol.newton_eta if sol.newton_eta > 0.0 else 1.0
+    # line search (p.line_search): the last update dx, the fraction alpha of it applied, and
+    # the force residual |F| where it started; an update that does not decrease |F| by
+    # ARMIJO alpha is halved (Armijo backtracking on |F|, Dennis & Schnabel 1996, sec. 6.3)
+    dx = ws.vecs[V_DX]
+    alpha = 1.0
+    f_start = 0.0
     for it in range(p.max_newton):
-        set_boundary(model, rod, t_stage, ws.scratch)
-        for k in range(nd):
-            vel[k] = (pos[k] - sx[k]) / hg
-            acc[k] = (vel[k] - sv[k]) / hg if inertial else 0.0
+        _stage_rates(model, rod, ws, nd, hg, t_stage, inertial)
         # full Newton, or modified Newton: factorise once per step (all stages share
         # h gamma) and again only when the iteration stops contracting fast
         need_jac = (not modified) or (not sol.lu_valid) or refresh
         assemble(model, rod, jac_stage if need_jac else stage, out, state.calls, state.energies)
+        if p.line_search:
+            f_norm = _norm(force, nd)
+            backtracks = 0
+            while it > 0 and f_norm > (1.0 - ARMIJO * alpha) * f_start:
+                if backtracks == MAX_BACKTRACKS:
+                    # no descent along dx: a stale Jacobian's direction, or a kink of the
+                    # force; take the shortest trial and a fresh Jacobian here
+                    need_jac = need_jac or modified
+                    break
+                alpha *= 0.5
+                for k in range(nd):
+                    pos[k] -= alpha * dx[k]
+                _stage_rates(model, rod, ws, nd, hg, t_stage, inertial)
+                assemble(model, rod, stage, out, state.calls, state.energies)
+                f_norm = _norm(force, nd)
+                backtracks += 1
+                state.counters[C_BACKTRACKS] += 1
+            if backtracks > 0:
+                state.counters[C_DAMPED_NEWTON] += 1
+                if need_jac:
+                    assemble(model, rod, jac_stage, out, state.calls, state.energies)
+            f_start = f_norm
         for k in range(nd):
             rhs[k] = force[k]
         if need_jac:
@@ -249,7 +300,7 @@ def _stage_solve(model, rod, state, ws, hg: float, t_stage: float) -> bool:
         if not np.isfinite(norm) or norm > 1e12:
             state.info[1] = _worst_node(rhs, nd)
             return False
-        if it > 0 and norm >= 0.95 * previous and need_jac:
+        if it > 0 and norm >= 0.95 * previous and need_jac and not p.line_search:
             # no contraction with a Jacobian of this very iterate: Newton itself stagnates
             # or cycles, as on the regularised Coulomb friction of the floor, whose force
             # saturates with the sliding speed; the friction is monotone in the velocity,
@@ -259,6 +310,8 @@ def _stage_solve(model, rod, state, ws, hg: float, t_stage: float) -> bool:
             state.counters[C_DAMPED_NEWTON] += 1
         for k in range(nd):
             pos[k] += relax * rhs[k]
+            dx[k] = rhs[k]
+        alpha = 1.0
         if modified and not need_jac and norm > 0.3 * previous:
             refresh = True
         if it > 0:

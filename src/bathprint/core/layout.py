@@ -116,6 +116,7 @@ PARAMS_FIELDS: tuple[tuple[str, str, str], ...] = (
     ("hydro_fmm_precision", "f8", "-, requested relative precision of the FMM"),
     ("solution_viscosity", "f8", "Pa s, shear viscosity eta of the alginate solution"),
     ("trouton_ratio", "f8", "-, extensional / shear viscosity of the solution (3: Newtonian)"),
+    ("line_search", "?", "Newton updates backtrack until the force residual decreases"),
 )
 PARAMS_DTYPE = np.dtype([(name, kind) for name, kind, _ in PARAMS_FIELDS])
 
@@ -203,7 +204,8 @@ C_KRYLOV_ITERATIONS = 7  # GMRES iterations (only with couplings off the band)
 C_KRYLOV_FAILURES = 8  # GMRES solves that stalled (each a Newton failure)
 C_CONTACT_REJECTIONS = 9  # steps retried because segments could have passed through each other
 C_DAMPED_NEWTON = 10  # Newton iterations that applied a damped (shortened) update
-N_COUNTERS = 11
+C_BACKTRACKS = 11  # line-search backtracks (each one force evaluation, no solve)
+N_COUNTERS = 12
 
 # --- band storage -------------------------------------------------------------------------
 # A node's force depends on nodes i-2..i+2 (bending), so the Jacobian has 8 sub- and

@@ -299,6 +299,8 @@ def compile_model(scene: Scene) -> Model:
     p.newton_tolerance = scene.numerics.newton_tolerance
     p.max_newton = scene.numerics.max_newton_iterations
     p.newton_reuse = scene.numerics.newton == "modified"
+    ls = scene.numerics.line_search
+    p.line_search = ls == "residual" or (ls == "auto" and "contact" in scene.effects)
     p.inertial = "inertia" in scene.effects
     p.imperfection = scene.needle.imperfection_um * 1e-6
     p.seed = scene.seed

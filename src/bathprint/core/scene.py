@@ -361,6 +361,15 @@ class Numerics:
         },
     )
     max_newton_iterations: int = field(default=12, metadata={"range": (1, 100)})
+    line_search: str = field(
+        default="auto",
+        metadata={
+            "choices": ("auto", "residual", "off"),
+            "doc": "residual: a Newton update is halved until the force residual decreases "
+            "(Armijo); off: a stalled solve halves its updates for good; auto: residual "
+            "when contact is listed",
+        },
+    )
     buckling_steps: float = _num(
         1.0,
         0.0,

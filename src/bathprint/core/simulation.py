@@ -399,6 +399,7 @@ class Simulation:
             "contact_rejections": int(c[L.C_CONTACT_REJECTIONS]),
             "hydro_evaluations": int(self.ws.hydro.memory[0]["evaluations"]),
             "damped_newton_iterations": int(c[L.C_DAMPED_NEWTON]),
+            "line_search_backtracks": int(c[L.C_BACKTRACKS]),
         }
 
     def effect_calls(self) -> dict[str, int]:
