@@ -161,6 +161,8 @@ MEANINGS = {
     "numerics.max_step_s": "largest adaptive step",
     "numerics.min_step_s": "smallest adaptive step (below it a failing step is a divergence)",
     "numerics.max_newton_iterations": "Newton iterations per stage before the step is retried",
+    "numerics.line_search": "`residual`: Newton updates halved until the force residual "
+    "decreases; `off`: a stalled solve halves them for good; `auto`: `residual` with contact",
     "outputs.frame_interval_s": "simulated time between saved frames",
     "outputs.plot": "write filament.png",
 }
@@ -1017,6 +1019,26 @@ def contact_scaling() -> str:
     return _table(head, rows) + "\n\n" + provenance(path)
 
 
+def contact_line_search() -> str:
+    path = RESULTS / "contact_line_search.csv"
+    rows = [
+        [
+            r["nodes"],
+            f"{r['steps_off']} / {r['steps_on']}",
+            f"{r['newton_failures_off']} / {r['newton_failures_on']}",
+            _g(r["newton_per_step_off"]),
+            _g(r["newton_per_step_on"]),
+            r["backtracks_on"],
+            f"{_g(r['newton_ratio'])}×",
+            f"{_g(r['wall_ratio'])}×",
+        ]
+        for r in _csv(path)
+    ]
+    head = ["nodes", "steps off / on", "Newton failures off / on", "Newton per step off"]
+    head += ["on", "backtracks", "Newton iterations on / off", "wall on / off"]
+    return _table(head, rows) + "\n\n" + provenance(path)
+
+
 def contact_newton() -> str:
     path = RESULTS / "contact_newton.csv"
     rows = [
@@ -1302,6 +1324,7 @@ TABLES: dict[str, Callable[[], str]] = {
     "contact-scenes": contact_scenes,
     "preconditioners": preconditioners,
     "contact-newton": contact_newton,
+    "contact-line-search": contact_line_search,
     "bc-search": bc_search,
     "bc-dagger": bc_dagger,
     "study-wall": study_wall,
