@@ -18,13 +18,16 @@ It also classifies the near pairs' closest points after 5 ms (both parameters in
 segments, or clamped to an end) and counts the pairs whose class changes over the next
 2 ms: switches between interior and end points make the distance's Hessian jump.
 
-Last, the line search against the stack's size: N = 100 .. 3000 with and without it.
+Then the line search against the stack's size: N = 100 .. 3000 with and without it; and
+in a coiling scene, ``period_doubling_22G`` for 1 s (a pile of about 30 turns) without
+contact, and with it, with and without the line search.
 
-    python benchmarks/bench_contact_newton.py
+    python benchmarks/bench_contact_newton.py [--part variants|sizes|scene]
 """
 
 from __future__ import annotations
 
+import argparse
 import math
 import time
 from collections import Counter
@@ -33,6 +36,7 @@ import numpy as np
 from _common import write_csv
 from bench_contact import R_FIL, coil_stack
 
+from bathprint import Simulation, simulate
 from bathprint.core.effects._segment_geometry import closest_params
 
 N_NODES = 300
@@ -163,9 +167,65 @@ def line_search_rows(sizes: list[int]) -> list[dict]:
     return rows
 
 
+SCENE = "period_doubling_22G"
+SCENE_DURATION_S = 1.0
+
+
+def scene_rows() -> list[dict]:
+    """SCENE for SCENE_DURATION_S without contact, and with it, with and without the line
+    search; wall times as ratios to the run without contact."""
+    without = [e for e in Simulation(SCENE).scene.effects if e != "contact"]
+    variants = {
+        "without contact": {"effects": without},
+        "contact, line search (default)": {"numerics.line_search": "residual"},
+        "contact, no line search": {"numerics.line_search": "off"},
+    }
+    rows, base = [], None
+    for label, extra in variants.items():
+        over = {"duration_s": SCENE_DURATION_S, "outputs.plot": False, **extra}
+        simulate(SCENE, {**over, "duration_s": 0.01})  # compile this combination
+        t0 = time.perf_counter()
+        s = simulate(SCENE, over).summary
+        wall = time.perf_counter() - t0
+        base = base or wall
+        rows.append(
+            {
+                "scene": SCENE,
+                "duration_s": SCENE_DURATION_S,
+                "variant": label,
+                "steps": s["steps"],
+                "rejected_steps": s["rejected_steps"],
+                "contact_rejections": s["contact_rejections"],
+                "newton_failures": s["newton_failures"],
+                "newton_per_step": s["newton_iterations"] / s["steps"],
+                "krylov_per_newton": s["krylov_iterations"] / max(s["newton_iterations"], 1),
+                "backtracks": s["line_search_backtracks"],
+                "wall_s": wall,
+                "wall_ratio": wall / base,
+            }
+        )
+        r = rows[-1]
+        print(
+            f"{label:>32}: {r['steps']} steps ({r['rejected_steps']} rejected), "
+            f"{r['newton_per_step']:.2f} Newton per step, {r['krylov_per_newton']:.2f} Krylov "
+            f"per Newton, {r['newton_failures']} Newton failures, wall {wall:.1f} s "
+            f"(x{r['wall_ratio']:.2f})"
+        )
+    return rows
+
+
 if __name__ == "__main__":
-    print(f"pressed stack, N = {N_NODES}, {DURATION_S * 1e3:g} ms:")
-    print("wrote", write_csv("contact_newton", newton_rows()))
-    print("wrote", write_csv("contact_closest_points", closest_point_rows()))
-    print(f"the line search against N ({DURATION_S * 1e3:g} ms):")
-    print("wrote", write_csv("contact_line_search", line_search_rows([100, 300, 1000, 3000])))
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--part", choices=("all", "variants", "sizes", "scene"), default="all")
+    part = ap.parse_args().part
+    if part in ("all", "variants"):
+        print(f"pressed stack, N = {N_NODES}, {DURATION_S * 1e3:g} ms:")
+        print("wrote", write_csv("contact_newton", newton_rows()))
+        print("wrote", write_csv("contact_closest_points", closest_point_rows()))
+    if part in ("all", "sizes"):
+        print(f"the line search against N ({DURATION_S * 1e3:g} ms):")
+        rows = line_search_rows([100, 300, 1000, 3000])
+        print("wrote", write_csv("contact_line_search", rows))
+    if part in ("all", "scene"):
+        print(f"{SCENE}, {SCENE_DURATION_S:g} s:")
+        print("wrote", write_csv("contact_line_search_scene", scene_rows()))
