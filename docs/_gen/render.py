@@ -1039,6 +1039,26 @@ def contact_line_search() -> str:
     return _table(head, rows) + "\n\n" + provenance(path)
 
 
+def contact_line_search_scene() -> str:
+    path = RESULTS / "contact_line_search_scene.csv"
+    rows = [
+        [
+            f"`{r['scene']}`, {_g(r['duration_s'])} s",
+            r["variant"],
+            f"{r['steps']} / {r['rejected_steps']}",
+            r["newton_failures"],
+            _g(r["newton_per_step"]),
+            _g(r["krylov_per_newton"]),
+            _g(r["wall_s"]),
+            f"{_g(r['wall_ratio'])}×",
+        ]
+        for r in _csv(path)
+    ]
+    head = ["scene", "variant", "steps / rejected", "Newton failures", "Newton per step"]
+    head += ["Krylov per Newton", "wall (s)", "wall / without contact"]
+    return _table(head, rows) + "\n\n" + provenance(path)
+
+
 def contact_newton() -> str:
     path = RESULTS / "contact_newton.csv"
     rows = [
@@ -1325,6 +1345,7 @@ TABLES: dict[str, Callable[[], str]] = {
     "preconditioners": preconditioners,
     "contact-newton": contact_newton,
     "contact-line-search": contact_line_search,
+    "contact-line-search-scene": contact_line_search_scene,
     "bc-search": bc_search,
     "bc-dagger": bc_dagger,
     "study-wall": study_wall,
