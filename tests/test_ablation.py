@@ -45,6 +45,8 @@ def test_quick_ablation_writes_its_outputs_and_resumes(tmp_path) -> None:
         assert base <= effects
         if r["variant"] == "finite_re_hydrodynamics":
             assert effects - base - {"floor"} == {"hydrodynamics"}
+        if r["variant"] == "contact_finite_re_hydrodynamics":
+            assert effects - base - {"floor"} == {"contact", "hydrodynamics"}
         if r["variant"] == ablation.ALL:
             assert effects == base | {e for v in available for e in v.effects} | (
                 {"floor"} if r["set"] == "fig1b" else set()
@@ -82,8 +84,8 @@ def test_a_variant_the_scene_refuses_is_not_available_and_left_out_of_all(monkey
             assert "drag.no_such_key" not in r["overrides"]
         elif r["variant"] == "inertia":
             assert r["overrides"]["effects"][-1] == "inertia"
-        elif r["variant"] == "finite_re_hydrodynamics":  # a combination
-            assert r["overrides"]["effects"][-1] == "hydrodynamics"
+        elif r["variant"] in ("finite_re_hydrodynamics", "contact_finite_re_hydrodynamics"):
+            assert r["overrides"]["effects"][-1] == "hydrodynamics"  # a combination
         else:
             assert r["overrides"]["effects"][-1] in ("gravity", "floor")
 

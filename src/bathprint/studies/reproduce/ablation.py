@@ -68,14 +68,21 @@ VARIANTS = (
     Variant("surface_gel", "+ surface gelation", ("gelation",), {"gelation.model": "surface"}),
     Variant("viscosity", "+ solution viscosity", ("viscosity",)),
 )
-# pairs of effects measured together (not one at a time, and not part of "all", which is
-# built from VARIANTS): the two that tighten the coils, without the inertia that stops the
-# fast points; does their product reach the paper's R prefactor (docs/reproduction.md)?
+# effects measured together (not one at a time, and not part of "all", which is built from
+# VARIANTS): the two that tighten the coils, without the inertia that stops the fast points;
+# does their product reach the paper's R prefactor (docs/reproduction.md)? Without contact
+# their turns pass through each other, so they are measured with it too.
 COMBINATIONS = (
     Variant(
         "finite_re_hydrodynamics",
         "+ finite-Re drag + nonlocal hydrodynamics",
         ("hydrodynamics",),
+        {"drag.model": "finite_re"},
+    ),
+    Variant(
+        "contact_finite_re_hydrodynamics",
+        "+ contact + finite-Re drag + nonlocal hydrodynamics",
+        ("contact", "hydrodynamics"),
         {"drag.model": "finite_re"},
     ),
 )
@@ -105,7 +112,7 @@ FULL = {
 # nonlocal hydrodynamics costs O(N^2) per evaluation (260-450 s for a Fig. 1B run at the
 # full budget, measured): the variants with it run on the Fig. 1B points and on this row of
 # the Fig. 2 grid only; their other Fig. 2 rows say "not run"
-NONLOCAL = ("hydrodynamics", "finite_re_hydrodynamics", "all")
+NONLOCAL = ("hydrodynamics", "finite_re_hydrodynamics", "contact_finite_re_hydrodynamics", "all")
 FIG2_NONLOCAL = [(0.41, q) for q in (0.3, 0.5, 1.0, 2.0)]
 NOT_RUN = "not run: nonlocal hydrodynamics runs on the d = 0.41 mm row of the Fig. 2 grid only"
 QUICK_BUDGET = Budget(turns=1.0, max_duration_s=0.12, max_segments=60.0)
