@@ -22,7 +22,11 @@ Then the line search against the stack's size: N = 100 .. 3000 with and without 
 in a coiling scene, ``period_doubling_22G`` for 1 s (a pile of about 30 turns) without
 contact, and with it, with and without the line search.
 
-    python benchmarks/bench_contact_newton.py [--part variants|sizes|scene]
+Last, ``contact.near_gap_fraction`` in that scene: the pairs within this gap of touching are
+always evaluated in Newton's iterations, and every other pair bounds the step by the gap it
+may close (``--part near_gap``).
+
+    python benchmarks/bench_contact_newton.py [--part variants|sizes|scene|near_gap]
 """
 
 from __future__ import annotations
@@ -214,9 +218,59 @@ def scene_rows() -> list[dict]:
     return rows
 
 
+NEAR_GAPS = (0.05, 0.15, 0.3, 0.6, 1.0)
+
+
+def near_gap_rows() -> list[dict]:
+    """SCENE for SCENE_DURATION_S without contact, then with contact at every
+    ``contact.near_gap_fraction`` of NEAR_GAPS: the pairs always evaluated in Newton's
+    iterations. Wall times as ratios to the run without contact."""
+    without = [e for e in Simulation(SCENE).scene.effects if e != "contact"]
+    variants = {"without contact": {"effects": without}}
+    for g in NEAR_GAPS:
+        variants[f"contact, near gap {g:g} delta"] = {"contact.near_gap_fraction": g}
+    rows, base = [], None
+    for label, extra in variants.items():
+        over = {"duration_s": SCENE_DURATION_S, "outputs.plot": False, **extra}
+        simulate(SCENE, {**over, "duration_s": 0.01})  # compile this combination
+        t0 = time.perf_counter()
+        s = simulate(SCENE, over).summary
+        wall = time.perf_counter() - t0
+        base = base or wall
+        rows.append(
+            {
+                "scene": SCENE,
+                "duration_s": SCENE_DURATION_S,
+                "variant": label,
+                "near_gap_fraction": extra.get("contact.near_gap_fraction", math.nan),
+                "steps": s["steps"],
+                "rejected_steps": s["rejected_steps"],
+                "contact_rejections": s["contact_rejections"],
+                "newton_failures": s["newton_failures"],
+                "newton_per_step": s["newton_iterations"] / s["steps"],
+                "jacobians_per_step": s["jacobians"] / s["steps"],
+                "krylov_per_newton": s["krylov_iterations"] / max(s["newton_iterations"], 1),
+                "min_gap_ratio": s["measurements"]["min_gap_ratio"],
+                "wall_s": wall,
+                "wall_ratio": wall / base,
+            }
+        )
+        r = rows[-1]
+        print(
+            f"{label:>28}: {r['steps']} steps ({r['rejected_steps']} rejected, "
+            f"{r['contact_rejections']} by contact), {r['newton_per_step']:.2f} Newton and "
+            f"{r['jacobians_per_step']:.2f} Jacobians per step, smallest gap "
+            f"{r['min_gap_ratio']:.3f} delta, wall {wall:.1f} s (x{r['wall_ratio']:.2f})",
+            flush=True,
+        )
+    return rows
+
+
 if __name__ == "__main__":
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    ap.add_argument("--part", choices=("all", "variants", "sizes", "scene"), default="all")
+    ap.add_argument(
+        "--part", choices=("all", "variants", "sizes", "scene", "near_gap"), default="all"
+    )
     part = ap.parse_args().part
     if part in ("all", "variants"):
         print(f"pressed stack, N = {N_NODES}, {DURATION_S * 1e3:g} ms:")
@@ -229,3 +283,6 @@ if __name__ == "__main__":
     if part in ("all", "scene"):
         print(f"{SCENE}, {SCENE_DURATION_S:g} s:")
         print("wrote", write_csv("contact_line_search_scene", scene_rows()))
+    if part in ("all", "near_gap"):
+        print(f"{SCENE}, {SCENE_DURATION_S:g} s, against contact.near_gap_fraction:")
+        print("wrote", write_csv("contact_near_gap", near_gap_rows()))

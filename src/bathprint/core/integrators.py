@@ -766,7 +766,7 @@ def _accept(model, state, ws, h: float, h_taken: float, err: float) -> int:
     if p.fixed_step <= 0.0 and h_taken >= 0.999 * h:
         state.clock[1] = h * min(5.0, 0.9 / _error_root(max(err, 1e-10), p.integrator))
     if enabled[E_CONTACT]:
-        contact.accepted(ws.contact, h_taken)
+        contact.accepted(model, ws.contact, h_taken)
     s_tip = extruded_length(model.flow, model.flow_cum, p.needle_area, t)
     capacity = state.pos.shape[0] // 3
     whole = active_rod(state, ws, 0)

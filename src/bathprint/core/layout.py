@@ -94,6 +94,7 @@ PARAMS_FIELDS: tuple[tuple[str, str, str], ...] = (
     ("contact_stiffness", "f8", "Pa, self-contact force per length per penetration"),
     ("contact_distance_factor", "f8", "-, contact distance / the sum of the two radii"),
     ("contact_width_fraction", "f8", "-, penetration (in contact distances) of the soft onset"),
+    ("contact_near_gap", "f8", "-, pairs within this gap (contact distances) are near"),
     ("contact_friction", "f8", "-, Coulomb coefficient between touching segments"),
     ("contact_friction_velocity", "f8", "m/s, regularisation of that friction"),
     ("krylov_tolerance", "f8", "-, GMRES residual relative to the right-hand side"),

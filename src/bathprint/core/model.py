@@ -315,6 +315,7 @@ def compile_model(scene: Scene) -> Model:
     p.contact_stiffness = c.stiffness_pa
     p.contact_distance_factor = c.distance_factor
     p.contact_width_fraction = c.width_fraction
+    p.contact_near_gap = c.near_gap_fraction
     p.contact_friction = c.friction_coefficient
     p.contact_friction_velocity = c.friction_velocity_mm_s * MM
     p.contact_exact_hessian = c.hessian == "exact"

@@ -246,6 +246,13 @@ class Contact:
     friction_velocity_mm_s: float = _num(
         1.0, 1e-6, 1e3, lo_open=True, doc="regularisation of that friction"
     )
+    near_gap_fraction: float = _num(
+        0.3,
+        0.0,
+        2.0,
+        doc="pairs within this gap of touching (in contact distances) are evaluated in "
+        "Newton's iterations; a pair further out bounds the step by the gap it may close",
+    )
     hessian: str = field(
         default="exact",
         metadata={

@@ -54,7 +54,6 @@ SKIN_STEPS = 8.0  # the hash's skin covers about this many steps of relative nod
 SKIN_MIN = 0.25  # ... and at least this many largest contact distances
 SKIN_MAX = 2.0  # ... at most this many
 MARGIN_STEPS = 1.5  # near pairs: closer than delta + this many steps' relative motion
-MARGIN_MIN = 0.05  # ... at least this many largest contact distances
 OWN_MARGIN_STEPS = 3.0  # a pair's own margin: this many times its nodes' motion in the last step
 TARGET_RATIO = 0.6  # steps are sized to keep the no-pass-through ratio near this (< 1)
 BOUND_SAFETY = 1.0 + 1e-9  # widens the bound on a pair's motion past round-off
@@ -164,9 +163,12 @@ def prepare(model, whole, frozen: int, contact) -> bool:
         mem.built_frozen = frozen
         mem.builds += 1
     # each pair's margin: OWN_MARGIN_STEPS times a bound on its relative motion in the last
-    # step (the nodes' own motions; nodes born since take the largest), at least MARGIN_MIN
-    # delta_max and at most the global margin: the settled part of a coil, which hardly
-    # moves, is evaluated only where it touches, while a fast stem keeps a wide margin
+    # step (the nodes' own motions; nodes born since take the largest), at least
+    # ``contact.near_gap_fraction`` delta_max and at most the global margin: the settled
+    # part of a coil, which hardly moves, is evaluated only near where it touches, while a
+    # fast stem keeps a wide margin. The floor matters: a pair left out bounds the step by
+    # the gap it may close, and a margin from the last step alone would shrink with the
+    # steps it shortens, so an approaching pair would keep the steps short until it touched
     margin = mem.margin if mem.margin > 0.0 else mem.skin
     own = mem.margin > 0.0 and mem.motion_nodes > 0
     nm = contact.motion[0]
@@ -174,7 +176,7 @@ def prepare(model, whole, frozen: int, contact) -> bool:
         for g in range(mem.motion_nodes, n_nodes):
             nm[0, g] = mem.max_step_disp
             nm[1, g] = np.inf
-    margin_min = MARGIN_MIN * delta_max
+    margin_min = p.contact_near_gap * delta_max
     factor = p.contact_distance_factor
     seg_mat = whole.seg_mat
     pos = whole.pos
@@ -349,15 +351,14 @@ def _pair_motion(motion, i: int, j: int) -> float:
 
 
 @kernel
-def accepted(contact, h: float) -> None:
+def accepted(model, contact, h: float) -> None:
     """After an accepted step of h (s): remember its ratio and step for the next step's
     size, and set the near margin from its motion."""
     mem = contact.memory[0]
     mem.last_ratio = mem.ratio
     mem.last_step = h
-    mem.margin = min(
-        max(MARGIN_STEPS * 2.0 * mem.max_step_disp, MARGIN_MIN * mem.delta_max), mem.skin
-    )
+    near_gap = model.params[0].contact_near_gap * mem.delta_max
+    mem.margin = min(max(MARGIN_STEPS * 2.0 * mem.max_step_disp, near_gap), mem.skin)
 
 
 @kernel
