@@ -1,12 +1,13 @@
 """What freezing settled material (``numerics.freeze_beyond_mm``) costs in accuracy and
 saves in time.
 
-    python benchmarks/bench_freezing.py [--episodes 8]
+    python benchmarks/bench_freezing.py [--part coil|rope|envs] [--episodes 8]
 
 (1) A steady coil (scene ``gelation_coiling_22G``, 3 s, draft and balanced presets): coil
-    radius and frequency and wall time with the material beyond 20, 40 and 60 mm frozen,
-    against the same run without freezing; beside it, the change that tightening the
-    tolerance ten times makes (the error the preset already accepts).
+    radius and frequency and wall time with the material beyond 20, 40, 60, 100 and 150 mm
+    frozen, against the same run without freezing; beside it, how much the coil varies by
+    itself: the change that tightening the tolerance ten times makes (the error the preset
+    already accepts) and the change from three other seeds of the needle imperfection.
 (2) Rope coiling on the floor (scene ``rope_coiling_18G``, 6 s): the RMS change of the last
     30 mm of material next to the needle and of the pile's centre, with the material resting
     on the floor beyond 15, 30 and 60 mm frozen, beside tightening the tolerance 3x.
@@ -32,7 +33,8 @@ from bathprint.core.simulation import Simulation
 from bathprint.studies.accuracy import coil_run
 
 COIL = "gelation_coiling_22G"
-FREEZE_MM = (20.0, 40.0, 60.0)
+FREEZE_MM = (20.0, 40.0, 60.0, 100.0, 150.0)
+SEEDS = (1, 2, 3)
 
 
 def _coil(overrides: dict) -> tuple[float, float, float]:
@@ -64,12 +66,16 @@ def coil_table() -> list[dict]:
                 "wall_ratio": wt / w0,
             }
         )
-        for fb in FREEZE_MM:
-            r, om, w = _coil({**base, "numerics.freeze_beyond_mm": fb})
+        variants = [(f"imperfection seed {k}", {"seed": k}) for k in SEEDS]
+        variants += [
+            (f"frozen beyond {fb:g} mm", {"numerics.freeze_beyond_mm": fb}) for fb in FREEZE_MM
+        ]
+        for label, extra in variants:
+            r, om, w = _coil({**base, **extra})
             rows.append(
                 {
                     "preset": preset,
-                    "variant": f"frozen beyond {fb:g} mm",
+                    "variant": label,
                     "radius_change": r / r0 - 1,
                     "frequency_change": om / om0 - 1,
                     "wall_ratio": w / w0,
@@ -157,7 +163,17 @@ def env_table(episodes: int) -> list[dict]:
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__)
     ap.add_argument("--episodes", type=int, default=8)
+    ap.add_argument("--part", choices=("coil", "rope", "envs"), default=None, help="only this")
     args = ap.parse_args()
+    if args.part in (None, "coil"):
+        coil_part()
+    if args.part in (None, "rope"):
+        rope_part()
+    if args.part in (None, "envs"):
+        envs_part(args.episodes)
+
+
+def coil_part() -> None:
     coil = coil_table()
     print(f"{'preset':9s} {'variant':22s} {'dR/R':>9s} {'domega/omega':>13s} {'wall ratio':>10s}")
     for r in coil:
@@ -166,6 +182,9 @@ def main() -> None:
             f"{r['frequency_change']:+13.4f} {r['wall_ratio']:10.2f}"
         )
     print("->", write_csv("freezing_coil", coil))
+
+
+def rope_part() -> None:
     rope = rope_table()
     print(
         f"\n{'rope coiling, 6 s':24s} {'frozen':>10s} {'near rms mm':>11s} {'pile mm':>8s} "
@@ -178,7 +197,10 @@ def main() -> None:
             f"{r['steps']:6d}/{r['rejected']:<5d} {r['wall_ratio']:10.2f}"
         )
     print("->", write_csv("freezing_rope", rope))
-    envs = env_table(args.episodes)
+
+
+def envs_part(episodes: int) -> None:
+    envs = env_table(episodes)
     print(
         f"\n{'env':28s} {'mean M':>7s} {'|dM| freeze':>11s} {'|dM| draft-bal':>14s} "
         f"{'steps/cpu-s off -> on':>22s}"
