@@ -3,7 +3,8 @@ saves in time.
 
     python benchmarks/bench_freezing.py [--part coil|rope|envs] [--episodes 8]
 
-(1) A steady coil (scene ``gelation_coiling_22G``, 3 s, draft and balanced presets): coil
+(1) A steady coil (scene ``gelation_coiling_22G``, 3 s; draft and balanced presets, and draft
+    with ``inertia``): coil
     radius and frequency and wall time with the material beyond 20, 40, 60, 100 and 150 mm
     frozen, against the same run without freezing; beside it, how much the coil varies by
     itself: the change that tightening the tolerance ten times makes (the error the preset
@@ -45,11 +46,18 @@ def _coil(overrides: dict) -> tuple[float, float, float]:
 
 def coil_table() -> list[dict]:
     """Radius / frequency changes and wall-time ratios of the steady coil."""
-    dx = Simulation(COIL).scene.numerics.node_spacing_mm
+    scene = Simulation(COIL).scene
+    dx = scene.numerics.node_spacing_mm
+    inertial = {"effects": [*scene.effects, "inertia"]}
     rows = []
-    for preset, factor, tol, growth in (("draft", 2.0, 1e-2, 2.0), ("balanced", 1.0, 1e-3, 0.5)):
-        base = {"numerics.accuracy": preset}
+    for preset, extra, factor, tol, growth in (
+        ("draft", {}, 2.0, 1e-2, 2.0),
+        ("balanced", {}, 1.0, 1e-3, 0.5),
+        ("draft + inertia", inertial, 2.0, 1e-2, 2.0),
+    ):
+        base = {"numerics.accuracy": preset.split()[0], **extra}
         tighter = {
+            **extra,
             "numerics.tolerance": tol / 10,
             "numerics.max_inlet_growth": growth,
             "numerics.node_spacing_mm": dx * factor,
