@@ -97,6 +97,45 @@ def _crossed_rods() -> tuple[Simulation, slice, float]:
     return sim, slice(int(k[2]) + 1, int(k[3]) - 1), 2 * r  # B's loaded nodes
 
 
+def _rods_side_by_side(gap: float, near_gap: float) -> Simulation:
+    """Two parallel rods resting on the floor with their centre lines (1 + ``gap``) delta
+    apart, joined by soft links far away (r = 0.5 mm, delta = 1 mm)."""
+    r = 0.5 * MM
+    z0 = -20 * MM + r
+    n = 17
+    x = np.linspace(-4 * MM, 4 * MM, n)
+    y = r * (1 + gap)
+    a = np.column_stack([x, np.full(n, -y), np.full(n, z0)])
+    b = np.column_stack([x[::-1], np.full(n, y), np.full(n, z0)])
+    lift = np.array([0.0, 0.0, 6 * MM])
+    pts = np.vstack([a, [a[-1] + lift, b[0] + lift], b])
+    overrides = {
+        "effects": ["elasticity", "drag", "gravity", "floor", "contact"],
+        "bath.depth_mm": 20.0,
+        "needle.inner_diameter_mm": 2 * r / MM,
+        "material.youngs_modulus_pa": 5e5,
+        "material.density_kg_m3": 1300.0,
+        "contact.near_gap_fraction": near_gap,
+        "numerics.max_strain": 10.0,
+        "numerics.stretch_limit": 10.0,
+        "duration_s": 10.0,
+    }
+    return free_filament(pts, overrides, soft=tuple(range(n - 2, n + 3)))
+
+
+def test_pairs_within_the_near_gap_are_evaluated_and_the_answer_does_not_depend_on_it() -> None:
+    """Rods 0.2 delta apart, at rest: their pairs are near (evaluated in Newton) with
+    ``contact.near_gap_fraction`` 0.3 and not with 0.1; as they do not touch, the motion is
+    the same either way."""
+    runs = {}
+    for near_gap in (0.1, 0.3):
+        sim = _rods_side_by_side(0.2, near_gap)
+        sim.advance(0.2)
+        runs[near_gap] = (int(sim.ws.contact.memory[0]["n_near"]), sim.centerline())
+    assert runs[0.1][0] == 0 and runs[0.3][0] > 10
+    np.testing.assert_allclose(runs[0.1][1], runs[0.3][1], rtol=0, atol=1e-9)
+
+
 def test_crossed_rods_stop_at_the_contact_distance_and_carry_the_load() -> None:
     sim, b_nodes, delta = _crossed_rods()
     sim.advance(1.5)
@@ -383,6 +422,8 @@ def test_rope_coiling_on_the_floor_lays_turns_beside_turns_instead_of_through_th
         ("contact.distance_factor", -2.0),
         ("contact.friction_coefficient", 2.5),
         ("contact.friction_coefficient", -0.1),
+        ("contact.near_gap_fraction", -0.1),
+        ("contact.near_gap_fraction", 2.5),
     ],
 )
 def test_bad_contact_values_are_refused_by_name(key: str, value: float) -> None:

@@ -1059,6 +1059,29 @@ def contact_line_search_scene() -> str:
     return _table(head, rows) + "\n\n" + provenance(path)
 
 
+def contact_near_gap() -> str:
+    path = RESULTS / "contact_near_gap.csv"
+    rows = [
+        [
+            r["variant"],
+            f"{r['steps']} / {r['rejected_steps']}",
+            r["contact_rejections"],
+            r["newton_failures"],
+            _g(r["newton_per_step"]),
+            _g(r["jacobians_per_step"]),
+            _g(r["krylov_per_newton"]),
+            _g(r["min_gap_ratio"], 3),
+            _g(r["wall_s"]),
+            f"{_g(r['wall_ratio'])}×",
+        ]
+        for r in _csv(path)
+    ]
+    head = ["`period_doubling_22G`, 1 s", "steps / rejected", "rejected by contact"]
+    head += ["Newton failures", "Newton per step", "Jacobians per step", "Krylov per Newton"]
+    head += ["smallest gap / δ", "wall (s)", "wall / without contact"]
+    return _table(head, rows) + "\n\n" + provenance(path)
+
+
 def contact_newton() -> str:
     path = RESULTS / "contact_newton.csv"
     rows = [
@@ -1346,6 +1369,7 @@ TABLES: dict[str, Callable[[], str]] = {
     "contact-newton": contact_newton,
     "contact-line-search": contact_line_search,
     "contact-line-search-scene": contact_line_search_scene,
+    "contact-near-gap": contact_near_gap,
     "bc-search": bc_search,
     "bc-dagger": bc_dagger,
     "study-wall": study_wall,
