@@ -24,9 +24,10 @@ contact, and with it, with and without the line search.
 
 Last, ``contact.near_gap_fraction`` in that scene: the pairs within this gap of touching are
 always evaluated in Newton's iterations, and every other pair bounds the step by the gap it
-may close (``--part near_gap``).
+may close (``--part near_gap``); and the cost of contact there over three seeds of the
+needle imperfection (``--part seeds``: the pile is a weakly chaotic outcome).
 
-    python benchmarks/bench_contact_newton.py [--part variants|sizes|scene|near_gap]
+    python benchmarks/bench_contact_newton.py [--part variants|sizes|scene|near_gap|seeds]
 """
 
 from __future__ import annotations
@@ -175,18 +176,14 @@ SCENE = "period_doubling_22G"
 SCENE_DURATION_S = 1.0
 
 
-def scene_rows() -> list[dict]:
-    """SCENE for SCENE_DURATION_S without contact, and with it, with and without the line
-    search; wall times as ratios to the run without contact."""
-    without = [e for e in Simulation(SCENE).scene.effects if e != "contact"]
-    variants = {
-        "without contact": {"effects": without},
-        "contact, line search (default)": {"numerics.line_search": "residual"},
-        "contact, no line search": {"numerics.line_search": "off"},
-    }
+def _scene_rows(variants: dict[str, dict], seed: int | None = None) -> list[dict]:
+    """SCENE for SCENE_DURATION_S under each variant's overrides (and the needle
+    imperfection's ``seed``); wall times as ratios to the first variant's."""
     rows, base = [], None
     for label, extra in variants.items():
         over = {"duration_s": SCENE_DURATION_S, "outputs.plot": False, **extra}
+        if seed is not None:
+            over["seed"] = seed
         simulate(SCENE, {**over, "duration_s": 0.01})  # compile this combination
         t0 = time.perf_counter()
         s = simulate(SCENE, over).summary
@@ -196,51 +193,7 @@ def scene_rows() -> list[dict]:
             {
                 "scene": SCENE,
                 "duration_s": SCENE_DURATION_S,
-                "variant": label,
-                "steps": s["steps"],
-                "rejected_steps": s["rejected_steps"],
-                "contact_rejections": s["contact_rejections"],
-                "newton_failures": s["newton_failures"],
-                "newton_per_step": s["newton_iterations"] / s["steps"],
-                "krylov_per_newton": s["krylov_iterations"] / max(s["newton_iterations"], 1),
-                "backtracks": s["line_search_backtracks"],
-                "wall_s": wall,
-                "wall_ratio": wall / base,
-            }
-        )
-        r = rows[-1]
-        print(
-            f"{label:>32}: {r['steps']} steps ({r['rejected_steps']} rejected), "
-            f"{r['newton_per_step']:.2f} Newton per step, {r['krylov_per_newton']:.2f} Krylov "
-            f"per Newton, {r['newton_failures']} Newton failures, wall {wall:.1f} s "
-            f"(x{r['wall_ratio']:.2f})"
-        )
-    return rows
-
-
-NEAR_GAPS = (0.05, 0.15, 0.3, 0.6, 1.0)
-
-
-def near_gap_rows() -> list[dict]:
-    """SCENE for SCENE_DURATION_S without contact, then with contact at every
-    ``contact.near_gap_fraction`` of NEAR_GAPS: the pairs always evaluated in Newton's
-    iterations. Wall times as ratios to the run without contact."""
-    without = [e for e in Simulation(SCENE).scene.effects if e != "contact"]
-    variants = {"without contact": {"effects": without}}
-    for g in NEAR_GAPS:
-        variants[f"contact, near gap {g:g} delta"] = {"contact.near_gap_fraction": g}
-    rows, base = [], None
-    for label, extra in variants.items():
-        over = {"duration_s": SCENE_DURATION_S, "outputs.plot": False, **extra}
-        simulate(SCENE, {**over, "duration_s": 0.01})  # compile this combination
-        t0 = time.perf_counter()
-        s = simulate(SCENE, over).summary
-        wall = time.perf_counter() - t0
-        base = base or wall
-        rows.append(
-            {
-                "scene": SCENE,
-                "duration_s": SCENE_DURATION_S,
+                **({} if seed is None else {"seed": seed}),
                 "variant": label,
                 "near_gap_fraction": extra.get("contact.near_gap_fraction", math.nan),
                 "steps": s["steps"],
@@ -250,6 +203,7 @@ def near_gap_rows() -> list[dict]:
                 "newton_per_step": s["newton_iterations"] / s["steps"],
                 "jacobians_per_step": s["jacobians"] / s["steps"],
                 "krylov_per_newton": s["krylov_iterations"] / max(s["newton_iterations"], 1),
+                "backtracks": s["line_search_backtracks"],
                 "min_gap_ratio": s["measurements"]["min_gap_ratio"],
                 "wall_s": wall,
                 "wall_ratio": wall / base,
@@ -257,19 +211,66 @@ def near_gap_rows() -> list[dict]:
         )
         r = rows[-1]
         print(
-            f"{label:>28}: {r['steps']} steps ({r['rejected_steps']} rejected, "
+            f"{label:>32}: {r['steps']} steps ({r['rejected_steps']} rejected, "
             f"{r['contact_rejections']} by contact), {r['newton_per_step']:.2f} Newton and "
-            f"{r['jacobians_per_step']:.2f} Jacobians per step, smallest gap "
+            f"{r['jacobians_per_step']:.2f} Jacobians per step, {r['krylov_per_newton']:.2f} "
+            f"Krylov per Newton, {r['newton_failures']} Newton failures, smallest gap "
             f"{r['min_gap_ratio']:.3f} delta, wall {wall:.1f} s (x{r['wall_ratio']:.2f})",
             flush=True,
         )
     return rows
 
 
+def _without_contact() -> dict:
+    return {"effects": [e for e in Simulation(SCENE).scene.effects if e != "contact"]}
+
+
+def scene_rows() -> list[dict]:
+    """Without contact, and with it, with and without the line search (the near gap of the
+    first measurement, 0.05 delta)."""
+    return _scene_rows(
+        {
+            "without contact": _without_contact(),
+            "contact, line search (default)": {
+                "numerics.line_search": "residual",
+                "contact.near_gap_fraction": 0.05,
+            },
+            "contact, no line search": {
+                "numerics.line_search": "off",
+                "contact.near_gap_fraction": 0.05,
+            },
+        }
+    )
+
+
+NEAR_GAPS = (0.05, 0.15, 0.3, 0.6, 1.0)
+SEEDS = (0, 1, 2)
+
+
+def near_gap_rows() -> list[dict]:
+    """Without contact, then with contact at every ``contact.near_gap_fraction`` of
+    NEAR_GAPS: the pairs always evaluated in Newton's iterations."""
+    variants = {"without contact": _without_contact()}
+    for g in NEAR_GAPS:
+        variants[f"contact, near gap {g:g} delta"] = {"contact.near_gap_fraction": g}
+    return _scene_rows(variants)
+
+
+def seed_rows() -> list[dict]:
+    """Without and with contact (defaults) for each needle-imperfection seed of SEEDS: the
+    pile, and so the cost, is a weakly chaotic outcome."""
+    rows = []
+    for seed in SEEDS:
+        rows += _scene_rows({"without contact": _without_contact(), "contact": {}}, seed)
+    return rows
+
+
 if __name__ == "__main__":
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument(
-        "--part", choices=("all", "variants", "sizes", "scene", "near_gap"), default="all"
+        "--part",
+        choices=("all", "variants", "sizes", "scene", "near_gap", "seeds"),
+        default="all",
     )
     part = ap.parse_args().part
     if part in ("all", "variants"):
@@ -286,3 +287,6 @@ if __name__ == "__main__":
     if part in ("all", "near_gap"):
         print(f"{SCENE}, {SCENE_DURATION_S:g} s, against contact.near_gap_fraction:")
         print("wrote", write_csv("contact_near_gap", near_gap_rows()))
+    if part in ("all", "seeds"):
+        print(f"{SCENE}, {SCENE_DURATION_S:g} s, seeds {SEEDS}:")
+        print("wrote", write_csv("contact_seeds", seed_rows()))
