@@ -12,7 +12,7 @@ stalls: the adaptive steps are shorter there.) (2) drag_coiling_22G (4 s) and pe
 steps, and the smallest distance between non-adjacent segments over the saved frames.
 Every ratio is measured within the same run.
 
-    python benchmarks/bench_contact.py [--quick]
+    python benchmarks/bench_contact.py [--quick] [--part scaling|scenes]
 """
 
 from __future__ import annotations
@@ -147,16 +147,27 @@ def scenes(durations: dict[str, float]) -> list[dict]:
 def main() -> None:
     p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     p.add_argument("--quick", action="store_true", help="smaller sizes and shorter runs")
+    p.add_argument("--part", choices=("all", "scaling", "scenes"), default="all")
     args = p.parse_args()
-    apart = [100, 300, 1000] if args.quick else [100, 300, 1000, 3000, 10000]
-    touching = [100, 300] if args.quick else [100, 300, 1000, 3000]
-    duration = 5e-3 if args.quick else 2e-2
+    if args.part in ("all", "scaling"):
+        scaling_part(args.quick)
+    if args.part in ("all", "scenes"):
+        scenes_part(args.quick)
+
+
+def scaling_part(quick: bool) -> None:
+    apart = [100, 300, 1000] if quick else [100, 300, 1000, 3000, 10000]
+    touching = [100, 300] if quick else [100, 300, 1000, 3000]
+    duration = 5e-3 if quick else 2e-2
     print("cost per step against N (a coil stack sinking, adaptive steps):")
     rows = scaling(apart, duration, 1.5) + scaling(touching, duration, 0.98)
     write_csv("contact_scaling", rows)
+
+
+def scenes_part(quick: bool) -> None:
     durations = (
         {"drag_coiling_22G": 1.0, "period_doubling_22G": 0.1}
-        if args.quick
+        if quick
         else {"drag_coiling_22G": 4.0, "period_doubling_22G": 0.5}
     )
     print("the coiling scenes with and without contact (same process):")

@@ -1059,11 +1059,12 @@ def contact_line_search_scene() -> str:
     return _table(head, rows) + "\n\n" + provenance(path)
 
 
-def contact_near_gap() -> str:
-    path = RESULTS / "contact_near_gap.csv"
+def _contact_scene_table(name: str, label: Any, first: str) -> str:
+    """A table of ``bench_contact_newton.py``'s 1 s scene runs; ``label(row)`` names a row."""
+    path = RESULTS / f"{name}.csv"
     rows = [
         [
-            r["variant"],
+            label(r),
             f"{r['steps']} / {r['rejected_steps']}",
             r["contact_rejections"],
             r["newton_failures"],
@@ -1076,10 +1077,24 @@ def contact_near_gap() -> str:
         ]
         for r in _csv(path)
     ]
-    head = ["`period_doubling_22G`, 1 s", "steps / rejected", "rejected by contact"]
+    head = [first, "steps / rejected", "rejected by contact"]
     head += ["Newton failures", "Newton per step", "Jacobians per step", "Krylov per Newton"]
     head += ["smallest gap / δ", "wall (s)", "wall / without contact"]
     return _table(head, rows) + "\n\n" + provenance(path)
+
+
+def contact_near_gap() -> str:
+    return _contact_scene_table(
+        "contact_near_gap", lambda r: r["variant"], "`period_doubling_22G`, 1 s"
+    )
+
+
+def contact_seeds() -> str:
+    return _contact_scene_table(
+        "contact_seeds",
+        lambda r: f"seed {r['seed']}, {r['variant']}",
+        "`period_doubling_22G`, 1 s",
+    )
 
 
 def contact_newton() -> str:
@@ -1370,6 +1385,7 @@ TABLES: dict[str, Callable[[], str]] = {
     "contact-line-search": contact_line_search,
     "contact-line-search-scene": contact_line_search_scene,
     "contact-near-gap": contact_near_gap,
+    "contact-seeds": contact_seeds,
     "bc-search": bc_search,
     "bc-dagger": bc_dagger,
     "study-wall": study_wall,
