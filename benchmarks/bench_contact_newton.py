@@ -257,11 +257,14 @@ def near_gap_rows() -> list[dict]:
 
 
 def seed_rows() -> list[dict]:
-    """Without and with contact (defaults) for each needle-imperfection seed of SEEDS: the
-    pile, and so the cost, is a weakly chaotic outcome."""
+    """Without and with contact (defaults, and with the Gauss-Newton Hessian) for each
+    needle-imperfection seed of SEEDS: the pile, and so the cost, is a weakly chaotic
+    outcome."""
     rows = []
     for seed in SEEDS:
-        rows += _scene_rows({"without contact": _without_contact(), "contact": {}}, seed)
+        variants = {"without contact": _without_contact(), "contact": {}}
+        variants["contact, Gauss-Newton Hessian"] = {"contact.hessian": "gauss_newton"}
+        rows += _scene_rows(variants, seed)
     return rows
 
 
