@@ -56,6 +56,7 @@ VARIANTS: dict[str, dict] = {
     "soft onset 0.1 delta (default 0.02)": {"contact.width_fraction": 0.1},
     "soft onset 0.005 delta": {"contact.width_fraction": 0.005},
     "stiffness 100 Pa (default 1000)": {"contact.stiffness_pa": 100.0},
+    "Gauss-Newton Hessian": {"contact.hessian": "gauss_newton"},
 }
 
 
