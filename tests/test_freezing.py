@@ -82,7 +82,7 @@ def _freezing_against_the_coils_own_spread(effects: list[str], freeze_mm: float)
 
 def test_freezing_changes_a_steady_coil_less_than_the_coil_varies() -> None:
     """Overdamped: beyond 100 mm (about four turns). This weakly chaotic coil's radius moves
-    by 0.2-0.6% with the imperfection seed and 0.4% with a tenfold tolerance; freezing
+    by up to 0.6% with the imperfection seed and 0.4% with a tenfold tolerance; freezing
     beyond 60 mm moves it by as much (up to 0.9%), beyond 150 mm by 0.3% at most
     (``python benchmarks/bench_freezing.py --part coil``, docs/numerics.md)."""
     _freezing_against_the_coils_own_spread(list(Simulation(COIL).scene.effects), 100.0)
@@ -90,9 +90,9 @@ def test_freezing_changes_a_steady_coil_less_than_the_coil_varies() -> None:
 
 def test_freezing_with_inertia_changes_a_steady_coil_less_than_the_coil_varies() -> None:
     """With inertia (the experiments' regimes need it; the frozen tail carries its mass and
-    added mass), beyond 100 mm. This coil's frequency moves by 1.5-3.5 % with the seed.
-    At 60 mm, since the jet leaves the needle at its exit speed, R shrinks by 1.1-2.4%
-    (four seeds), twice that spread: an inertial coil needs the tail further away
+    added mass), beyond 100 mm. Since the jet leaves the needle at its exit speed, freezing
+    beyond 60 mm shrinks R by 1.2-2.8% over four seeds, against up to 0.9% for a tenfold
+    tolerance or another seed: an inertial coil needs the tail further away
     (docs/numerics.md)."""
     _freezing_against_the_coils_own_spread([*Simulation(COIL).scene.effects, "inertia"], 100.0)
 
