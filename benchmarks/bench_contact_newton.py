@@ -25,9 +25,11 @@ contact, and with it, with and without the line search.
 Last, ``contact.near_gap_fraction`` in that scene: the pairs within this gap of touching are
 always evaluated in Newton's iterations, and every other pair bounds the step by the gap it
 may close (``--part near_gap``); and the cost of contact there over three seeds of the
-needle imperfection (``--part seeds``: the pile is a weakly chaotic outcome).
+needle imperfection (``--part seeds``: the pile is a weakly chaotic outcome), and against
+the penalty's soft onset, ``contact.width_fraction`` (``--part onset``: what holding the
+contact distance more exactly costs).
 
-    python benchmarks/bench_contact_newton.py [--part variants|sizes|scene|near_gap|seeds]
+    python benchmarks/bench_contact_newton.py [--part variants|sizes|scene|near_gap|seeds|onset]
 """
 
 from __future__ import annotations
@@ -257,6 +259,19 @@ def near_gap_rows() -> list[dict]:
     return _scene_rows(variants)
 
 
+ONSETS = (0.02, 0.05, 0.1, 0.2)
+
+
+def onset_rows() -> list[dict]:
+    """Without contact, then with the soft onset ``contact.width_fraction`` of ONSETS (the
+    penetration over which the penalty's stiffness grows from zero): what holding the
+    contact distance more exactly costs."""
+    variants = {"without contact": _without_contact()}
+    for w in ONSETS:
+        variants[f"contact, soft onset {w:g} delta"] = {"contact.width_fraction": w}
+    return _scene_rows(variants)
+
+
 def seed_rows() -> list[dict]:
     """Without and with contact (defaults, and with the Gauss-Newton Hessian) for each
     needle-imperfection seed of SEEDS: the pile, and so the cost, is a weakly chaotic
@@ -273,7 +288,7 @@ if __name__ == "__main__":
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument(
         "--part",
-        choices=("all", "variants", "sizes", "scene", "near_gap", "seeds"),
+        choices=("all", "variants", "sizes", "scene", "near_gap", "seeds", "onset"),
         default="all",
     )
     part = ap.parse_args().part
@@ -294,3 +309,6 @@ if __name__ == "__main__":
     if part in ("all", "seeds"):
         print(f"{SCENE}, {SCENE_DURATION_S:g} s, seeds {SEEDS}:")
         print("wrote", write_csv("contact_seeds", seed_rows()))
+    if part in ("all", "onset"):
+        print(f"{SCENE}, {SCENE_DURATION_S:g} s, against contact.width_fraction:")
+        print("wrote", write_csv("contact_onset", onset_rows()))
