@@ -1089,6 +1089,12 @@ def contact_near_gap() -> str:
     )
 
 
+def contact_onset() -> str:
+    return _contact_scene_table(
+        "contact_onset", lambda r: r["variant"], "`period_doubling_22G`, 1 s"
+    )
+
+
 def contact_seeds() -> str:
     return _contact_scene_table(
         "contact_seeds",
@@ -1386,6 +1392,7 @@ TABLES: dict[str, Callable[[], str]] = {
     "contact-line-search-scene": contact_line_search_scene,
     "contact-near-gap": contact_near_gap,
     "contact-seeds": contact_seeds,
+    "contact-onset": contact_onset,
     "bc-search": bc_search,
     "bc-dagger": bc_dagger,
     "study-wall": study_wall,
