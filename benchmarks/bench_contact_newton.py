@@ -292,23 +292,29 @@ if __name__ == "__main__":
         default="all",
     )
     part = ap.parse_args().part
-    if part in ("all", "variants"):
-        print(f"pressed stack, N = {N_NODES}, {DURATION_S * 1e3:g} ms:")
-        print("wrote", write_csv("contact_newton", newton_rows()))
-        print("wrote", write_csv("contact_closest_points", closest_point_rows()))
-    if part in ("all", "sizes"):
-        print(f"the line search against N ({DURATION_S * 1e3:g} ms):")
-        rows = line_search_rows([100, 300, 1000, 3000])
-        print("wrote", write_csv("contact_line_search", rows))
-    if part in ("all", "scene"):
-        print(f"{SCENE}, {SCENE_DURATION_S:g} s:")
-        print("wrote", write_csv("contact_line_search_scene", scene_rows()))
-    if part in ("all", "near_gap"):
-        print(f"{SCENE}, {SCENE_DURATION_S:g} s, against contact.near_gap_fraction:")
-        print("wrote", write_csv("contact_near_gap", near_gap_rows()))
-    if part in ("all", "seeds"):
-        print(f"{SCENE}, {SCENE_DURATION_S:g} s, seeds {SEEDS}:")
-        print("wrote", write_csv("contact_seeds", seed_rows()))
-    if part in ("all", "onset"):
-        print(f"{SCENE}, {SCENE_DURATION_S:g} s, against contact.width_fraction:")
-        print("wrote", write_csv("contact_onset", onset_rows()))
+    scene = f"{SCENE}, {SCENE_DURATION_S:g} s"
+    parts = {  # part: (title, [(result file, rows)])
+        "variants": (
+            f"pressed stack, N = {N_NODES}, {DURATION_S * 1e3:g} ms:",
+            [("contact_newton", newton_rows), ("contact_closest_points", closest_point_rows)],
+        ),
+        "sizes": (
+            f"the line search against N ({DURATION_S * 1e3:g} ms):",
+            [("contact_line_search", lambda: line_search_rows([100, 300, 1000, 3000]))],
+        ),
+        "scene": (f"{scene}:", [("contact_line_search_scene", scene_rows)]),
+        "near_gap": (
+            f"{scene}, against contact.near_gap_fraction:",
+            [("contact_near_gap", near_gap_rows)],
+        ),
+        "seeds": (f"{scene}, seeds {SEEDS}:", [("contact_seeds", seed_rows)]),
+        "onset": (
+            f"{scene}, against contact.width_fraction:",
+            [("contact_onset", onset_rows)],
+        ),
+    }
+    for name, (title, outputs) in parts.items():
+        if part in ("all", name):
+            print(title)
+            for csv_name, rows in outputs:
+                print("wrote", write_csv(csv_name, rows()))
