@@ -35,12 +35,17 @@ SPACING = 0.3 * MM
 
 
 def coil_stack(n: int, contact: bool, gap: float = 1.5, extra: dict | None = None) -> Simulation:
-    """``gap``: the pitch in contact distances; ``extra``: more scene overrides."""
+    """``gap``: the pitch in contact distances; ``extra``: more scene overrides. The stack
+    stands 50 mm below the bath's surface, or lower when it is taller than 45 mm (so that its
+    top stays 5 mm under the surface: above it, where the bath gives no buoyancy, the upper
+    turns would weigh on the lower ones)."""
     radius, pitch = 3 * MM, gap * 2 * R_FIL
     dphi = SPACING / math.hypot(radius, pitch / (2 * math.pi))
     phi = dphi * np.arange(n)
+    height = pitch * phi[-1] / (2 * math.pi)
+    base = min(-50 * MM, -height - 5 * MM)
     pts = np.column_stack(
-        [radius * np.cos(phi), radius * np.sin(phi), -50 * MM + pitch * phi / (2 * math.pi)]
+        [radius * np.cos(phi), radius * np.sin(phi), base + pitch * phi / (2 * math.pi)]
     )
     effects = ["elasticity", "drag", "gravity"] + (["contact"] if contact else [])
     return Simulation.from_points(
