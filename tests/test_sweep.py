@@ -216,6 +216,42 @@ def test_resume_skips_recorded_points_and_reruns_a_truncated_one(tmp_path) -> No
     assert _lines(out) == lines
 
 
+def test_rows_record_their_code_and_a_resume_reruns_stale_rows_only_when_asked(
+    tmp_path, capsys
+) -> None:
+    """Every row records the code that computed it; resuming over rows another version
+    computed (or that record none) keeps them and says so, and with ``rerun_stale`` runs
+    them again."""
+    from bathprint.provenance import code_version
+
+    out = tmp_path / "results.jsonl"
+    grid = {"flow.q_outer_ml_min": [0.4, 0.5]}
+    rows = run_sweep(SCENE, grid, out, workers=1, progress=False, base_overrides=TINY)
+    here = code_version()
+    assert all(r["code"] == here for r in read_results(out))
+    assert here["bathprint"] and (here["commit"] is None or len(here["commit"]) >= 7)
+    # the same code: silent, nothing rerun
+    capsys.readouterr()
+    assert run_sweep(SCENE, grid, out, workers=1, progress=False, base_overrides=TINY) == rows
+    assert "another version" not in capsys.readouterr().err
+    # one row from another commit, one that records no code
+    recorded = read_results(out)
+    recorded[0]["code"] = {"bathprint": "0.0.1", "commit": "abcdef0"}
+    recorded[0]["result"]["marker"] = "old"
+    del recorded[1]["code"]
+    out.write_text("".join(json.dumps(r) + "\n" for r in recorded))
+    kept = run_sweep(SCENE, grid, out, workers=1, progress=False, base_overrides=TINY)
+    err = capsys.readouterr().err
+    assert "2 of the 2 points" in err and "0.0.1 at abcdef0" in err and "not recorded" in err
+    assert kept[0]["result"]["marker"] == "old" and len(read_results(out)) == 2
+    rerun = run_sweep(
+        SCENE, grid, out, workers=1, progress=False, base_overrides=TINY, rerun_stale=True
+    )
+    assert "are run again" in capsys.readouterr().err
+    assert all(r["code"] == here and "marker" not in r["result"] for r in rerun)
+    assert [r["run_id"] for r in rerun] == [r["run_id"] for r in rows]
+
+
 def test_ctrl_c_keeps_written_rows_and_resume_completes(tmp_path) -> None:
     out = tmp_path / "results.jsonl"
     grid = {"flow.q_outer_ml_min": [0.4, 0.5, 0.6]}

@@ -17,6 +17,10 @@ Row fields::
     error        null, or {"type", "message"} (plus "traceback" for unexpected errors)
     wall_time_s  seconds the whole task took in its worker (scene loading and JIT included)
     finished_at  UTC time the driver recorded the row (ISO 8601)
+    code         the code that computed it: {"bathprint": version, "commit": short hash, or
+                 null outside a git checkout} (:func:`bathprint.provenance.code_version`);
+                 resuming says how many recorded rows another version computed, and
+                 ``rerun_stale`` runs them again
     result       the fields ``extract(summary)`` returned (null when failed); by default
                  steps, rejected_steps, wall_time_s (of the time loop), final_length_m and
                  ``measurements.<name>`` for everything under summary["measurements"]
@@ -60,6 +64,7 @@ from bathprint.core.scene import parse_override, read_scene_data
 from bathprint.errors import OptionError, SceneError, SimulationError
 from bathprint.interrupt import atomic, exit_code, signals_interrupt
 from bathprint.paths import check_output_file
+from bathprint.provenance import code_version
 
 __all__ = [
     "add_arguments",
@@ -515,15 +520,17 @@ def run_sweep(
     progress: bool = True,
     base_overrides: Mapping[str, Any] | None = None,
     retry_failed: bool = False,
+    rerun_stale: bool = False,
 ) -> list[dict[str, Any]]:
     """Run ``simulate(scene, {**base_overrides, **point})`` for every grid point.
 
     ``grid`` is an axes dict or a list of points (see :func:`expand_grid`). Points whose
     ``run_id`` is already in ``results_path`` are skipped (failed ones too, unless
-    ``retry_failed``); every other run appends one row as it finishes, in completion
-    order. A failing run is recorded and the sweep goes on. ``scheduler``: None (local
-    process pool of ``workers`` processes, default ``os.cpu_count()``), ``"local-dask"``,
-    ``"serial"`` or a Dask scheduler address. ``extract(summary)`` runs in this process.
+    ``retry_failed``, and those another version of the code computed, if ``rerun_stale``);
+    every other run appends one row as it finishes, in completion order. A failing run is
+    recorded and the sweep goes on. ``scheduler``: None (local process pool of ``workers``
+    processes, default ``os.cpu_count()``), ``"local-dask"``, ``"serial"`` or a Dask
+    scheduler address. ``extract(summary)`` runs in this process.
     On Ctrl-C pending runs are cancelled, the workers stopped, written rows kept and
     KeyboardInterrupt re-raised (inside :func:`bathprint.interrupt.signals_interrupt`, as
     the command line runs it, SIGTERM does the same).
@@ -546,6 +553,7 @@ def run_sweep(
     out = _ResultsFile(Path(results_path))
     try:
         done = {r["run_id"]: r for r in out.rows if not retry_failed or r["status"] == "ok"}
+        done = _without_stale(done, points, out.path, rerun_stale)
         todo = [rid for rid in points if rid not in done]
         rows = {rid: done[rid] for rid in points if rid in done}
         if progress and len(todo) < len(points):
@@ -582,6 +590,37 @@ def run_sweep(
         out.close()
 
 
+def _without_stale(
+    done: dict[str, dict[str, Any]], points: Mapping[str, Any], path: Path, rerun_stale: bool
+) -> dict[str, dict[str, Any]]:
+    """The recorded rows of this grid that another version of the code computed (or that
+    carry no version): say how many, and leave them out of ``done`` if ``rerun_stale``."""
+    here = code_version()
+    stale = [rid for rid in points if rid in done and done[rid].get("code") != here]
+    if not stale:
+        return done
+    versions = sorted({_version_label(done[rid].get("code")) for rid in stale})
+    what = (
+        "are run again" if rerun_stale else "are kept (rerun_stale / --rerun-stale: run them again)"
+    )
+    print(
+        f"sweep: {len(stale)} of the {len(points)} points were recorded in {path} by another "
+        f"version of bathprint ({', '.join(versions)}; this one: {_version_label(here)}); "
+        f"they {what}",
+        file=sys.stderr,
+    )
+    if not rerun_stale:
+        return done
+    return {rid: row for rid, row in done.items() if rid not in stale}
+
+
+def _version_label(code: Any) -> str:
+    if not isinstance(code, dict):
+        return "not recorded"
+    commit = code.get("commit")
+    return f"{code.get('bathprint')}" + (f" at {commit}" if commit else "")
+
+
 def _make_row(
     rid: str, scene: str, overrides: dict[str, Any], outcome: Outcome, extract: Extract
 ) -> dict[str, Any]:
@@ -600,6 +639,7 @@ def _make_row(
         "error": error,
         "wall_time_s": outcome.get("wall_time_s"),
         "finished_at": datetime.now(UTC).isoformat(timespec="seconds"),
+        "code": code_version(),
         "result": result,
     }
 
@@ -737,6 +777,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--retry-failed", action="store_true", help="run again the points recorded as failed"
     )
+    parser.add_argument(
+        "--rerun-stale",
+        action="store_true",
+        help="run again the points that another version of bathprint computed",
+    )
     parser.add_argument("--csv", metavar="PATH", help="also write all results as CSV to PATH")
     parser.add_argument(
         "--allow-invalid",
@@ -803,6 +848,7 @@ def _run_args(args: argparse.Namespace) -> int:
             progress=not args.no_progress,
             base_overrides=base,
             retry_failed=args.retry_failed,
+            rerun_stale=args.rerun_stale,
         )
     except (SceneError, ValueError) as exc:  # OptionError is a ValueError
         print(f"bathprint sweep: {exc}", file=sys.stderr)
