@@ -250,8 +250,9 @@ class Contact:
         0.3,
         0.0,
         2.0,
-        doc="pairs within this gap of touching (in contact distances) are evaluated in "
-        "Newton's iterations; a pair further out bounds the step by the gap it may close",
+        doc="pairs within this gap of touching (in contact distances; at most the candidate "
+        "list's skin) are evaluated in Newton's iterations; a pair further out bounds the "
+        "step by the gap it may close",
     )
     hessian: str = field(
         default="exact",
