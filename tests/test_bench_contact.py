@@ -1,0 +1,53 @@
+"""The contact benchmarks on tiny budgets: their parts run, and their coil stacks are as
+their docs say (``benchmarks/bench_contact.py``, ``benchmarks/bench_contact_newton.py``)."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import pytest
+
+BENCH = Path(__file__).resolve().parents[1] / "benchmarks"
+
+
+@pytest.fixture
+def bench(load_script, monkeypatch):
+    monkeypatch.syspath_prepend(str(BENCH))  # the scripts import _common and each other
+    return lambda name: load_script(BENCH / f"{name}.py")
+
+
+def test_the_scene_parts_run_and_report_against_the_run_without_contact(bench, monkeypatch):
+    mod = bench("bench_contact_newton")
+    monkeypatch.setattr(mod, "SCENE_DURATION_S", 0.02)
+    monkeypatch.setattr(mod, "NEAR_GAPS", (0.05, 0.3))
+    monkeypatch.setattr(mod, "SEEDS", (1,))
+    monkeypatch.setattr(mod, "ONSETS", (0.2,))
+    near = mod.near_gap_rows()
+    assert [r["variant"] for r in near] == [
+        "without contact",
+        "contact, near gap 0.05 delta",
+        "contact, near gap 0.3 delta",
+    ]
+    assert [r["near_gap_fraction"] for r in near[1:]] == [0.05, 0.3]
+    assert math.isnan(near[0]["near_gap_fraction"])
+    seeds = mod.seed_rows()
+    assert [r["seed"] for r in seeds] == [1, 1, 1] and len({r["variant"] for r in seeds}) == 3
+    onset = mod.onset_rows()
+    assert [r["variant"] for r in onset] == ["without contact", "contact, soft onset 0.2 delta"]
+    for rows in (near, seeds, onset):
+        assert rows[0]["wall_ratio"] == pytest.approx(1.0)
+        for r in rows:
+            assert r["steps"] > 0 and r["newton_per_step"] >= 1.0 and r["wall_s"] > 0.0
+            assert r["wall_ratio"] == pytest.approx(r["wall_s"] / rows[0]["wall_s"])
+
+
+def test_every_coil_stack_stands_under_the_bath_surface(bench):
+    """The tallest stack (10^4 nodes, pitch 1.5 contact distances, about 98 mm) keeps its top
+    5 mm under the surface; a short one stands at 50 mm below it."""
+    mod = bench("bench_contact")
+    tall = mod.coil_stack(10_000, False, 1.5).centerline()
+    surface = 0.0  # the free surface is at z = 0 (m)
+    assert tall[:, 2].max() == pytest.approx(surface - 5e-3, abs=1e-9)
+    short = mod.coil_stack(300, False, 1.5).centerline()
+    assert short[:, 2].min() == pytest.approx(-50e-3, abs=1e-9)
