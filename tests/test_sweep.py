@@ -250,6 +250,21 @@ def test_rows_record_their_code_and_a_resume_reruns_stale_rows_only_when_asked(
     assert "are run again" in capsys.readouterr().err
     assert all(r["code"] == here and "marker" not in r["result"] for r in rerun)
     assert [r["run_id"] for r in rerun] == [r["run_id"] for r in rows]
+    # bathprint reproduce --rerun-stale: the same for every sweep inside the context
+    import argparse
+
+    from bathprint.studies.reproduce.cli import add_arguments
+
+    parser = argparse.ArgumentParser()
+    add_arguments(parser)
+    assert parser.parse_args(["ablation", "--rerun-stale"]).rerun_stale
+    recorded = sweep.latest_rows(read_results(out))
+    recorded[1]["code"] = {"bathprint": "0.0.1", "commit": None}
+    out.write_text("".join(json.dumps(r) + "\n" for r in recorded))
+    with sweep.rerunning_stale():
+        again = run_sweep(SCENE, grid, out, workers=1, progress=False, base_overrides=TINY)
+    assert "1 of the 2 points" in capsys.readouterr().err
+    assert again[0] == rerun[0] and again[1]["code"] == here
 
 
 def test_ctrl_c_keeps_written_rows_and_resume_completes(tmp_path) -> None:

@@ -56,6 +56,8 @@ from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
 from concurrent.futures import ProcessPoolExecutor
 from concurrent.futures import as_completed as futures_as_completed
 from concurrent.futures.process import BrokenProcessPool
+from contextlib import contextmanager
+from contextvars import ContextVar
 from datetime import UTC, datetime
 from pathlib import Path
 from typing import Any
@@ -520,13 +522,14 @@ def run_sweep(
     progress: bool = True,
     base_overrides: Mapping[str, Any] | None = None,
     retry_failed: bool = False,
-    rerun_stale: bool = False,
+    rerun_stale: bool | None = None,
 ) -> list[dict[str, Any]]:
     """Run ``simulate(scene, {**base_overrides, **point})`` for every grid point.
 
     ``grid`` is an axes dict or a list of points (see :func:`expand_grid`). Points whose
     ``run_id`` is already in ``results_path`` are skipped (failed ones too, unless
-    ``retry_failed``, and those another version of the code computed, if ``rerun_stale``);
+    ``retry_failed``, and those another version of the code computed, if ``rerun_stale``;
+    None: as :func:`rerunning_stale` sets it, by default False);
     every other run appends one row as it finishes, in completion order. A failing run is
     recorded and the sweep goes on. ``scheduler``: None (local process pool of ``workers``
     processes, default ``os.cpu_count()``), ``"local-dask"``, ``"serial"`` or a Dask
@@ -553,6 +556,8 @@ def run_sweep(
     out = _ResultsFile(Path(results_path))
     try:
         done = {r["run_id"]: r for r in out.rows if not retry_failed or r["status"] == "ok"}
+        if rerun_stale is None:
+            rerun_stale = _RERUN_STALE.get()
         done = _without_stale(done, points, out.path, rerun_stale)
         todo = [rid for rid in points if rid not in done]
         rows = {rid: done[rid] for rid in points if rid in done}
@@ -590,6 +595,21 @@ def run_sweep(
         out.close()
 
 
+_RERUN_STALE: ContextVar[bool] = ContextVar("rerun_stale", default=False)
+
+
+@contextmanager
+def rerunning_stale(on: bool = True) -> Iterator[None]:
+    """Within it, every :func:`run_sweep` that is not told otherwise runs again the rows
+    another version of the code computed (``bathprint reproduce --rerun-stale``: the
+    studies' sweeps)."""
+    token = _RERUN_STALE.set(on)
+    try:
+        yield
+    finally:
+        _RERUN_STALE.reset(token)
+
+
 def _without_stale(
     done: dict[str, dict[str, Any]], points: Mapping[str, Any], path: Path, rerun_stale: bool
 ) -> dict[str, dict[str, Any]]:
@@ -600,9 +620,7 @@ def _without_stale(
     if not stale:
         return done
     versions = sorted({_version_label(done[rid].get("code")) for rid in stale})
-    what = (
-        "are run again" if rerun_stale else "are kept (rerun_stale / --rerun-stale: run them again)"
-    )
+    what = "are run again" if rerun_stale else "are kept (--rerun-stale runs them again)"
     print(
         f"sweep: {len(stale)} of the {len(points)} points were recorded in {path} by another "
         f"version of bathprint ({', '.join(versions)}; this one: {_version_label(here)}); "

@@ -49,6 +49,12 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         default=None,
         help="Dask scheduler address (or local-dask) for the simulation runs",
     )
+    p.add_argument(
+        "--rerun-stale",
+        action="store_true",
+        help="run again the recorded simulation runs that another version of bathprint "
+        "computed (by default they are kept, and counted on stderr)",
+    )
 
 
 def check_args(args: argparse.Namespace) -> Path:
@@ -85,6 +91,8 @@ def run_args(args: argparse.Namespace) -> int:
     except OptionError as exc:
         print(f"bathprint reproduce: {exc}", file=sys.stderr)
         return 2
+    from bathprint.studies.sweep import rerunning_stale
+
     names = FIGURES if args.figure == "all" else (args.figure,)
     marker_path = out / MARKER
     run_key = {"figures": list(names), "quick": bool(args.quick)}
@@ -104,7 +112,8 @@ def run_args(args: argparse.Namespace) -> int:
                     continue
                 current = name
                 t0 = time.perf_counter()
-                result = _run_figure(name, out, args)
+                with rerunning_stale(bool(getattr(args, "rerun_stale", False))):
+                    result = _run_figure(name, out, args)
                 report[name] = {
                     "wall_time_s": time.perf_counter() - t0,
                     "quick": args.quick,
