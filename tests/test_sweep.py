@@ -14,6 +14,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+import bathprint
 from bathprint.studies import sweep
 from bathprint.studies.sweep import (
     expand_grid,
@@ -154,6 +155,7 @@ def test_sweep_writes_one_ok_row_per_point_and_csv(tmp_path) -> None:
     assert {t["overrides.flow.q_outer_ml_min"] for t in table} == {"0.5", "1.0"}
     assert all(t["status"] == "ok" and int(t["result.steps"]) > 0 for t in table)
     assert table[0]["overrides.outputs.plot"] == "false"
+    assert {t["code.bathprint"] for t in table} == {bathprint.__version__}
 
 
 def test_failing_run_is_recorded_and_the_sweep_goes_on(tmp_path) -> None:

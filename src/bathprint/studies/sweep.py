@@ -682,8 +682,8 @@ def rows_to_csv(jsonl_path: str | os.PathLike, csv_path: str | os.PathLike) -> i
     """Write a results file as CSV: one line per run_id (its latest row); returns the count.
 
     Columns: run_id, scene, status, error_type, error_message, wall_time_s, then
-    ``overrides.<key>`` and ``result.<key>`` (nested values flattened with dots, lists as
-    JSON), like ``pandas.json_normalize`` of the rows.
+    ``code.<key>``, ``overrides.<key>`` and ``result.<key>`` (nested values flattened with
+    dots, lists as JSON), like ``pandas.json_normalize`` of the rows.
     """
     rows = latest_rows(read_results(jsonl_path))
     flat_rows = []
@@ -698,6 +698,7 @@ def rows_to_csv(jsonl_path: str | os.PathLike, csv_path: str | os.PathLike) -> i
             "error_message": error.get("message"),
             "wall_time_s": row.get("wall_time_s"),
         }
+        flat.update(_flatten(row.get("code") or {}, "code."))
         flat.update(_flatten(row.get("overrides") or {}, "overrides."))
         flat.update(_flatten(row.get("result") or {}, "result."))
         columns.update(dict.fromkeys(flat))
