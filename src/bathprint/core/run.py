@@ -28,6 +28,7 @@ from bathprint.core.extrusion import extruded_length
 from bathprint.core.model import ML_MIN, effective_numerics
 from bathprint.core.scene import Scene, load_scene
 from bathprint.core.simulation import Simulation
+from bathprint.provenance import code_version
 
 
 @dataclass
@@ -159,6 +160,7 @@ def summarize(sim: Simulation, wall_s: float) -> dict[str, Any]:
         "extruded_length_m": float(extruded_length(m.flow, m.flow_cum, m.needle_area, sim.t)),
         "q_outer_ml_min_at_end": float(np.interp(sim.t, m.flow[:, 0], m.flow[:, 1]) / ML_MIN),
         "measurements": {},
+        "code": code_version(),
     }
 
 
