@@ -527,9 +527,10 @@ def freezing_rope() -> str:
     rows = [
         [
             r["variant"],
+            f"{_g(r['reached_s'], 3)} s" if r.get("reached_s") else "6 s",
             f"{r['frozen_nodes']} of {r['nodes']}",
-            f"{_g(r['near_needle_rms_mm'], 2)} mm",
-            f"{_g(r['pile_centre_shift_mm'], 2)} mm",
+            f"{_g(r['near_needle_rms_mm'], 2)} mm" if r["near_needle_rms_mm"] != "nan" else "–",
+            f"{_g(r['pile_centre_shift_mm'], 2)} mm" if r["pile_centre_shift_mm"] != "nan" else "–",
             f"{r['steps']} / {r['rejected']}",
             f"{_g(r['wall_ratio'], 2)}×",
         ]
@@ -537,6 +538,7 @@ def freezing_rope() -> str:
     ]
     head = [
         "variant",
+        "simulated",
         "frozen nodes",
         "change near the needle (RMS)",
         "pile centre shift",
