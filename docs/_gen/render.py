@@ -527,7 +527,7 @@ def freezing_rope() -> str:
     rows = [
         [
             r["variant"],
-            f"{_g(r['reached_s'], 3)} s" if r.get("reached_s") else "6 s",
+            f"{_g(r['reached_s'], 3)} s",
             f"{r['frozen_nodes']} of {r['nodes']}",
             f"{_g(r['near_needle_rms_mm'], 2)} mm" if r["near_needle_rms_mm"] != "nan" else "–",
             f"{_g(r['pile_centre_shift_mm'], 2)} mm" if r["pile_centre_shift_mm"] != "nan" else "–",
