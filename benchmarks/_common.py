@@ -7,11 +7,12 @@ import json
 import os
 import platform
 import shlex
-import subprocess
 import sys
 import time
 from collections.abc import Callable
 from pathlib import Path
+
+from bathprint.provenance import code_version
 
 RESULTS = Path(__file__).resolve().parent / "results"
 
@@ -46,16 +47,7 @@ def write_meta(path: Path) -> Path:
     """Write PATH's provenance beside it (NAME.meta.json): the command that wrote it, the
     date, the machine and the commit. The documentation states them under every table it
     renders from the file (docs/_gen/render.py)."""
-    try:
-        commit = subprocess.run(
-            ["git", "rev-parse", "--short", "HEAD"],
-            capture_output=True,
-            text=True,
-            check=True,
-            cwd=Path(__file__).parent,
-        ).stdout.strip()
-    except (OSError, subprocess.CalledProcessError):
-        commit = ""
+    commit = code_version()["commit"] or ""  # "-dirty" if the package differs from it
     script = Path(sys.argv[0])
     try:
         script = script.resolve().relative_to(Path(__file__).resolve().parents[1])

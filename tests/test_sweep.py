@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import argparse
 import csv
 import json
 import os
@@ -15,7 +16,9 @@ import numpy as np
 import pytest
 
 import bathprint
+from bathprint.provenance import code_version
 from bathprint.studies import sweep
+from bathprint.studies.reproduce.cli import add_arguments
 from bathprint.studies.sweep import (
     expand_grid,
     latest_rows,
@@ -224,8 +227,6 @@ def test_rows_record_their_code_and_a_resume_reruns_stale_rows_only_when_asked(
     """Every row records the code that computed it; resuming over rows another version
     computed (or that record none) keeps them and says so, and with ``rerun_stale`` runs
     them again."""
-    from bathprint.provenance import code_version
-
     out = tmp_path / "results.jsonl"
     grid = {"flow.q_outer_ml_min": [0.4, 0.5]}
     rows = run_sweep(SCENE, grid, out, workers=1, progress=False, base_overrides=TINY)
@@ -253,10 +254,6 @@ def test_rows_record_their_code_and_a_resume_reruns_stale_rows_only_when_asked(
     assert all(r["code"] == here and "marker" not in r["result"] for r in rerun)
     assert [r["run_id"] for r in rerun] == [r["run_id"] for r in rows]
     # bathprint reproduce --rerun-stale: the same for every sweep inside the context
-    import argparse
-
-    from bathprint.studies.reproduce.cli import add_arguments
-
     parser = argparse.ArgumentParser()
     add_arguments(parser)
     assert parser.parse_args(["ablation", "--rerun-stale"]).rerun_stale

@@ -112,7 +112,7 @@ def run_args(args: argparse.Namespace) -> int:
                     continue
                 current = name
                 t0 = time.perf_counter()
-                with rerunning_stale(bool(getattr(args, "rerun_stale", False))):
+                with rerunning_stale(args.rerun_stale):
                     result = _run_figure(name, out, args)
                 report[name] = {
                     "wall_time_s": time.perf_counter() - t0,
