@@ -32,6 +32,8 @@ computed the same thing bit for bit:
   included), after an untimed episode that fills the per-process warm-up states;
 - ``drag_coiling_22G``: 2 s of the scene with effects elasticity, drag, gravity (both trees
   the same physics: newer trees list contact in that scene by default);
+- ``period_doubling_22G``: 0.3 s of the scene as it is, with contact (for trees that have
+  it): Newton's solves by GMRES preconditioned by the banded LU;
 - ``per call``: 2000 ``advance`` calls of one fixed 2 ms step each on a 2-node stub (the
   default scene without flow): the fixed cost of a call from Python, which environments
   pay at every step.
@@ -64,6 +66,8 @@ CANTILEVER_EFFECTS = ["elasticity", "drag", "gravity", "inertia"]
 COIL_EFFECTS = ["elasticity", "drag", "gravity"]
 ENV_STEPS = 600
 CALLS = 2000  # advance() calls of the per-call workload
+PILE_SCENE = "period_doubling_22G"  # with its contact: GMRES on the band's LU
+PILE_S = 0.3
 
 
 # ================================================================== workloads (worker side)
@@ -139,6 +143,15 @@ def _drag_coiling():
     )
 
 
+def _pile():
+    from bathprint import Simulation
+
+    return _sim_workload(
+        lambda: Simulation(PILE_SCENE, {"duration_s": PILE_S, "outputs.plot": False}),
+        lambda s: s.advance(PILE_S),
+    )
+
+
 def _per_call():
     """Many short ``advance`` calls: the cost of a call that integrates almost nothing (one
     2 ms step of a 2-node stub), which is what an environment step pays besides its
@@ -200,6 +213,7 @@ WORKLOADS: dict[str, Callable[[], Callable]] = {
     **{f"cantilever SDIRK4 1 ms, {n} el. (0.5 s)": (lambda n=n: _cantilever(n)) for n in (50, 100)},
     f"CoilRadius-v0 draft ({ENV_STEPS} steps)": _coil_radius_env,
     "drag_coiling_22G 2 s (no contact)": _drag_coiling,
+    "period_doubling_22G 0.3 s (contact)": _pile,
     f"per call: {CALLS} advance() of 1 step": _per_call,
 }
 

@@ -2,10 +2,13 @@
 
 States: a horizontal clamped filament of N = 100, 1000, 10000 nodes sagging under its
 net weight (as bench_scaling.py), and the default scene (paper_simulation) at t = 1.8 s
-(as bench_effects.py); all at a fixed 2 ms step. On each state, after a 20 ms warm-up:
+(as bench_effects.py), all at a fixed 2 ms step after a 20 ms warm-up; and the coil of
+``period_doubling_22G`` piling onto itself at t = 0.8 s, with and without its ``contact``,
+in adaptive steps (as the scene runs). On each state:
 
-(1) the whole step: a fixed-step ``advance`` over a window of steps on identical copies
-    of the state, divided by the steps (and by the Newton iterations, from the counters);
+(1) the whole step: an ``advance`` over a window of simulated time on identical copies
+    of the state, divided by the accepted steps (and by the Newton iterations, from the
+    counters);
 (2) the kernels, called directly on the records of a copy of the simulation (the ``Rod``,
     ``Stage`` and ``Out`` the integrator builds) from a numba loop (no Python call
     overhead, best of several repeats, per call): each effect's ``accumulate`` alone with
@@ -13,29 +16,37 @@ net weight (as bench_scaling.py), and the default scene (paper_simulation) at t 
     Jacobian, ``assemble`` as the filtered error norm calls it (Jacobian with cx = 0, which
     elasticity skips, into the second band), and the linear algebra of
     :mod:`bathprint.core.solver`: ``factor`` (banded LU), ``solve`` (one banded
-    back-substitution: no couplings off the band in these scenes), ``damping_times`` (the
-    filter's banded product), and ``set_boundary``; (1) and (2) alternate over 5 rounds
-    and keep their best;
+    back-substitution, or with couplings off the band one GMRES solve, divided by its
+    iterations: the cost of a Krylov iteration), ``damping_times`` (the filter's banded
+    product), ``set_boundary``, and with contact its ``prepare`` (start of a step, the pair
+    list kept) and ``check`` (end of a step); (1) and (2) alternate over 5 rounds and keep
+    their best;
 (3) how often each kernel runs per step. A fresh copy replays the same window through the
     integrator's own Python source (numba's ``py_func`` of ``advance``, ``_attempt``,
-    ``_implicit_step``, ``_stage_solve``, ``_filtered_norm``, ``explicit_step`` and
-    ``_accept``) with counting wrappers around ``assemble``, ``set_boundary`` and
-    ``solver.factor`` / ``solve`` / ``damping_times``; the structured records (parameters,
+    ``_implicit_step``, ``_stage_solve``, ``_stage_rates``, ``_filtered_norm``,
+    ``explicit_step``, ``_accept``, ``_reject`` and ``_proposed_step``) with counting
+    wrappers around ``assemble``, ``set_boundary``, ``solver.factor`` / ``solve`` /
+    ``damping_times`` and
+    ``contact.prepare`` / ``check`` (the record builders ``active_rod`` and ``_out`` run as
+    Python too: Python must never hold arrays from a kernel compiled without reference
+    counting); the structured records (parameters,
     solver memory, frozen tail, contact memory) are passed as ``np.recarray`` views, which
     numba types as the plain arrays, so the Python source reads their fields by name. Its
     Newton iterations and factorisations are checked against the timed run's counters, and
     its GMRES (Krylov) iterations per step are reported (zero without couplings off the
-    band; their cost would fall under "other").
+    band), each at the cost per iteration of (2).
 
 Per step, component = (calls per step) x (cost per call); "other" (vector updates, error
 norms, checks, extrusion and gelation bookkeeping) is the whole step minus the parts.
 The headline is the share of a step (%): absolute times are noisy on a shared machine.
 
-    python benchmarks/bench_profile.py
+    python benchmarks/bench_profile.py                       # every case
+    python benchmarks/bench_profile.py --cases "pile, contact" --out profile_pile
 """
 
 from __future__ import annotations
 
+import argparse
 import copy
 import time
 from collections.abc import Callable
@@ -61,6 +72,9 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 
 STEP_S = 2e-3
+PILE_SCENE = "period_doubling_22G"  # a coil piling onto itself (a pile of about 25 turns)
+PILE_T_S = 0.8  # ... profiled from here (adaptive steps), where contact costs most
+PILE_WINDOW_S = 0.05
 ROUNDS = 5  # rounds of (whole step, kernels)
 EFFECTS: dict[int, ModuleType] = {
     L.E_ELASTICITY: elasticity,
@@ -80,17 +94,24 @@ COUNTED = (
     "solve",
     "damping_times",
     "set_boundary",
+    "contact: prepare",
+    "contact: check",
 )
 # integrator functions replayed from their Python source so the counted kernels are seen
 REPLAYED = (
+    "active_rod",  # record builders: their compiled forms must not hand arrays to Python
+    "_out",
     "_attempt",
     "_implicit_step",
     "_stage_solve",
+    "_stage_rates",
     "_filtered_norm",
     "explicit_step",
     "_accept",
+    "_reject",
+    "_proposed_step",
 )
-KRYLOV = "krylov iterations"  # a line of the breakdown: counted, not timed
+KRYLOV = "krylov iterations"  # a line of the breakdown: GMRES iterations (off-band scenes)
 
 
 # ------------------------------------------------------------------ states
@@ -153,6 +174,18 @@ def _damping_loop(reps, ws, nd, x, y):
 
 
 @njit
+def _prepare_loop(reps, model, whole, frozen, contact_ws):
+    for _ in range(reps):
+        contact.prepare(model, whole, frozen, contact_ws)
+
+
+@njit
+def _check_loop(reps, model, whole, pos0, frozen, contact_ws):
+    for _ in range(reps):
+        contact.check(model, whole, pos0, frozen, contact_ws)
+
+
+@njit
 def _boundary_loop(reps, model, rod, t, scratch):
     for _ in range(reps):
         set_boundary(model, rod, t, scratch)
@@ -177,25 +210,38 @@ def _gamma(integrator: int) -> float:
     return integ.GAMMA
 
 
+def _python_records(builder: Callable, *args: object) -> object:
+    """The record an integrator helper (``active_rod``, ``_out``) builds, built by its Python
+    source: plain NumPy views. The compiled helpers run without reference counting and must
+    not hand arrays to Python (bathprint.core.jit)."""
+    real = integ.active_rod
+    integ.active_rod = real.py_func  # _out builds the whole rod through it
+    try:
+        return builder.py_func(*args)
+    finally:
+        integ.active_rod = real
+
+
 def kernel_costs(sim: Simulation) -> dict[str, float]:
     """Seconds per call of every kernel of a step, on the records of a copy of ``sim``."""
     s = copy.deepcopy(sim)
     m = s.model
     model, p = m.record, m.p
     state, ws = s.state, s.ws
-    rod = integ.active_rod(state, ws, s.n_frozen)  # views of the copy's arrays
+    rod = _python_records(integ.active_rod, state, ws, s.n_frozen)  # views of the copy's arrays
     n = rod.n_nodes
     nd = 3 * free_nodes(n, p)
     reps = max(5, 100_000 // n)
-    hg = STEP_S * _gamma(m.integrator)
+    h = STEP_S if float(p.fixed_step) > 0 else float(s.state.clock[1])  # the next step
+    hg = h * _gamma(m.integrator)
     ca = 1.0 / hg**2 if p.inertial else 0.0
     jac = Stage(s.t, 1.0, 1.0 / hg, ca, True)
     no_jac = jac._replace(jac=False)
     # the filtered error norm assembles with cx = 0 (no stiffness: elasticity skips its
     # Jacobian there) into the second band, dropping couplings off the band
     filt = jac._replace(cx=0.0)
-    out = integ._out(state, ws, ws.band, ws.cpl)
-    out_filter = integ._out(state, ws, ws.band2, ws.cpl_drop)
+    out = _python_records(integ._out, state, ws, ws.band, ws.cpl)
+    out_filter = _python_records(integ._out, state, ws, ws.band2, ws.cpl_drop)
     calls = np.zeros_like(s.calls)
     energies = np.zeros_like(s.energies)
     res: dict[str, float] = {}
@@ -236,22 +282,36 @@ def kernel_costs(sim: Simulation) -> dict[str, float]:
     )
     # band2 holds the filter's damping matrix (assembled above)
     res["damping_times"] = _per_call(_damping_loop, reps, ws, nd, rod.vel.copy(), rhs)
+    if s._off_band():  # the solve is GMRES: its cost per iteration (one solve's iterations)
+        counters[:] = 0
+        rhs[:nd] = saved_rhs[:nd]
+        solver.solve(ws, nd, rhs, counters, rtol)
+        res["krylov iteration"] = res["solve"] / max(int(counters[L.C_KRYLOV_ITERATIONS]), 1)
+    if m.enabled[L.E_CONTACT]:
+        # at the step's start (a list built, no rebuild in the loop) and at its end
+        whole = _python_records(integ.active_rod, state, ws, 0)
+        frozen = s.n_frozen
+        pos0 = ws.vecs[integ.V_POS0]
+        pos0[: 3 * n] = rod.pos[: 3 * n]
+        res["contact: prepare"] = _per_call(_prepare_loop, reps, model, whole, frozen, ws.contact)
+        res["contact: check"] = _per_call(_check_loop, reps, model, whole, pos0, frozen, ws.contact)
     res["set_boundary"] = _per_call(_boundary_loop, reps, model, rod, s.t, ws.scratch)
     return res
 
 
 # ------------------------------------------------------------------ whole step and counts
-def step_time(base: Simulation, steps: int, copies: int) -> tuple[float, Simulation]:
-    """Best wall time per step of ``steps`` fixed steps over identical copies of ``base``;
-    returns it and one of the advanced copies."""
+def step_time(base: Simulation, window_s: float, copies: int) -> tuple[float, Simulation]:
+    """Best wall time per accepted step of ``window_s`` of simulated time over identical
+    copies of ``base`` (fixed or adaptive steps); returns it and one of the advanced copies."""
     sims = [copy.deepcopy(base) for _ in range(copies)]
     it = iter(sims)
 
     def run() -> None:
         s = next(it)
-        s.advance(s.t + steps * STEP_S)
+        s.advance(s.t + window_s)
 
-    return best_of(run, copies) / steps, sims[0]
+    wall = best_of(run, copies)
+    return wall / (sims[0].counts()["steps"] - base.counts()["steps"]), sims[0]
 
 
 def _named(records: np.ndarray) -> np.ndarray:
@@ -260,13 +320,14 @@ def _named(records: np.ndarray) -> np.ndarray:
     return records.view(np.recarray)
 
 
-def replay_counts(sim: Simulation, steps: int) -> tuple[dict[str, float], dict[str, int]]:
-    """Kernel calls per step over ``steps`` steps, replaying ``advance`` from its Python source.
+def replay_counts(sim: Simulation, window_s: float) -> tuple[dict[str, float], dict[str, int]]:
+    """Kernel calls per step over ``window_s``, replaying ``advance`` from its Python source.
 
     Returns the calls per step (assemble split into Newton with and without the Jacobian
     and the filtered error norm's) and the simulation's counter deltas over the replay."""
     calls = dict.fromkeys(COUNTED, 0)
     real_assemble, real_boundary, real_solver = integ.assemble, integ.set_boundary, integ.solver
+    real_contact = integ.contact
     real_replayed = {name: getattr(integ, name) for name in REPLAYED}
 
     def counting_assemble(model, rod, stage, out, c, e) -> None:
@@ -285,50 +346,70 @@ def replay_counts(sim: Simulation, steps: int) -> tuple[dict[str, float], dict[s
     counting_solver = SimpleNamespace(
         **{name: counting(name, getattr(solver, name)) for name in COUNTED[3:6]}
     )
+    counting_contact = SimpleNamespace(
+        **{name: getattr(contact, name) for name in ("step_limit", "accepted")},
+        prepare=counting("contact: prepare", contact.prepare),
+        check=counting("contact: check", contact.check),
+    )
     m = sim.model
     model = m.record._replace(params=_named(m.params))
-    ws = sim.ws
-    ws = ws._replace(
-        solver=_named(ws.solver),
-        tail=_named(ws.tail),
-        contact=ws.contact._replace(memory=_named(ws.contact.memory)),
-    )
+
+    def named_ws() -> object:
+        ws = sim.ws
+        return ws._replace(
+            solver=_named(ws.solver),
+            tail=_named(ws.tail),
+            contact=ws.contact._replace(memory=_named(ws.contact.memory)),
+        )
+
     before = sim.counts()
+    t_end = sim.t + window_s
     try:
         integ.assemble = counting_assemble
         integ.set_boundary = counting("set_boundary", real_boundary)
         integ.solver = counting_solver
+        integ.contact = counting_contact
         for name, fn in real_replayed.items():
             setattr(integ, name, fn.py_func)
-        status = integ.advance.py_func(model, sim.state, ws, sim.t + steps * STEP_S, 10**9)
+        while True:
+            status = integ.advance.py_func(model, sim.state, named_ws(), t_end, 10**9)
+            if status != L.STATUS_CAPACITY:
+                break
+            # full arrays: grow them as Simulation.advance does, and go on
+            if sim.n_nodes + 2 > sim.capacity:
+                sim._grow()
+            else:
+                sim._grow_off_band()
     finally:
         integ.assemble, integ.set_boundary, integ.solver = (
             real_assemble,
             real_boundary,
             real_solver,
         )
+        integ.contact = real_contact
         for name, fn in real_replayed.items():
             setattr(integ, name, fn)
     if status != L.STATUS_OK:
-        raise RuntimeError(f"replay stopped with status {status} (capacity or divergence)")
+        raise RuntimeError(f"replay stopped with status {status} ({L.STATUS_MESSAGES[status]})")
     after = sim.counts()
     done = after["steps"] - before["steps"]
     return {k: v / done for k, v in calls.items()}, {k: after[k] - before[k] for k in after}
 
 
 # ------------------------------------------------------------------ one case
-def profile(label: str, base: Simulation, steps: int) -> list[dict]:
-    """Breakdown of a step of ``base``'s scene (``base`` is only copied, never advanced)."""
+def profile(label: str, base: Simulation, window_s: float) -> list[dict]:
+    """Breakdown of a step of ``base``'s scene over ``window_s`` of simulated time (``base``
+    is only copied, never advanced)."""
     # alternate whole steps and kernels so a burst of load on the shared machine is less
     # likely to hit one and not the other; keep the best of every number over the rounds
     per_step = float("inf")
     cost: dict[str, float] = {}
     for _ in range(ROUNDS):
-        t_step, sim = step_time(base, steps, 2)
+        t_step, sim = step_time(base, window_s, 2)
         per_step = min(per_step, t_step)
         for k, v in kernel_costs(sim).items():
             cost[k] = min(cost.get(k, v), v)
-    per_call, counted = replay_counts(copy.deepcopy(base), steps)
+    per_call, counted = replay_counts(copy.deepcopy(base), window_s)
     timed = {k: sim.counts()[k] - base.counts()[k] for k in counted}
     for key in ("newton_iterations", "jacobians", "krylov_iterations"):
         if timed[key] != counted[key]:
@@ -347,8 +428,6 @@ def profile(label: str, base: Simulation, steps: int) -> list[dict]:
         f"damping_times, {per_call['set_boundary']:.2f} set_boundary, "
         f"{counted['nodes_born'] / counted['steps']:.2f} splits, {krylov:.2f} Krylov iterations"
     )
-    if krylov > 0:
-        print("  note: GMRES iterations are not timed apart: their cost is in 'other'")
     parts_sum = sum(v for k, v in cost.items() if k.startswith("assemble+J:"))
     print(
         f"  check: assemble+J whole {1e6 * cost['assemble+J (whole)']:.1f} us/call, "
@@ -360,18 +439,24 @@ def profile(label: str, base: Simulation, steps: int) -> list[dict]:
     parts |= {
         "assemble, no J": (per_call["assemble, no J"], cost["assemble, no J"]),
         "factor (band LU)": (per_call["factor"], cost["factor"]),
-        "solve (Newton)": (newton_solves, cost["solve"]),
+        "solve (Newton)": (0.0 if krylov > 0 else newton_solves, cost["solve"]),
         "set_boundary": (per_call["set_boundary"], cost["set_boundary"]),
         "filter: assemble (cx=0)": (per_call["filter"], cost["filter: assemble (cx=0)"]),
         "filter: damping_times + solve": (
             per_call["damping_times"],
-            cost["damping_times"] + cost["solve"],
+            cost["damping_times"] + (0.0 if krylov > 0 else cost["solve"]),
         ),
     }
+    if "contact: prepare" in cost:
+        for key in ("contact: prepare", "contact: check"):
+            parts[key] = (per_call[key], cost[key])
     rows = [(comp, k, c, k * c) for comp, (k, c) in parts.items()]
     used = sum(r[3] for r in rows)
-    # GMRES iterations: counted, not timed apart (zero on the banded path)
-    rows.append((KRYLOV, krylov, float("nan"), 0.0 if krylov == 0 else float("nan")))
+    # with couplings off the band every solve (Newton's and the filter's) is GMRES: its
+    # iterations, each at the cost per iteration of one timed solve
+    c_krylov = cost.get("krylov iteration", 0.0)
+    rows.append((KRYLOV, krylov, c_krylov, krylov * c_krylov))
+    used += krylov * c_krylov
     rows.append(("other", float("nan"), float("nan"), per_step - used))
     rows.append(("whole step", 1.0, per_step, per_step))
     return [
@@ -390,15 +475,13 @@ def profile(label: str, base: Simulation, steps: int) -> list[dict]:
 
 
 # ------------------------------------------------------------------ output
-def plot(rows: list[dict]) -> None:
+def plot(rows: list[dict], name: str = "profile") -> None:
     """Stacked horizontal bars: the share of a step of each component, one bar per case.
 
     A negative "other" (kernels timed slower alone than within the step: noise) is drawn
     as zero and the bar then passes 100 %; the label gives its value."""
     cases = list(dict.fromkeys(r["case"] for r in rows))
-    comps = list(
-        dict.fromkeys(r["component"] for r in rows if r["component"] not in ("whole step", KRYLOV))
-    )
+    comps = list(dict.fromkeys(r["component"] for r in rows if r["component"] != "whole step"))
     colors = plt.get_cmap("tab20").colors
     fig, ax = plt.subplots(figsize=(10, 1.0 * len(cases) + 2.4))
     labels = []
@@ -419,29 +502,54 @@ def plot(rows: list[dict]) -> None:
     ax.axvline(100.0, color="k", lw=0.8)
     ax.set_yticks(range(len(cases)), labels, fontsize=9)
     ax.invert_yaxis()
-    ax.set_xlabel("% of one implicit step (fixed 2 ms step, SDIRK2, modified Newton)")
+    ax.set_xlabel("% of one implicit step (SDIRK2, modified Newton; 2 ms steps, the pile adaptive)")
     ax.set_xlim(0, right)
     ax.legend(ncol=4, fontsize=8, loc="upper center", bbox_to_anchor=(0.5, -0.13))
     ax.set_title("Where the time of one implicit step goes")
     fig.tight_layout()
-    path = RESULTS / "profile.png"
+    path = RESULTS / f"{name}.png"
     fig.savefig(path, dpi=120)
     print("wrote", path)
 
 
+def _pile(contact_on: bool) -> Callable[[], Simulation]:
+    """``PILE_SCENE`` at ``PILE_T_S`` (adaptive steps), with or without its ``contact``."""
+
+    def make() -> Simulation:
+        over: dict = {"outputs.plot": False}
+        if not contact_on:
+            over["effects"] = [e for e in Simulation(PILE_SCENE).scene.effects if e != "contact"]
+        sim = Simulation(PILE_SCENE, over)
+        sim.advance(PILE_T_S)
+        return sim
+
+    return make
+
+
+CASES: dict[str, tuple[Callable[[], Simulation], float]] = {
+    # label: (the state, the window of simulated time (s) the step is averaged over)
+    "sag N=100": (lambda: _sagging(100), 50 * STEP_S),
+    "sag N=1000": (lambda: _sagging(1000), 50 * STEP_S),
+    "sag N=10000": (lambda: _sagging(10000), 20 * STEP_S),
+    "default scene": (_default_scene, 50 * STEP_S),
+    "pile, no contact": (_pile(False), PILE_WINDOW_S),
+    "pile, contact": (_pile(True), PILE_WINDOW_S),
+}
+
+
 def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--cases", nargs="+", choices=list(CASES), default=list(CASES))
+    ap.add_argument("--out", default="profile", help="result name (benchmarks/results/NAME.csv)")
+    args = ap.parse_args()
     t0 = time.perf_counter()
-    cases: list[tuple[str, Callable[[], Simulation], int]] = [
-        ("sag N=100", lambda: _sagging(100), 50),
-        ("sag N=1000", lambda: _sagging(1000), 50),
-        ("sag N=10000", lambda: _sagging(10000), 20),
-        ("default scene", _default_scene, 50),
-    ]
     rows: list[dict] = []
-    for label, make, steps in cases:
+    for label in args.cases:
+        make, window_s = CASES[label]
         base = make()
-        base.advance(base.t + 10 * STEP_S)  # leave the start-up transient
-        rows += profile(label, base, steps)
+        if float(base.model.p.fixed_step) > 0:
+            base.advance(base.t + 10 * STEP_S)  # leave the start-up transient
+        rows += profile(label, base, window_s)
     print()
     print(f"{'case':>14} {'N':>6}  {'component':<24} {'calls/step':>10} {'us/step':>10} {'%':>6}")
     for r in rows:
@@ -449,8 +557,8 @@ def main() -> None:
             f"{r['case']:>14} {r['nodes']:>6}  {r['component']:<24} {r['calls_per_step']:>10.2f} "
             f"{r['us_per_step']:>10.1f} {r['pct_of_step']:>6.1f}"
         )
-    print("wrote", write_csv("profile", rows))
-    plot(rows)
+    print("wrote", write_csv(args.out, rows))
+    plot(rows, args.out)
     print(f"total {time.perf_counter() - t0:.0f} s")
 
 

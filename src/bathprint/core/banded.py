@@ -24,18 +24,23 @@ def band_clear(band: np.ndarray, n: int) -> None:
 
 @njit(**KERNEL)
 def band_lu(band: np.ndarray, n: int, kl: int, ku: int, piv: np.ndarray) -> int:
-    """Factor the leading n x n band matrix in place. Returns 0, or k+1 for a zero pivot."""
+    """Factor the leading n x n band matrix in place. Returns 0, or k+1 for a zero pivot.
+
+    Rows far enough from the end (k + kl + ku < n) take loops of fixed length with offsets
+    into the row (which the compiler vectorises); the last kl + ku rows the bounded loops.
+    Both do the same operations in the same order: the factors are the same bit for bit."""
     ku2 = ku + kl
     for k in range(n):
+        interior = k + ku2 < n
         # choose the pivot in column k among rows k..k+kl
         last = min(n - 1, k + kl)
         p = k
         best = abs(band[k, kl])
-        for i in range(k + 1, last + 1):
-            a = abs(band[i, k - i + kl])
+        for m in range(1, last - k + 1):
+            a = abs(band[k + m, kl - m])
             if a > best:
                 best = a
-                p = i
+                p = k + m
         piv[k] = p
         if best == 0.0 or not np.isfinite(best):
             return k + 1
@@ -46,18 +51,25 @@ def band_lu(band: np.ndarray, n: int, kl: int, ku: int, piv: np.ndarray) -> int:
                 band[k, j - k + kl] = band[p, j - p + kl]
                 band[p, j - p + kl] = tmp
         pivot = band[k, kl]
-        for i in range(k + 1, last + 1):
-            lik = band[i, k - i + kl] / pivot
-            band[i, k - i + kl] = lik
+        for m in range(1, last - k + 1):
+            # row i = k + m: A[i, j] at band[i, j - k - m + kl], row k's at band[k, j - k + kl]
+            lik = band[k + m, kl - m] / pivot
+            band[k + m, kl - m] = lik
             if lik != 0.0:
-                for j in range(k + 1, jmax + 1):
-                    band[i, j - i + kl] -= lik * band[k, j - k + kl]
+                if interior:
+                    for q in range(1, ku2 + 1):
+                        band[k + m, kl - m + q] -= lik * band[k, kl + q]
+                else:
+                    for q in range(1, jmax - k + 1):
+                        band[k + m, kl - m + q] -= lik * band[k, kl + q]
     return 0
 
 
 @njit(**KERNEL)
 def band_solve(band: np.ndarray, n: int, kl: int, ku: int, piv: np.ndarray, b: np.ndarray) -> None:
-    """Solve A x = b in place (b overwritten by x) with the factors from :func:`band_lu`."""
+    """Solve A x = b in place (b overwritten by x) with the factors from :func:`band_lu`.
+
+    As there, loops of fixed length away from the end, in the same order of operations."""
     ku2 = ku + kl
     # forward: apply the row swaps and L in the order they were made
     for k in range(n):
@@ -66,16 +78,22 @@ def band_solve(band: np.ndarray, n: int, kl: int, ku: int, piv: np.ndarray, b: n
             tmp = b[k]
             b[k] = b[p]
             b[p] = tmp
-        last = min(n - 1, k + kl)
         bk = b[k]
-        for i in range(k + 1, last + 1):
-            b[i] -= band[i, k - i + kl] * bk
+        if k + kl < n:
+            for m in range(1, kl + 1):
+                b[k + m] -= band[k + m, kl - m] * bk
+        else:
+            for m in range(1, n - k):
+                b[k + m] -= band[k + m, kl - m] * bk
     # backward: U has ku + kl super-diagonals
     for i in range(n - 1, -1, -1):
         s = b[i]
-        jmax = min(n - 1, i + ku2)
-        for j in range(i + 1, jmax + 1):
-            s -= band[i, j - i + kl] * b[j]
+        if i + ku2 < n:
+            for q in range(1, ku2 + 1):
+                s -= band[i, kl + q] * b[i + q]
+        else:
+            for q in range(1, n - i):
+                s -= band[i, kl + q] * b[i + q]
         b[i] = s / band[i, kl]
 
 
