@@ -19,8 +19,9 @@ in adaptive steps (as the scene runs). On each state:
     back-substitution, or with couplings off the band one GMRES solve, divided by its
     iterations: the cost of a Krylov iteration), ``damping_times`` (the filter's banded
     product), ``set_boundary``, and with contact its ``prepare`` (start of a step, the pair
-    list kept) and ``check`` (end of a step); (1) and (2) alternate over 5 rounds and keep
-    their best;
+    list kept), what finding the pairs anew adds to it (the spatial hash, at births and
+    when the skin is used up: "contact: rebuild") and ``check`` (end of a step); (1) and
+    (2) alternate over 5 rounds and keep their best;
 (3) how often each kernel runs per step. A fresh copy replays the same window through the
     integrator's own Python source (numba's ``py_func`` of ``advance``, ``_attempt``,
     ``_implicit_step``, ``_stage_solve``, ``_stage_rates``, ``_filtered_norm``,
@@ -95,6 +96,7 @@ COUNTED = (
     "damping_times",
     "set_boundary",
     "contact: prepare",
+    "contact: rebuild",
     "contact: check",
 )
 # integrator functions replayed from their Python source so the counted kernels are seen
@@ -174,8 +176,11 @@ def _damping_loop(reps, ws, nd, x, y):
 
 
 @njit
-def _prepare_loop(reps, model, whole, frozen, contact_ws):
+def _prepare_loop(reps, model, whole, frozen, contact_ws, rebuild):
+    """``contact.prepare`` ``reps`` times, each (if ``rebuild``) finding the pairs anew."""
     for _ in range(reps):
+        if rebuild:
+            contact_ws.memory[0].built_nodes = -1
         contact.prepare(model, whole, frozen, contact_ws)
 
 
@@ -293,7 +298,13 @@ def kernel_costs(sim: Simulation) -> dict[str, float]:
         frozen = s.n_frozen
         pos0 = ws.vecs[integ.V_POS0]
         pos0[: 3 * n] = rod.pos[: 3 * n]
-        res["contact: prepare"] = _per_call(_prepare_loop, reps, model, whole, frozen, ws.contact)
+        res["contact: prepare"] = _per_call(
+            _prepare_loop, reps, model, whole, frozen, ws.contact, False
+        )
+        res["contact: rebuild"] = (  # what finding the pairs adds to a prepare
+            _per_call(_prepare_loop, reps, model, whole, frozen, ws.contact, True)
+            - res["contact: prepare"]
+        )
         res["contact: check"] = _per_call(_check_loop, reps, model, whole, pos0, frozen, ws.contact)
     res["set_boundary"] = _per_call(_boundary_loop, reps, model, rod, s.t, ws.scratch)
     return res
@@ -363,6 +374,7 @@ def replay_counts(sim: Simulation, window_s: float) -> tuple[dict[str, float], d
         )
 
     before = sim.counts()
+    builds = int(sim.ws.contact.memory[0]["builds"])
     t_end = sim.t + window_s
     try:
         integ.assemble = counting_assemble
@@ -393,6 +405,7 @@ def replay_counts(sim: Simulation, window_s: float) -> tuple[dict[str, float], d
         raise RuntimeError(f"replay stopped with status {status} ({L.STATUS_MESSAGES[status]})")
     after = sim.counts()
     done = after["steps"] - before["steps"]
+    calls["contact: rebuild"] = int(sim.ws.contact.memory[0]["builds"]) - builds
     return {k: v / done for k, v in calls.items()}, {k: after[k] - before[k] for k in after}
 
 
@@ -448,7 +461,7 @@ def profile(label: str, base: Simulation, window_s: float) -> list[dict]:
         ),
     }
     if "contact: prepare" in cost:
-        for key in ("contact: prepare", "contact: check"):
+        for key in ("contact: prepare", "contact: rebuild", "contact: check"):
             parts[key] = (per_call[key], cost[key])
     rows = [(comp, k, c, k * c) for comp, (k, c) in parts.items()]
     used = sum(r[3] for r in rows)

@@ -1265,8 +1265,9 @@ def fast_jets() -> str:
     return path.read_text().strip() + "\n\n" + provenance(FAST_JETS / "fast_jets.csv")
 
 
-def kernel_ab() -> str:
-    path = RESULTS / "kernel_ab_uncounted.csv"
+def kernel_ab(name: str = "kernel_ab_uncounted") -> str:
+    """A table of benchmarks/bench_ab.py's results/NAME.csv."""
+    path = RESULTS / f"{name}.csv"
     rows = [
         [
             r["workload"],
@@ -1402,6 +1403,7 @@ TABLES: dict[str, Callable[[], str]] = {
     "gravity": gravity,
     "fast_jets": fast_jets,
     "kernel-ab": kernel_ab,
+    "banded-ab": lambda: kernel_ab("banded_ab"),
     "compile": compile_times,
     **{f"campaign-{e}": (lambda e=e: campaign(e)) for e in CAMPAIGN_ENVS},
 }
@@ -1416,6 +1418,7 @@ FIGURES: dict[str, Path] = {
     / "gif"
     / "test0_residual_vs_oracle.gif",
     "ablation.png": ABLATION / "ablation.png",
+    "profile.png": RESULTS / "profile.png",
 }
 
 
