@@ -450,6 +450,9 @@ def profile() -> str:
     data = _csv(path)
     cases = list(dict.fromkeys(r["case"] for r in data))
     comps = [c for c in dict.fromkeys(r["component"] for r in data) if c != "whole step"]
+    # the effects' Jacobians together, the GMRES iterations and "other" last
+    last = {"krylov iterations": 1, "other": 2}
+    comps.sort(key=lambda c: (last.get(c, 0), not c.startswith("assemble+J:")))
     by = {(r["case"], r["component"]): r for r in data}
     rows = []
     for comp in comps:
