@@ -27,9 +27,11 @@ always evaluated in Newton's iterations, and every other pair bounds the step by
 may close (``--part near_gap``); and the cost of contact there over three seeds of the
 needle imperfection (``--part seeds``: the pile is a weakly chaotic outcome), and against
 the penalty's soft onset, ``contact.width_fraction`` (``--part onset``: what holding the
-contact distance more exactly costs).
+contact distance more exactly costs), and against GMRES's stopping tolerance
+(``--part krylov``: Newton's forcing term).
 
-    python benchmarks/bench_contact_newton.py [--part variants|sizes|scene|near_gap|seeds|onset]
+    python benchmarks/bench_contact_newton.py
+        [--part variants|sizes|scene|near_gap|seeds|onset|krylov]
 """
 
 from __future__ import annotations
@@ -274,6 +276,19 @@ def onset_rows() -> list[dict]:
     return _scene_rows(variants)
 
 
+KRYLOV_TOLERANCES = (0.02, 0.05, 0.1, 0.2)
+
+
+def krylov_rows() -> list[dict]:
+    """Without contact, then with it at each ``numerics.krylov_tolerance`` of
+    KRYLOV_TOLERANCES (the residual, relative to the right-hand side, at which GMRES stops:
+    Newton's forcing term): fewer GMRES iterations against more Newton iterations."""
+    variants = {"without contact": _without_contact()}
+    for tol in KRYLOV_TOLERANCES:
+        variants[f"contact, GMRES to {tol:g}"] = {"numerics.krylov_tolerance": tol}
+    return _scene_rows(variants)
+
+
 def seed_rows() -> list[dict]:
     """Without and with contact (defaults, and with the Gauss-Newton Hessian) for each
     needle-imperfection seed of SEEDS: the pile, and so the cost, is a weakly chaotic
@@ -290,7 +305,7 @@ if __name__ == "__main__":
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument(
         "--part",
-        choices=("all", "variants", "sizes", "scene", "near_gap", "seeds", "onset"),
+        choices=("all", "variants", "sizes", "scene", "near_gap", "seeds", "onset", "krylov"),
         default="all",
     )
     part = ap.parse_args().part
@@ -313,6 +328,10 @@ if __name__ == "__main__":
         "onset": (
             f"{scene}, against contact.width_fraction:",
             [("contact_onset", onset_rows)],
+        ),
+        "krylov": (
+            f"{scene}, against numerics.krylov_tolerance:",
+            [("contact_krylov_tolerance", krylov_rows)],
         ),
     }
     for name, (title, outputs) in parts.items():

@@ -23,6 +23,7 @@ def test_the_scene_parts_run_and_report_against_the_run_without_contact(bench, m
     monkeypatch.setattr(mod, "NEAR_GAPS", (0.05, 0.3))
     monkeypatch.setattr(mod, "SEEDS", (1,))
     monkeypatch.setattr(mod, "ONSETS", (0.2,))
+    monkeypatch.setattr(mod, "KRYLOV_TOLERANCES", (0.2,))
     near = mod.near_gap_rows()
     assert [r["variant"] for r in near] == [
         "without contact",
@@ -35,7 +36,9 @@ def test_the_scene_parts_run_and_report_against_the_run_without_contact(bench, m
     assert [r["seed"] for r in seeds] == [1, 1, 1] and len({r["variant"] for r in seeds}) == 3
     onset = mod.onset_rows()
     assert [r["variant"] for r in onset] == ["without contact", "contact, soft onset 0.2 delta"]
-    for rows in (near, seeds, onset):
+    krylov = mod.krylov_rows()
+    assert [r["variant"] for r in krylov] == ["without contact", "contact, GMRES to 0.2"]
+    for rows in (near, seeds, onset, krylov):
         assert rows[0]["wall_ratio"] == pytest.approx(1.0)
         for r in rows:
             assert r["steps"] > 0 and r["newton_per_step"] >= 1.0 and r["wall_s"] > 0.0
