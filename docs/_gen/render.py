@@ -1100,6 +1100,12 @@ def contact_onset() -> str:
     )
 
 
+def contact_krylov() -> str:
+    return _contact_scene_table(
+        "contact_krylov_tolerance", lambda r: r["variant"], "`period_doubling_22G`, 1 s"
+    )
+
+
 def contact_seeds() -> str:
     return _contact_scene_table(
         "contact_seeds",
@@ -1399,6 +1405,7 @@ TABLES: dict[str, Callable[[], str]] = {
     "contact-near-gap": contact_near_gap,
     "contact-seeds": contact_seeds,
     "contact-onset": contact_onset,
+    "contact-krylov": contact_krylov,
     "bc-search": bc_search,
     "bc-dagger": bc_dagger,
     "study-wall": study_wall,
