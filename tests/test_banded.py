@@ -41,3 +41,62 @@ def test_singular_matrix_is_reported() -> None:
     band = np.zeros((n, BAND_WIDTH))
     piv = np.zeros(n, dtype=np.int64)
     assert band_lu(band, n, KL, KU, piv) == 1
+
+
+def _reference_lu(band: np.ndarray, n: int, kl: int, ku: int, piv: np.ndarray) -> int:
+    """The textbook banded LU with partial pivoting (the loops with bounds on every row), in
+    plain Python: the operations the compiled LU must do, in the same order."""
+    ku2 = ku + kl
+    for k in range(n):
+        last = min(n - 1, k + kl)
+        p, best = k, abs(band[k, kl])
+        for i in range(k + 1, last + 1):
+            if abs(band[i, k - i + kl]) > best:
+                p, best = i, abs(band[i, k - i + kl])
+        piv[k] = p
+        if best == 0.0:
+            return k + 1
+        jmax = min(n - 1, k + ku2)
+        if p != k:
+            for j in range(k, jmax + 1):
+                a, b = band[k, j - k + kl], band[p, j - p + kl]
+                band[k, j - k + kl], band[p, j - p + kl] = b, a
+        for i in range(k + 1, last + 1):
+            lik = band[i, k - i + kl] / band[k, kl]
+            band[i, k - i + kl] = lik
+            if lik != 0.0:
+                for j in range(k + 1, jmax + 1):
+                    band[i, j - i + kl] -= lik * band[k, j - k + kl]
+    return 0
+
+
+def _reference_solve(band: np.ndarray, n: int, kl: int, ku: int, piv, b: np.ndarray) -> None:
+    for k in range(n):
+        p = piv[k]
+        b[k], b[p] = b[p], b[k]
+        for i in range(k + 1, min(n - 1, k + kl) + 1):
+            b[i] -= band[i, k - i + kl] * b[k]
+    for i in range(n - 1, -1, -1):
+        s = b[i]
+        for j in range(i + 1, min(n - 1, i + ku + kl) + 1):
+            s -= band[i, j - i + kl] * b[j]
+        b[i] = s / band[i, kl]
+
+
+@pytest.mark.parametrize("shift", [0.0, 10.0])
+@pytest.mark.parametrize("n", [1, 2, 8, 16, 17, 18, 25, 40])  # around kl + ku = 16
+def test_band_lu_and_solve_do_the_reference_operations_bit_for_bit(n: int, shift: float) -> None:
+    """The compiled LU runs rows away from the end in loops of fixed length; its factors,
+    pivots and solutions equal the reference loops' exactly (same operations, same order),
+    with and without row swaps, on both sides of the switch between the two kinds of row."""
+    _, band = _random_band(n, seed=100 + n, diag_shift=shift)
+    ref = band.copy()
+    piv, piv_ref = np.zeros(n, dtype=np.int64), np.zeros(n, dtype=np.int64)
+    assert band_lu(band, n, KL, KU, piv) == _reference_lu(ref, n, KL, KU, piv_ref) == 0
+    assert np.array_equal(piv, piv_ref)
+    assert np.array_equal(band, ref)
+    b = np.random.default_rng(n).normal(size=n)
+    x, x_ref = b.copy(), b.copy()
+    band_solve(band, n, KL, KU, piv, x)
+    _reference_solve(ref, n, KL, KU, piv_ref, x_ref)
+    assert np.array_equal(x, x_ref)

@@ -27,8 +27,9 @@ def band_lu(band: np.ndarray, n: int, kl: int, ku: int, piv: np.ndarray) -> int:
     """Factor the leading n x n band matrix in place. Returns 0, or k+1 for a zero pivot.
 
     Rows far enough from the end (k + kl + ku < n) take loops of fixed length with offsets
-    into the row (which the compiler vectorises); the last kl + ku rows the bounded loops.
-    Both do the same operations in the same order: the factors are the same bit for bit."""
+    into the row (which the compiler can unroll and vectorise); the last kl + ku rows the
+    bounded loops. Both do the same operations in the same order as the textbook loops
+    (``tests/test_banded.py``): the factors are the same bit for bit."""
     ku2 = ku + kl
     for k in range(n):
         interior = k + ku2 < n
