@@ -216,8 +216,8 @@ def _gamma(integrator: int) -> float:
 
 
 def _python_records(builder: Callable, *args: object) -> object:
-    """The record an integrator helper (``active_rod``, ``_out``) builds, built by its Python
-    source: plain NumPy views. The compiled helpers run without reference counting and must
+    """The record an integrator function (``active_rod``, ``_out``) builds, built by its Python
+    source: plain NumPy views. The compiled functions run without reference counting and must
     not hand arrays to Python (bathprint.core.jit)."""
     real = integ.active_rod
     integ.active_rod = real.py_func  # _out builds the whole rod through it
