@@ -86,10 +86,9 @@ def _reference_solve(band: np.ndarray, n: int, kl: int, ku: int, piv, b: np.ndar
 @pytest.mark.parametrize("shift", [0.0, 10.0])
 @pytest.mark.parametrize("n", [1, 2, 8, 16, 17, 18, 25, 40])  # around kl + ku = 16
 def test_band_lu_and_solve_do_the_reference_operations_bit_for_bit(n: int, shift: float) -> None:
-    """The compiled LU and solve loop over offsets into the rows (the solve in loops of fixed
-    length away from the end); their factors, pivots and solutions equal the reference
-    loops' exactly (same operations, same order), with and without row swaps, on both
-    sides of the solve's switch between the two kinds of row."""
+    """The compiled LU runs rows away from the end in loops of fixed length; its factors,
+    pivots and solutions equal the reference loops' exactly (same operations, same order),
+    with and without row swaps, on both sides of the switch between the two kinds of row."""
     _, band = _random_band(n, seed=100 + n, diag_shift=shift)
     ref = band.copy()
     piv, piv_ref = np.zeros(n, dtype=np.int64), np.zeros(n, dtype=np.int64)
