@@ -26,8 +26,10 @@ Last, ``contact.near_gap_fraction`` in that scene: the pairs within this gap of 
 always evaluated in Newton's iterations, and every other pair bounds the step by the gap it
 may close (``--part near_gap``); and the cost of contact there over three seeds of the
 needle imperfection (``--part seeds``: the pile is a weakly chaotic outcome), and against
-the penalty's soft onset, ``contact.width_fraction`` (``--part onset``: what holding the
-contact distance more exactly costs), and against GMRES's stopping tolerance
+the penalty's soft onset, ``contact.width_fraction``, also starting before contact
+(``contact.distance_factor`` > 1) (``--part onset``: what holding the contact distance more
+exactly costs; the final frame's touching segments' gaps, 10th percentile and median, say
+how exactly it is held either way), and against GMRES's stopping tolerance
 (``--part krylov``: Newton's forcing term).
 
     python benchmarks/bench_contact_newton.py
@@ -46,6 +48,7 @@ from _common import write_csv
 from bench_contact import R_FIL, coil_stack
 
 from bathprint import Simulation, simulate
+from bathprint.analysis.measure import touching_gaps
 from bathprint.core.effects._segment_geometry import closest_params
 
 N_NODES = 300
@@ -187,14 +190,17 @@ def _scene_rows(variants: dict[str, dict], seed: int | None = None) -> list[dict
     """SCENE for SCENE_DURATION_S under each variant's overrides (and the needle
     imperfection's ``seed``); wall times as ratios to the first variant's."""
     rows, base = [], None
+    radius = Simulation(SCENE).model.radius
     for label, extra in variants.items():
         over = {"duration_s": SCENE_DURATION_S, "outputs.plot": False, **extra}
         if seed is not None:
             over["seed"] = seed
         simulate(SCENE, {**over, "duration_s": 0.01})  # compile this combination
         t0 = time.perf_counter()
-        s = simulate(SCENE, over).summary
+        res = simulate(SCENE, over)
         wall = time.perf_counter() - t0
+        s = res.summary
+        gaps = touching_gaps(res.final, radius) or {}
         base = base or wall
         rows.append(
             {
@@ -212,6 +218,9 @@ def _scene_rows(variants: dict[str, dict], seed: int | None = None) -> list[dict
                 "krylov_per_newton": s["krylov_iterations"] / max(s["newton_iterations"], 1),
                 "backtracks": s["line_search_backtracks"],
                 "min_gap_ratio": s["measurements"]["min_gap_ratio"],
+                "touching_segments_final": gaps.get("touching", 0),
+                "touching_gap_p10_final": gaps.get("p10", math.nan),
+                "touching_gap_median_final": gaps.get("median", math.nan),
                 "wall_s": wall,
                 "wall_ratio": wall / base,
             }
@@ -264,15 +273,23 @@ def near_gap_rows() -> list[dict]:
 
 
 ONSETS = (0.02, 0.05, 0.1, 0.2)
+#: (soft onset, contact distance factor f): onsets that start before contact, at f (r_A + r_B)
+ONSETS_BEFORE_CONTACT = ((0.1, 1.01), (0.2, 1.02), (0.4, 1.04))
 
 
 def onset_rows() -> list[dict]:
     """Without contact, then with the soft onset ``contact.width_fraction`` of ONSETS (the
-    penetration over which the penalty's stiffness grows from zero): what holding the
-    contact distance more exactly costs."""
+    penetration over which the penalty's stiffness grows from zero), then with onsets that
+    start before contact (``contact.distance_factor`` f > 1, ONSETS_BEFORE_CONTACT): what
+    holding the contact distance more exactly costs."""
     variants = {"without contact": _without_contact()}
     for w in ONSETS:
         variants[f"contact, soft onset {w:g} delta"] = {"contact.width_fraction": w}
+    for w, f in ONSETS_BEFORE_CONTACT:
+        variants[f"contact, soft onset {w:g} delta from {f:g} (r_A + r_B)"] = {
+            "contact.width_fraction": w,
+            "contact.distance_factor": f,
+        }
     return _scene_rows(variants)
 
 

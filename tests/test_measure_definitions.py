@@ -17,6 +17,7 @@ from bathprint.analysis.measure import (
     buckling_length_definitions,
     measure_all,
     min_gap_ratio,
+    touching_gaps,
 )
 from bathprint.core.effects.contact import min_separation_for
 
@@ -138,6 +139,25 @@ def test_min_gap_ratio_of_a_helix_is_its_pitch_over_the_contact_distance(
     # chords of the helix: the turns move inward alike, so the gap holds to the sagitta
     assert min_gap_ratio([frame], R_FIL) == pytest.approx(expected, rel=1e-3)
     assert min_gap_ratio([helix(3 * pitch), frame], R_FIL) == pytest.approx(expected, rel=1e-3)
+
+
+def test_touching_gaps_of_a_helix_with_one_sunken_turn() -> None:
+    # a helix at pitch 2r: every segment with a turn below or above touches at 1; then one
+    # turn sunk by 4% of 2r onto the one below (its neighbours' gaps: 0.96 and 1.04)
+    frame = helix(2 * R_FIL)
+    g = touching_gaps(frame, R_FIL)
+    exact = helix_gap(R, 2 * R_FIL) / (2 * R_FIL)
+    assert g["touching"] == len(frame) - 1
+    for key in ("min", "p10", "median"):
+        assert g[key] == pytest.approx(exact, rel=1e-3), key
+    sunk = frame.copy()
+    turn = np.floor(-frame[:, 2] / (2 * R_FIL))  # the turning angle / 2 pi
+    sunk[turn == 2, 2] -= 0.04 * 2 * R_FIL
+    g = touching_gaps(sunk, R_FIL)
+    assert g["min"] == pytest.approx(0.96 * exact, rel=2e-3)
+    assert g["median"] == pytest.approx(exact, rel=1e-3)  # most turns are untouched
+    assert touching_gaps(helix(3 * 2 * R_FIL), R_FIL) is None  # nothing within 1.1 x 2r
+    assert touching_gaps(frame, None) is None
 
 
 def test_min_gap_ratio_of_crossing_and_distant_segments() -> None:

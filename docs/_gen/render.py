@@ -1067,6 +1067,8 @@ def contact_line_search_scene() -> str:
 def _contact_scene_table(name: str, label: Any, first: str) -> str:
     """A table of ``bench_contact_newton.py``'s 1 s scene runs; ``label(row)`` names a row."""
     path = RESULTS / f"{name}.csv"
+    table = _csv(path)
+    gaps = "touching_gap_p10_final" in table[0]  # columns of the later runs
     rows = [
         [
             label(r),
@@ -1077,14 +1079,21 @@ def _contact_scene_table(name: str, label: Any, first: str) -> str:
             _g(r["jacobians_per_step"]),
             _g(r["krylov_per_newton"]),
             _g(r["min_gap_ratio"], 3),
+            *(
+                [f"{_g(r['touching_gap_p10_final'], 3)} / {_g(r['touching_gap_median_final'], 3)}"]
+                if gaps
+                else []
+            ),
             _g(r["wall_s"]),
             f"{_g(r['wall_ratio'])}×",
         ]
-        for r in _csv(path)
+        for r in table
     ]
     head = [first, "steps / rejected", "rejected by contact"]
     head += ["Newton failures", "Newton per step", "Jacobians per step", "Krylov per Newton"]
-    head += ["smallest gap / δ", "wall (s)", "wall / without contact"]
+    head += ["smallest gap / 2r"]
+    head += ["touching gaps / 2r at 1 s, 10th percentile / median"] if gaps else []
+    head += ["wall (s)", "wall / without contact"]
     return _table(head, rows) + "\n\n" + provenance(path)
 
 

@@ -827,19 +827,23 @@ def buckling_length_definitions(
 
 
 @njit(cache=True)
-def _min_pair_distance(pos: np.ndarray, pairs: np.ndarray) -> float:
-    """Smallest distance (m) between the segment pairs (i, j) of the flat positions."""
-    best = np.inf
+def _nearest_pair_distances(pos: np.ndarray, pairs: np.ndarray, out: np.ndarray) -> None:
+    """out[i] = the smallest distance (m) from segment i to any segment it is paired with in
+    ``pairs`` (rows (i, j)) of the flat positions; segments in no pair keep their value."""
     for k in range(pairs.shape[0]):
         i = pairs[k, 0]
         j = pairs[k, 1]
-        best = min(best, segment_distance(pos, i, i + 1, j, j + 1))
-    return best
+        d = segment_distance(pos, i, i + 1, j, j + 1)
+        if d < out[i]:
+            out[i] = d
+        if d < out[j]:
+            out[j] = d
 
 
-def _frame_gap(f: np.ndarray, delta: float) -> float | None:
-    """Smallest distance between non-adjacent segments of one frame / delta, capped at
-    GAP_RATIO_CAP (pairs further apart are not searched)."""
+def _segment_gaps(f: np.ndarray, delta: float) -> np.ndarray | None:
+    """Per segment of one frame, the distance to its nearest non-adjacent segment / delta,
+    capped at GAP_RATIO_CAP (pairs further apart are not searched); None for a frame of
+    fewer than 4 nodes or with a zero-length segment."""
     from scipy.spatial import cKDTree
 
     from bathprint.core.effects.contact import min_separation_for
@@ -854,12 +858,47 @@ def _frame_gap(f: np.ndarray, delta: float) -> float | None:
     # two segments closer than c have midpoints closer than c + (l_i + l_j) / 2
     reach = GAP_RATIO_CAP * delta + float(seg.max())
     pairs = cKDTree(mid).query_pairs(reach, output_type="ndarray")
+    gaps = np.full(len(seg), GAP_RATIO_CAP * delta)
     if len(pairs):
         pairs = pairs[np.abs(pairs[:, 1] - pairs[:, 0]) > min_sep]
-    if not len(pairs):
-        return GAP_RATIO_CAP
-    d = _min_pair_distance(np.ascontiguousarray(f).ravel(), pairs.astype(np.int64))
-    return min(d / delta, GAP_RATIO_CAP)
+        pos = np.ascontiguousarray(f, dtype=np.float64).ravel()
+        _nearest_pair_distances(pos, pairs.astype(np.int64), gaps)
+    return np.minimum(gaps / delta, GAP_RATIO_CAP)
+
+
+def _frame_gap(f: np.ndarray, delta: float) -> float | None:
+    """Smallest distance between non-adjacent segments of one frame / delta, capped at
+    GAP_RATIO_CAP."""
+    gaps = _segment_gaps(f, delta)
+    return None if gaps is None else float(gaps.min())
+
+
+TOUCHING_GAP_RATIO = 1.1  # segment_gaps' statistics count segments within this many 2r
+
+
+@_never_raise(lambda: None)
+def touching_gaps(frame: np.ndarray, radius: float | None) -> dict[str, float | int] | None:
+    """How exactly one frame's touching segments hold the contact distance 2 ``radius`` (m):
+    per segment, the distance to its nearest non-adjacent segment / 2r; over the segments
+    closer than TOUCHING_GAP_RATIO (1.1), their number (``touching``), the smallest, the
+    10th percentile and the median. A penalty lets loaded pairs sink below 1; a penalty
+    whose onset starts before contact holds light ones above it. None without a radius,
+    a frame of >= 4 nodes, or any touching segment."""
+    r = _float(radius)
+    if r is None or r <= 0:
+        return None
+    gaps = _segment_gaps(np.asarray(frame, dtype=float), 2.0 * r)
+    if gaps is None:
+        return None
+    g = gaps[gaps < TOUCHING_GAP_RATIO]
+    if not len(g):
+        return None
+    return {
+        "touching": int(len(g)),
+        "min": float(g.min()),
+        "p10": float(np.percentile(g, 10)),
+        "median": float(np.median(g)),
+    }
 
 
 @_never_raise(lambda: None)
