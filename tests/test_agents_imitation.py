@@ -145,6 +145,55 @@ def test_fitting_lowers_the_action_error_and_is_deterministic(demos):
         assert torch.equal(p, q)
 
 
+def _ensemble_ppo(members: int, seed: int = 0):
+    from stable_baselines3 import PPO
+    from stable_baselines3.common.vec_env import DummyVecEnv
+
+    from bathprint.agents.ensemble import EnsembleMlpPolicy
+
+    venv = DummyVecEnv([lambda: make(ENV, **KW)])
+    return PPO(EnsembleMlpPolicy, venv, seed=seed, device="cpu", n_steps=64, batch_size=32,
+               policy_kwargs={"net_arch": [32, 32], "log_std_init": -1.0, "members": members})
+
+
+def test_an_ensemble_acts_with_its_members_mean_and_fits_each_on_its_own(demos, tmp_path):
+    import torch
+    from stable_baselines3 import PPO
+
+    torch.set_num_threads(1)
+    model = _ensemble_ppo(3)
+    pol = model.policy
+    obs = torch.as_tensor(demos.obs[:50], dtype=torch.float32)
+    with torch.no_grad():
+        heads = pol.member_means(obs)
+        assert heads.shape == (3, 50, demos.actions.shape[1])
+        assert not torch.allclose(heads[0], heads[1])  # independent initialisations
+        for k in range(3):
+            assert torch.allclose(pol.member_mean(obs, k), heads[k])
+        mean_action = pol.get_distribution(obs).distribution.mean
+        assert torch.allclose(mean_action, heads.mean(dim=0), atol=1e-6)
+    value_before = [p.detach().clone() for p in pol.value_net.parameters()]
+    per_member_before = ((heads - torch.as_tensor(demos.actions[:50])) ** 2).mean(dim=(1, 2))
+    fit = fit_policy(pol, demos, epochs=20, batch_size=64, learning_rate=1e-3, seed=3)
+    assert fit["mse_after"] < 0.5 * fit["mse_before"], fit
+    with torch.no_grad():
+        after = pol.member_means(obs)
+    per_member_after = ((after - torch.as_tensor(demos.actions[:50])) ** 2).mean(dim=(1, 2))
+    assert torch.all(per_member_after < 0.5 * per_member_before)  # every actor is fitted
+    for p, q in zip(pol.value_net.parameters(), value_before, strict=True):
+        assert torch.equal(p, q)  # the value net is PPO's
+    # saved and loaded, it acts the same (the class is found by its import path)
+    model.save(tmp_path / "ens.zip")
+    loaded = PPO.load(tmp_path / "ens.zip", device="cpu")
+    assert loaded.policy.members == 3
+    a, _ = model.predict(demos.obs[:5], deterministic=True)
+    b, _ = loaded.predict(demos.obs[:5], deterministic=True)
+    np.testing.assert_allclose(a, b, rtol=0, atol=1e-7)
+    # and PPO trains it like any policy
+    loaded.set_env(model.get_env())
+    loaded.learn(64)
+
+
 def test_tiny_training_with_bc_pretrain_records_it_and_evaluates_step_0(tmp_path, monkeypatch):
     hp = load_hyperparams("ppo", ENV, agents_dir() / "ppo_bc.yml")
     assert hp["bc_pretrain"]["targets"] >= 1
@@ -179,6 +228,24 @@ def test_tiny_training_with_bc_pretrain_records_it_and_evaluates_step_0(tmp_path
         assert d["timesteps"].tolist()[:2] == steps[:2] and d["timesteps"][-1] >= 164
 
 
+def test_tiny_training_with_an_ensemble_saves_a_model_of_its_members(tmp_path):
+    from stable_baselines3 import PPO
+
+    hp = load_hyperparams("ppo", ENV, agents_dir() / "ppo_bc.yml")
+    hp.update(n_envs=1, n_steps=82, batch_size=41, n_epochs=1, eval_freq=10_000,
+              eval_episodes=1, checkpoint_freq=82, time_budget_s=600,
+              policy_kwargs={"net_arch": [16, 16], "log_std_init": -3.0},
+              bc_pretrain={"targets": 2, "epochs": 3, "batch_size": 32, "ensemble": 2})
+    run = train("ppo", ENV, timesteps=82, out=tmp_path / "ens", hyperparams=hp, progress=False)
+    info = json.loads((run / "run.json").read_text())
+    assert info["status"] == "done" and info["bc_pretrain"]["ensemble"] == 2
+    model = PPO.load(run / "eval" / "best_model.zip", device="cpu")
+    assert type(model.policy).__name__ == "EnsembleMlpPolicy" and model.policy.members == 2
+    hp["policy"] = "CnnPolicy"
+    with pytest.raises(ConfigError, match="bc_pretrain.ensemble = 2 with policy = 'CnnPolicy'"):
+        train("ppo", ENV, timesteps=82, out=tmp_path / "cnn", hyperparams=hp, progress=False)
+
+
 @pytest.mark.parametrize(
     ("value", "needle"),
     [
@@ -189,6 +256,7 @@ def test_tiny_training_with_bc_pretrain_records_it_and_evaluates_step_0(tmp_path
         ({"action_noise": float("nan")}, "bc_pretrain.action_noise = nan"),
         ({"critic_warmup_steps": -1}, "bc_pretrain.critic_warmup_steps = -1"),
         ({"replays": 0}, "bc_pretrain.replays = 0"),
+        ({"ensemble": 0}, "bc_pretrain.ensemble = 0"),
         ({"noise_correlation": 1.0}, "bc_pretrain.noise_correlation = 1.0"),
         ({"noise_correlation": -0.5}, "bc_pretrain.noise_correlation = -0.5"),
         ({"targts": 10}, "unknown bc_pretrain key 'targts'"),

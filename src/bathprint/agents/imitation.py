@@ -13,7 +13,9 @@ squared error, leaving the value network (and the action noise) to PPO. With
 would otherwise move the pretrained actor at random.
 
 ``bc_pretrain`` in the ``bathprint`` section of a hyperparameter file switches it on
-(:data:`BC_KEYS`); ``bathprint train`` applies it to a fresh model before learning.
+(:data:`BC_KEYS`); ``bathprint train`` applies it to a fresh model before learning. With
+``ensemble`` K > 1 the policy is an :class:`~bathprint.agents.ensemble.EnsembleMlpPolicy`
+of K actors, each fitted on its own, whose mean is the action.
 Everything is deterministic for a seed.
 """
 
@@ -37,6 +39,7 @@ BC_DEFAULTS: dict[str, Any] = {
     "noise_correlation": 0.0,  # AR(1) coefficient of that noise from step to step (0: white)
     "replays": 1,  # episodes per training target (clean and noisy alternate over episodes)
     "critic_warmup_steps": 0,  # environment steps of PPO that update the value net only
+    "ensemble": 1,  # actors fitted independently; the action is their mean (agents.ensemble)
 }
 BC_KEYS = tuple(BC_DEFAULTS)
 
@@ -61,7 +64,7 @@ def bc_settings(value: Any, where: str) -> dict[str, Any] | None:
                 f"{where}: unknown bc_pretrain key {key!r}; allowed: " + ", ".join(BC_KEYS)
             )
         name = f"bc_pretrain.{key}"
-        if key in ("targets", "epochs", "batch_size", "replays", "critic_warmup_steps"):
+        if key in ("targets", "epochs", "batch_size", "replays", "critic_warmup_steps", "ensemble"):
             low = 0 if key == "critic_warmup_steps" else 1
             if not (isinstance(v, int) and not isinstance(v, bool) and v >= low):
                 raise ConfigError(f"{where}: {name} = {v!r}; allowed: an integer >= {low}")
@@ -189,8 +192,11 @@ def fit_policy(
 ) -> dict[str, float]:
     """Fit the actor of an SB3 ActorCriticPolicy (features extractor, policy net, action
     net) to the demonstrations by MSE with Adam; the value network is left as it is.
-    Minibatches are shuffled by a generator seeded with ``seed``. Returns the MSE before and
-    after, the optimiser steps and the wall time (s)."""
+    Minibatches are shuffled by a generator seeded with ``seed``. An ensemble policy
+    (:class:`bathprint.agents.ensemble.EnsembleMlpPolicy`) fits each actor to its own MSE,
+    actor k on minibatches in its own order (seed + k): K independent fits, one optimiser.
+    Returns the MSE (of the policy's action mean) before and after, the optimiser steps and
+    the wall time (s)."""
     import torch
 
     t0 = time.perf_counter()
@@ -198,16 +204,23 @@ def fit_policy(
     opt = torch.optim.Adam(params, lr=learning_rate)
     obs = torch.as_tensor(demos.obs, dtype=torch.float32, device=policy.device)
     act = torch.as_tensor(demos.actions, dtype=torch.float32, device=policy.device)
-    gen = torch.Generator().manual_seed(int(seed))
+    members = int(getattr(policy, "members", 1)) if hasattr(policy, "member_mean") else 1
+    gens = [torch.Generator().manual_seed(int(seed) + k) for k in range(members)]
     before = action_mse(policy, demos)
     was_training = policy.training
     policy.set_training_mode(True)
-    n, steps = len(obs), 0
+    n, steps, bs = len(obs), 0, int(batch_size)
     for _ in range(int(epochs)):
-        order = torch.randperm(n, generator=gen)
-        for i in range(0, n, int(batch_size)):
-            idx = order[i : i + int(batch_size)]
-            loss = ((_action_mean(policy, obs[idx]) - act[idx]) ** 2).mean()
+        orders = [torch.randperm(n, generator=g) for g in gens]
+        for i in range(0, n, bs):
+            if members == 1:
+                idx = orders[0][i : i + bs]
+                loss = ((_action_mean(policy, obs[idx]) - act[idx]) ** 2).mean()
+            else:
+                loss = sum(
+                    ((policy.member_mean(obs[o[i : i + bs]], k) - act[o[i : i + bs]]) ** 2).mean()
+                    for k, o in enumerate(orders)
+                )
             opt.zero_grad()
             loss.backward()
             opt.step()
@@ -272,4 +285,3 @@ def actor_parameters(policy: Any) -> list[Any]:
     if isinstance(getattr(policy, "log_std", None), torch.nn.Parameter):
         params.append(policy.log_std)
     return list({id(p): p for p in params}.values())
-

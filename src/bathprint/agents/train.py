@@ -336,7 +336,7 @@ def _preflight(
             f"{where}: eval_episodes = {eval_episodes}; the {name} set of {env_id} has "
             f"{n_eval} targets (one episode each): allowed 1..{n_eval}"
         )
-    kwargs = algo_kwargs_for(algo, algo_kwargs)
+    policy, kwargs = policy_and_kwargs(algo, run, algo_kwargs, where)
     if "buffer_size" in kwargs:  # its value is checked already; no need to allocate it here
         kwargs["buffer_size"] = min(int(kwargs["buffer_size"]), 1024)
     cls = algo_class(algo)
@@ -346,12 +346,34 @@ def _preflight(
             venv = _SpacesEnv.vec(obs_space, act_space, n_envs)
             if run.get("normalize"):
                 venv = VecNormalize(venv, **run["normalize"])
-            cls(run.get("policy", "MlpPolicy"), venv, seed=seed, device="cpu", verbose=0, **kwargs)
+            cls(policy, venv, seed=seed, device="cpu", verbose=0, **kwargs)
         except Exception as exc:  # the constructor's own checks: asserts, TypeErrors, ...
             raise ConfigError(
                 f"{where}: {cls.__name__} refuses these settings with {n_envs} environment(s): "
                 f"{type(exc).__name__}: {exc}"
             ) from None
+
+
+def policy_and_kwargs(
+    algo: str, run: dict[str, Any], algo_kwargs: dict[str, Any], where: str
+) -> tuple[Any, dict[str, Any]]:
+    """The policy (the file's ``policy``; with ``bc_pretrain.ensemble`` K > 1 an
+    :class:`~bathprint.agents.ensemble.EnsembleMlpPolicy` of K actors in its place) and the
+    algorithm's keyword arguments for its constructor."""
+    kwargs = algo_kwargs_for(algo, algo_kwargs)
+    policy = run.get("policy", "MlpPolicy")
+    bc = bc_settings(run.get("bc_pretrain"), where)
+    if bc is None or bc["ensemble"] == 1:
+        return policy, kwargs
+    if policy != "MlpPolicy":
+        raise ConfigError(
+            f"{where}: bc_pretrain.ensemble = {bc['ensemble']} with policy = {policy!r}; an "
+            "ensemble replaces MlpPolicy only: use MlpPolicy or ensemble: 1"
+        )
+    from bathprint.agents.ensemble import EnsembleMlpPolicy
+
+    kwargs["policy_kwargs"] = {**(kwargs.get("policy_kwargs") or {}), "members": bc["ensemble"]}
+    return EnsembleMlpPolicy, kwargs
 
 
 def _plan(
@@ -540,14 +562,15 @@ def train(
             else:
                 if normalize:
                     venv = VecNormalize(venv, **normalize)
+                policy, kwargs = policy_and_kwargs(algo, run, algo_kwargs, where)
                 model = cls(
-                    run.get("policy", "MlpPolicy"),
+                    policy,
                     venv,
                     seed=seed,
                     device="cpu",
                     tensorboard_log=str(run_dir / "tb"),
                     verbose=0,
-                    **algo_kwargs_for(algo, algo_kwargs),
+                    **kwargs,
                 )
                 bc = bc_settings(run.get("bc_pretrain"), where)
                 if bc is not None:  # a fresh model only: a checkpoint keeps its weights
