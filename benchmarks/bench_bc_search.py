@@ -34,6 +34,12 @@ last 15 mm of target with what has been scored, so that it points the way the pr
 has turned). Each expert is also played itself, on the validation targets, with the AR(1)
 noise (std 0.15, rho 0.9) whose drift is like a cloned policy's error.
 benchmarks/results/bc_search_<Env>_dagger.csv.
+
+``--ensemble K`` (with ``--ensemble-row ROW``, default 5) fits an ensemble policy of K actors
+(:class:`bathprint.agents.ensemble.EnsembleMlpPolicy`, each actor fitted on its own, seed +
+k) on that row's demonstrations and plays every actor alone and their mean on the
+validation targets: what averaging the clones' errors is worth.
+benchmarks/results/bc_search_<Env>_ensemble.csv.
 """
 
 from __future__ import annotations
@@ -99,7 +105,12 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--rounds", type=int, default=3, help="DAgger rounds")
     ap.add_argument("--round-targets", type=int, default=512, help="targets per DAgger round")
     ap.add_argument("--refit-epochs", type=int, default=10, help="epochs per DAgger refit")
+    ap.add_argument("--ensemble", type=int, default=None, metavar="K",
+                    help="fit K actors on one row's demonstrations instead")  # fmt: skip
+    ap.add_argument("--ensemble-row", type=int, default=5, metavar="ROW")
     args = ap.parse_args(argv)
+    if args.ensemble is not None:
+        return ensemble(args)
     if args.diagnose is not None:
         return diagnose(args)
     if args.dagger is not None:
@@ -253,6 +264,74 @@ def diagnose(args: argparse.Namespace) -> int:
         w.writerows(rows)
     write_meta(out)
     print(f"teacher-forced action RMS {rows[0]['value']:.3f}; wrote {out}")
+    return 0
+
+
+class _Member:
+    """Actor k of an ensemble policy alone, with SB3's ``predict`` signature."""
+
+    def __init__(self, policy, k: int) -> None:
+        self.policy, self.k = policy, k
+
+    def predict(self, obs, state=None, episode_start=None, deterministic=True):
+        import torch
+
+        o = np.asarray(obs, np.float32)
+        one = o.ndim == 1
+        with torch.no_grad():
+            t = torch.as_tensor(o[None] if one else o, device=self.policy.device)
+            a = self.policy.member_mean(t, self.k).cpu().numpy()
+        space = self.policy.action_space  # clipped as SB3's predict clips a Box action
+        a = np.clip(a, space.low, space.high)
+        return (a[0] if one else a), None
+
+
+def ensemble(args: argparse.Namespace) -> int:
+    """An ensemble of ``args.ensemble`` actors cloned on one row's demonstrations: each actor
+    alone and their mean, on the validation targets."""
+    import torch
+    from stable_baselines3 import PPO
+
+    from bathprint.agents.ensemble import EnsembleMlpPolicy
+    from bathprint.agents.imitation import collect_demonstrations, fit_policy
+    from bathprint.agents.rollout import run_episode
+    from bathprint.agents.statistics import bootstrap_ci
+    from bathprint.envs import make
+
+    torch.set_num_threads(1)
+    name = args.env.split("/")[-1]
+    out = Path(args.out) if args.out else RESULTS / f"bc_search_{name}_ensemble.csv"
+    n, noise, width, epochs, replays, rho = ROWS[args.ensemble_row]
+    n = max(1, round(n * args.targets_scale))
+    env = make(args.env, target_set="validation", accuracy="draft")
+    rows: list[dict] = []
+    try:
+        demos = collect_demonstrations(args.env, {"accuracy": "draft"}, n, args.seed, noise,
+                                       replays, rho)  # fmt: skip
+        model = PPO(EnsembleMlpPolicy, env, seed=args.seed, device="cpu",
+                    policy_kwargs={"net_arch": [width, width], "log_std_init": -3.0,
+                                   "members": args.ensemble})  # fmt: skip
+        fit = fit_policy(model.policy, demos, epochs, 256, 1.0e-3, args.seed)
+        players = [(f"actor {k}", _Member(model.policy, k)) for k in range(args.ensemble)]
+        players.append((f"mean of {args.ensemble}", model))
+        for label, player in players:
+            m = np.array([run_episode(env, player, seed=k, target_index=k).metrics["metric"]
+                          for k in range(args.episodes)])  # fmt: skip
+            _, lo, hi = bootstrap_ci(np.mean, m[None, :], seed=args.seed)
+            rows.append({"policy": label, "row": args.ensemble_row, "seed": args.seed,
+                         "demonstration_pairs": len(demos.obs),
+                         "validation_mean_metric": float(m.mean()), "validation_ci_low": lo,
+                         "validation_ci_high": hi,
+                         "fit_wall_s": fit["fit_wall_time_s"]})  # fmt: skip
+            print(f"{label}: validation {m.mean():.3f} [{lo:.3f}, {hi:.3f}]", flush=True)
+    finally:
+        env.close()
+    with out.open("w", newline="") as f:
+        w = csv.DictWriter(f, fieldnames=list(rows[0]))
+        w.writeheader()
+        w.writerows(rows)
+    write_meta(out)
+    print(f"wrote {out}")
     return 0
 
 

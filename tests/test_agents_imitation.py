@@ -358,4 +358,10 @@ def test_bc_search_smoke_writes_its_row_and_resumes(tmp_path, monkeypatch, load_
     assert 0.0 < values[0] < 2.0  # the action RMS, in action units (each in [-1, 1])
     assert values[1] < 1e-4  # the printing actions replayed without noise print the target
     assert values[-1] > values[1]
+    ens = tmp_path / "ens.csv"
+    assert mod.main(["--env", "bathprint/CoilRadius-v1", "--ensemble", "2", "--ensemble-row",
+                     "0", "--targets-scale", "0.0125", "--episodes", "1", "--out",
+                     str(ens)]) == 0  # fmt: skip
+    lines = ens.read_text().splitlines()
+    assert [line.split(",")[0] for line in lines[1:]] == ["actor 0", "actor 1", "mean of 2"]
     assert set(seen) == {"validation"}
