@@ -2,34 +2,88 @@
 
 The simulator solves A = B + C (B the band of the local effects, C the 3x3 blocks between
 touching segments about a coil turn apart) by GMRES right-preconditioned by the banded LU
-of B (src/bathprint/core/solver.py). This benchmark takes the Newton matrix of the last
-factorisation of two states, (1) a coil stack of 1000 nodes with every turn pressed onto
-the next (a chain of contacts as high as the stack) after 10 ms, (2) period_doubling_22G
-after 0.5 s (a pile of about 30 turns), and counts GMRES(30) iterations (scipy, the same
-restart length) to a relative residual of 0.05 (the default ``numerics.krylov_tolerance``)
-and 1e-6 for a fixed random right-hand side, with:
+of B (src/bathprint/core/solver.py). Two parts:
+
+``--part random``: the Newton matrix of the last factorisation of two states, (1) a coil
+stack of 1000 nodes with every turn pressed onto the next (a chain of contacts as high as
+the stack) after 10 ms, (2) period_doubling_22G after 0.5 s (a pile of about 30 turns);
+GMRES(30) iterations (scipy, the same restart length) to a relative residual of 0.05 (the
+default ``numerics.krylov_tolerance``) and 1e-6 for a fixed random right-hand side, with:
 
 - ``band``: the simulator's preconditioner, the LU of B;
 - ``two_level_M``: that, then a coarse correction on aggregates of M consecutive nodes
-  (their three translations; P^T A P solved exactly), applied multiplicatively: the
-  classical remedy when the slow modes are rigid motions of whole turns against each other
-  (a chain of contacts);
+  (their three translations; P^T A P solved exactly), applied multiplicatively;
 - ``exact``: the LU of A itself (one iteration: checks the set-up).
 
-    python benchmarks/bench_preconditioner.py
+``--part newton``: the systems the integrator itself solves, whose right-hand sides are
+the Newton residuals (the iteration count depends on the right-hand side, and a random
+one is not representative). For each N, the pressed coil stack of benchmarks/bench_contact.py
+(``coil_stack(N, True, 0.98)``, node spacing 0.3 mm, radius 3 mm: about 63 nodes a turn)
+is advanced 1 ms, then the integrator is replayed from its Python source (numba's
+``py_func``, as benchmarks/bench_profile.py does) with the solver's ``factor`` and ``solve``
+wrapped, and the first Newton solve after each of the next ``--solves`` (3) factorisations
+is captured: the unfactored band ``ws.krylov.band_a``, the off-band blocks ``ws.cpl``, the
+right-hand side, and the simulator's own GMRES iteration count for it (the error filter's
+solves are skipped). Each captured system is solved again by flexible GMRES as
+``solver._gmres`` (restart ``records.KRYLOV_RESTART``, at most
+``solver.KRYLOV_MAX_RESTARTS`` restarts, the same stopping test) to relative residuals
+0.05 and 1e-3 with:
+
+- ``band``: the simulator's preconditioner (its own ``band_lu`` / ``band_solve``); its
+  count at 0.05 is recorded beside the simulator's (``simulator_iterations_rtol_0.05``),
+  which it reproduces;
+- ``hat_4_z``: ``band``, then a coarse correction (P^T A P solved exactly) on the axial
+  displacement interpolated piecewise linearly along the node index between coarse nodes
+  every 4 nodes (z only), applied multiplicatively;
+- ``hat_4_z_symmetric``: the same coarse space applied as B, coarse, B;
+- ``axial``: multiplicative, with every node's z displacement as coarse unknown (the whole
+  axial problem).
+
+With ``band`` the iterations grow with N (slow modes along the stack's axis, where the
+contacts chain the turns); the smooth coarse space removes part of the growth, the whole
+axial problem all of it, at a coarse LU dearer than B's. One row per (N, preconditioner)
+in results/preconditioner_newton.csv: iterations per solve (mean over the captured solves,
+and each, ``_each``), solves that did not converge, the coarse unknowns and the coarse
+matrix's bandwidth (in coarse unknowns), and the time (ms) of its factorisation and of
+B's, and their ratio (mean over the solves): both timed with the simulator's own banded LU
+(:func:`bathprint.core.banded.band_lu`, partial pivoting, O(n kl (kl + ku)) work), each
+restoring the band from a copy first as ``solver.factor`` copies it, best of 3. Assembling
+P^T A P is not timed.
+
+A run with the default sizes N = 100, 300, 1000, 3000, 10000 takes about 1 minute on one
+core (most of it N = 10000).
+
+    python benchmarks/bench_preconditioner.py                      # both parts
+    python benchmarks/bench_preconditioner.py --part newton --sizes 100,1000 --solves 1
+    python benchmarks/bench_preconditioner.py --part random --out /tmp/results  # CSV dir
 """
 
 from __future__ import annotations
 
+import argparse
 import math
+import time
+from collections.abc import Callable, Sequence
+from pathlib import Path
+from types import SimpleNamespace
+from typing import NamedTuple
 
 import numpy as np
+import scipy.linalg as sla_dense
 import scipy.sparse as sp
 import scipy.sparse.linalg as sla
-from _common import write_csv
+from _common import RESULTS, best_of, write_csv
+from bench_contact import coil_stack
+from bench_profile import REPLAYED
+from numba import njit
+from rich.progress import Progress
 
+import bathprint.core.integrators as integ
 from bathprint import Simulation
 from bathprint.core import layout as L
+from bathprint.core import solver
+from bathprint.core.banded import band_lu, band_solve
+from bathprint.core.records import KRYLOV_RESTART
 from bathprint.core.topology import free_nodes
 
 MM = 1e-3
@@ -37,18 +91,43 @@ R_FIL = 0.205 * MM  # 22G
 SPACING = 0.3 * MM
 AGGREGATES = (4, 16, 64)
 
+NEWTON_SIZES = (100, 300, 1000, 3000, 10000)
+WARM_S = 1e-3  # the stack is advanced this long (s) before solves are captured
+SOLVES = 3  # captured Newton solves per N
+RTOLS = (0.05, 1e-3)  # relative residuals; the first is the simulator's krylov_tolerance
+# label: (coarse node spacing (None: no coarse space), how the coarse correction is applied)
+NEWTON_PRECONDITIONERS: dict[str, tuple[int | None, str]] = {
+    "band": (None, ""),
+    "hat_4_z": (4, "multiplicative"),
+    "hat_4_z_symmetric": (4, "symmetric"),
+    "axial": (1, "multiplicative"),
+}
 
-def pressed_stack(n: int) -> Simulation:
-    """A stress-free coil stack (radius 3 mm) whose turns touch (pitch 0.98 delta), sinking."""
-    radius, pitch = 3 * MM, 0.98 * 2 * R_FIL
-    dphi = SPACING / math.hypot(radius, pitch / (2 * math.pi))
-    phi = dphi * np.arange(n)
-    pts = np.column_stack(
-        [radius * np.cos(phi), radius * np.sin(phi), -50 * MM + pitch * phi / (2 * math.pi)]
-    )
-    effects = ["elasticity", "drag", "gravity", "contact"]
-    return Simulation.from_points(
-        pts, "drag_coiling_22G", {"effects": effects, "duration_s": 1e3}, relaxed=True
+Vector = np.ndarray
+Apply = Callable[[Vector], tuple[Vector, Vector]]  # v -> (z = M^-1 v, A z)
+
+
+# ------------------------------------------------------------------ matrices
+def assemble_matrix(
+    band: np.ndarray, rows: np.ndarray, cols: np.ndarray, blocks: np.ndarray, nd: int
+) -> sp.csr_matrix:
+    """A = B + C from the band (row storage of :mod:`bathprint.core.banded`, kl = KL) and the
+    off-band 3x3 blocks at node blocks (rows[k], cols[k])."""
+    i = np.repeat(np.arange(nd), L.KL + L.KU + 1)
+    off = np.tile(np.arange(-L.KL, L.KU + 1), nd)
+    j = i + off
+    inside = (j >= 0) & (j < nd)
+    vals = band[i[inside], off[inside] + L.KL]
+    keep = vals != 0.0
+    a = np.arange(3)
+    r = (3 * rows[:, None, None] + a[None, :, None] + 0 * a[None, None, :]).ravel()
+    c = (3 * cols[:, None, None] + a[None, None, :] + 0 * a[None, :, None]).ravel()
+    return sp.csr_matrix(
+        (
+            np.concatenate([vals[keep], blocks.ravel()]),
+            (np.concatenate([i[inside][keep], r]), np.concatenate([j[inside][keep], c])),
+        ),
+        shape=(nd, nd),
     )
 
 
@@ -56,22 +135,9 @@ def newton_matrix(sim: Simulation) -> sp.csr_matrix:
     """The Newton matrix of the last factorisation: its band (kept unfactored for GMRES)
     plus the blocks off the band."""
     nd = 3 * free_nodes(sim.n_nodes, sim.model.record.params[0])
-    band = sim.ws.krylov.band_a
-    rows, cols, vals = [], [], []
-    for i in range(nd):
-        for j in range(max(0, i - L.KL), min(nd, i + L.KU + 1)):
-            if band[i, j - i + L.KL] != 0.0:
-                rows.append(i)
-                cols.append(j)
-                vals.append(band[i, j - i + L.KL])
     cpl = sim.ws.cpl
-    for q in range(int(cpl.count[0])):
-        for a in range(3):
-            for b in range(3):
-                rows.append(3 * int(cpl.row[q]) + a)
-                cols.append(3 * int(cpl.col[q]) + b)
-                vals.append(cpl.block[q, a, b])
-    return sp.csr_matrix((vals, (rows, cols)), shape=(nd, nd))
+    k = int(cpl.count[0])
+    return assemble_matrix(sim.ws.krylov.band_a, cpl.row[:k], cpl.col[:k], cpl.block[:k], nd)
 
 
 def band_part(a: sp.csr_matrix) -> sp.csr_matrix:
@@ -79,6 +145,57 @@ def band_part(a: sp.csr_matrix) -> sp.csr_matrix:
     coo = a.tocoo()
     keep = np.abs(coo.row - coo.col) <= L.KL
     return sp.csr_matrix((coo.data[keep], (coo.row[keep], coo.col[keep])), shape=a.shape)
+
+
+def bandwidth(a: sp.spmatrix) -> int:
+    """The largest |i - j| of a nonzero entry."""
+    coo = a.tocoo()
+    nz = coo.data != 0.0
+    return int(np.max(np.abs(coo.row[nz] - coo.col[nz]))) if nz.any() else 0
+
+
+def to_band(a: sp.spmatrix, kl: int, ku: int) -> np.ndarray:
+    """``a`` in the row storage of :mod:`bathprint.core.banded` (2 kl + ku + 1 slots a row:
+    room for the fill-in of partial pivoting)."""
+    coo = a.tocoo()
+    out = np.zeros((a.shape[0], 2 * kl + ku + 1))
+    out[coo.row, coo.col - coo.row + kl] = coo.data
+    return out
+
+
+class BandedLU:
+    """The simulator's banded LU (partial pivoting) of a band matrix, and its solve."""
+
+    def __init__(self, band: np.ndarray, n: int, kl: int, ku: int) -> None:
+        self.lu = np.ascontiguousarray(band[:n], dtype=np.float64).copy()
+        self.piv = np.zeros(n, dtype=np.int64)
+        self.n, self.kl, self.ku = n, kl, ku
+        if band_lu(self.lu, n, kl, ku, self.piv) != 0:
+            raise ValueError("singular band matrix")
+
+    def solve(self, v: Vector) -> Vector:
+        z = np.array(v, dtype=np.float64)
+        band_solve(self.lu, self.n, self.kl, self.ku, self.piv, z)
+        return z
+
+
+@njit
+def _lu_loop(reps: int, work: np.ndarray, saved: np.ndarray, n: int, kl: int, ku: int,
+             piv: np.ndarray) -> None:  # fmt: skip
+    """Restore the band from ``saved`` and factorise it, ``reps`` times."""
+    for _ in range(reps):
+        work[:n] = saved[:n]
+        band_lu(work, n, kl, ku, piv)
+
+
+def lu_seconds(band: np.ndarray, n: int, kl: int, ku: int) -> float:
+    """Seconds of one banded LU (the band restored from a copy first), best of 3."""
+    saved = np.ascontiguousarray(band[:n], dtype=np.float64)
+    work = saved.copy()
+    piv = np.zeros(n, dtype=np.int64)
+    once = best_of(lambda: _lu_loop(1, work, saved, n, kl, ku, piv), 2)
+    reps = max(1, int(0.02 / max(once, 1e-7)))
+    return best_of(lambda: _lu_loop(reps, work, saved, n, kl, ku, piv), 3) / reps
 
 
 def gmres_iterations(a, m, b: np.ndarray, rtol: float) -> int:
@@ -91,6 +208,82 @@ def gmres_iterations(a, m, b: np.ndarray, rtol: float) -> int:
         a, b, M=m, rtol=rtol, restart=30, maxiter=50, callback=callback, callback_type="pr_norm"
     )
     return count[0]
+
+
+def fgmres(a: sp.csr_matrix, b: Vector, apply: Apply, rtol: float) -> tuple[int, bool]:
+    """Iterations of right-preconditioned flexible GMRES on A x = b to |b - A x| <= rtol |b|,
+    step by step as ``solver._gmres`` (modified Gram-Schmidt, Givens rotations, restarts of
+    ``KRYLOV_RESTART`` with the true residual, at most ``KRYLOV_MAX_RESTARTS``), and whether
+    it got there. ``apply(v)`` returns z = M^-1 v and A z."""
+    m, nd = KRYLOV_RESTART, b.size
+    beta0 = float(np.linalg.norm(b))
+    if beta0 == 0.0:
+        return 0, True
+    x = np.zeros(nd)
+    r = b.copy()
+    beta = beta0
+    its = 0
+    converged = False
+    for _restart in range(solver.KRYLOV_MAX_RESTARTS):
+        basis = np.zeros((m + 1, nd))
+        zbasis = np.zeros((m, nd))
+        hess = np.zeros((m + 1, m))
+        g, cs, sn = np.zeros(m + 1), np.zeros(m), np.zeros(m)
+        basis[0] = r / beta
+        g[0] = beta
+        n_used = 0
+        for j in range(m):
+            zbasis[j], w = apply(basis[j])
+            for i in range(j + 1):
+                hess[i, j] = w @ basis[i]
+                w -= hess[i, j] * basis[i]
+            h_next = float(np.linalg.norm(w))
+            hess[j + 1, j] = h_next
+            if h_next > 0.0:
+                w /= h_next
+            basis[j + 1] = w
+            for i in range(j):
+                t = cs[i] * hess[i, j] + sn[i] * hess[i + 1, j]
+                hess[i + 1, j] = -sn[i] * hess[i, j] + cs[i] * hess[i + 1, j]
+                hess[i, j] = t
+            den = math.hypot(hess[j, j], hess[j + 1, j])
+            if den == 0.0:
+                break
+            cs[j], sn[j] = hess[j, j] / den, hess[j + 1, j] / den
+            hess[j, j], hess[j + 1, j] = den, 0.0
+            g[j + 1] = -sn[j] * g[j]
+            g[j] = cs[j] * g[j]
+            n_used = j + 1
+            its += 1
+            if abs(g[j + 1]) <= rtol * beta0 or h_next == 0.0:
+                converged = True
+                break
+        if n_used:
+            y = sla_dense.solve_triangular(hess[:n_used, :n_used], g[:n_used])
+            x += y @ zbasis[:n_used]
+        if converged:
+            break
+        r = b - a @ x
+        beta = float(np.linalg.norm(r))
+        if beta <= rtol * beta0:
+            converged = True
+            break
+    return its, converged and bool(np.isfinite(x).all())
+
+
+# ------------------------------------------------------------------ part random
+def pressed_stack(n: int) -> Simulation:
+    """A stress-free coil stack (radius 3 mm) whose turns touch (pitch 0.98 delta), sinking."""
+    radius, pitch = 3 * MM, 0.98 * 2 * R_FIL
+    dphi = SPACING / math.hypot(radius, pitch / (2 * math.pi))
+    phi = dphi * np.arange(n)
+    pts = np.column_stack(
+        [radius * np.cos(phi), radius * np.sin(phi), -50 * MM + pitch * phi / (2 * math.pi)]
+    )
+    effects = ["elasticity", "drag", "gravity", "contact"]
+    return Simulation.from_points(
+        pts, "drag_coiling_22G", {"effects": effects, "duration_s": 1e3}, relaxed=True
+    )
 
 
 def preconditioners(a: sp.csr_matrix) -> dict[str, tuple[sla.LinearOperator, int]]:
@@ -115,7 +308,7 @@ def preconditioners(a: sp.csr_matrix) -> dict[str, tuple[sla.LinearOperator, int
     return out
 
 
-def main() -> None:
+def random_part(out_dir: Path) -> Path:
     states = {}
     stack = pressed_stack(1000)
     stack.advance(1e-2)
@@ -144,8 +337,314 @@ def main() -> None:
                 f"{name:>26} {label:>14}: {row['iterations_rtol_0.05']:3d} iterations to 0.05, "
                 f"{row['iterations_rtol_1e-6']:3d} to 1e-6 (coarse unknowns {coarse})"
             )
-    print("wrote", write_csv("preconditioners", rows))
+    path = write_csv(out_dir / "preconditioners.csv", rows)
+    print("wrote", path)
+    return path
+
+
+# ------------------------------------------------------------------ part newton
+class Captured(NamedTuple):
+    """One Newton system A x = rhs as the simulator solved it."""
+
+    nd: int
+    band: np.ndarray  # (nd, BAND_WIDTH): B, unfactored
+    rows: np.ndarray  # node blocks of C
+    cols: np.ndarray
+    blocks: np.ndarray  # (k, 3, 3)
+    rhs: np.ndarray
+    rtol: float  # the simulator's krylov_tolerance
+    iterations: int  # the simulator's GMRES iterations for it
+    converged: bool
+
+    def matrix(self) -> sp.csr_matrix:
+        return assemble_matrix(self.band, self.rows, self.cols, self.blocks, self.nd)
+
+    def off_band(self) -> sp.csr_matrix:
+        z = np.zeros_like(self.band)
+        return assemble_matrix(z, self.rows, self.cols, self.blocks, self.nd)
+
+
+def _named(records: np.ndarray) -> np.ndarray:
+    """A structured record array as ``np.recarray`` (fields by name, same memory)."""
+    return records.view(np.recarray)
+
+
+def capture(sim: Simulation, n_solves: int, max_rounds: int = 200) -> list[Captured]:
+    """The first Newton solve (with blocks off the band) after each of the next ``n_solves``
+    factorisations of ``sim``, advancing it by replaying the integrator's Python source in
+    rounds of 0.2 ms. The compiled record builders (``active_rod``, ``_out``) run as Python
+    too: Python must never hold the views a kernel compiled without reference counting
+    builds."""
+    caps: list[Captured] = []
+    ctx = {"filter": False, "fresh": False}
+    real_solver, real_filtered = integ.solver, integ._filtered_norm
+    real_replayed = {name: getattr(integ, name) for name in REPLAYED}
+
+    def capturing_factor(ws, nd: int) -> bool:
+        ctx["fresh"] = True
+        return solver.factor(ws, nd)
+
+    def capturing_solve(ws, nd: int, rhs: np.ndarray, counters: np.ndarray, rtol: float):
+        take = ctx["fresh"] and not ctx["filter"] and len(caps) < n_solves
+        take = take and bool(solver.off_band(ws))
+        ctx["fresh"] = False
+        if not take:
+            return solver.solve(ws, nd, rhs, counters, rtol)
+        k = int(ws.cpl.count[0])
+        b = rhs[:nd].copy()
+        before = int(counters[L.C_KRYLOV_ITERATIONS])
+        ok = solver.solve(ws, nd, rhs, counters, rtol)
+        caps.append(
+            Captured(
+                nd=nd,
+                band=ws.krylov.band_a[:nd].copy(),
+                rows=ws.cpl.row[:k].copy(),
+                cols=ws.cpl.col[:k].copy(),
+                blocks=ws.cpl.block[:k].copy(),
+                rhs=b,
+                rtol=float(rtol),
+                iterations=int(counters[L.C_KRYLOV_ITERATIONS]) - before,
+                converged=bool(ok),
+            )
+        )
+        return ok
+
+    def filtered(*args: object) -> float:  # the error filter's solve is not captured
+        ctx["filter"] = True
+        try:
+            return real_replayed["_filtered_norm"].py_func(*args)
+        finally:
+            ctx["filter"] = False
+
+    wrapper = SimpleNamespace(
+        solve=capturing_solve,
+        factor=capturing_factor,
+        damping_times=solver.damping_times,
+        off_band=solver.off_band,
+    )
+    model = sim.model.record._replace(params=_named(sim.model.params))
+
+    def named_ws() -> object:
+        ws = sim.ws
+        return ws._replace(
+            solver=_named(ws.solver),
+            tail=_named(ws.tail),
+            contact=ws.contact._replace(memory=_named(ws.contact.memory)),
+        )
+
+    try:
+        integ.solver = wrapper
+        for name, fn in real_replayed.items():
+            setattr(integ, name, fn.py_func)
+        integ._filtered_norm = filtered
+        for _round in range(max_rounds):
+            if len(caps) >= n_solves:
+                break
+            status = integ.advance.py_func(model, sim.state, named_ws(), sim.t + 2e-4, 10**9)
+            if status == L.STATUS_CAPACITY:  # grow the arrays as Simulation.advance does
+                if sim.n_nodes + 2 > sim.capacity:
+                    sim._grow()
+                else:
+                    sim._grow_off_band()
+            elif status != L.STATUS_OK:
+                raise RuntimeError(f"replay stopped: status {status} ({L.STATUS_MESSAGES[status]})")
+    finally:
+        integ.solver = real_solver
+        for name, fn in real_replayed.items():
+            setattr(integ, name, fn)
+        integ._filtered_norm = real_filtered
+    if len(caps) < n_solves:
+        raise RuntimeError(f"captured {len(caps)} of {n_solves} solves")
+    return caps
+
+
+def hat_basis(n_free: int, spacing: int) -> sp.csr_matrix:
+    """P (3 n_free x coarse): z displacements interpolated piecewise linearly along the node
+    index between coarse nodes every ``spacing`` nodes (a partition of unity); spacing 1
+    gives every node's z."""
+    nodes = np.arange(n_free)
+    centres = np.arange(int(np.ceil((n_free - 1) / spacing)) + 1) * spacing
+    w = np.clip(1.0 - np.abs(nodes[:, None] - centres[None, :]) / spacing, 0.0, None)
+    w /= w.sum(axis=1, keepdims=True)
+    i, c = np.nonzero(w > 1e-14)
+    p = sp.csr_matrix((w[i, c], (3 * i + 2, c)), shape=(3 * n_free, len(centres)))
+    used = np.asarray(abs(p).sum(axis=0)).ravel() > 0.0
+    return p[:, used].tocsr()
+
+
+class Preconditioner(NamedTuple):
+    """z = M^-1 v and A z, and the coarse space's size, bandwidth and LU time (s)."""
+
+    apply: Apply
+    coarse_unknowns: int = 0
+    coarse_bandwidth: int = 0
+    coarse_lu_s: float = 0.0
+
+
+def newton_preconditioners(
+    cap: Captured, a: sp.csr_matrix, c: sp.csr_matrix, b_lu: BandedLU
+) -> dict[str, Preconditioner]:
+    """The preconditioners of ``NEWTON_PRECONDITIONERS`` for one captured system."""
+
+    def band_apply(v: Vector) -> tuple[Vector, Vector]:
+        z = b_lu.solve(v)
+        return z, v + c @ z  # A z = B z + C z, B z = v: as solver._off_band_times
+
+    out = {}
+    for label, (spacing, mode) in NEWTON_PRECONDITIONERS.items():
+        if spacing is None:
+            out[label] = Preconditioner(band_apply)
+            continue
+        p = hat_basis(cap.nd // 3, spacing)
+        pt = p.T.tocsr()
+        ac = (pt @ a @ p).tocsr()
+        bw = bandwidth(ac)
+        ac_band = to_band(ac, bw, bw)
+        coarse = BandedLU(ac_band, ac.shape[0], bw, bw)
+
+        def correct(r: Vector, p=p, pt=pt, coarse=coarse) -> Vector:
+            return p @ coarse.solve(pt @ r)
+
+        if mode == "multiplicative":
+
+            def apply(v: Vector, correct=correct) -> tuple[Vector, Vector]:
+                z = b_lu.solve(v)
+                z = z + correct(v - a @ z)
+                return z, a @ z
+
+        elif mode == "symmetric":
+
+            def apply(v: Vector, correct=correct) -> tuple[Vector, Vector]:
+                z = b_lu.solve(v)
+                z = z + correct(v - a @ z)
+                z = z + b_lu.solve(v - a @ z)
+                return z, a @ z
+
+        else:
+            raise ValueError(mode)
+        out[label] = Preconditioner(
+            apply, ac.shape[0], bw, lu_seconds(ac_band, ac.shape[0], bw, bw)
+        )
+    return out
+
+
+def _tol(rtol: float) -> str:
+    return f"{rtol:g}"
+
+
+def _say(progress: Progress, line: str) -> None:
+    """A progress line above the bar, unwrapped."""
+    progress.console.print(line, markup=False, highlight=False, soft_wrap=True)
+
+
+def newton_size(n: int, n_solves: int, progress: Progress, task: int) -> list[dict]:
+    """Rows of one N (one per preconditioner), means over its captured solves."""
+    t0 = time.perf_counter()
+    sim = coil_stack(n, True, 0.98)
+    sim.advance(WARM_S)
+    caps = capture(sim, n_solves)
+    _say(
+        progress,
+        f"N={n}: captured {len(caps)} solves at t = {sim.t * 1e3:.2f} ms in "
+        f"{time.perf_counter() - t0:.1f} s; simulator iterations {[c.iterations for c in caps]}",
+    )
+    progress.advance(task)
+    per: dict[str, dict[str, list]] = {k: {} for k in NEWTON_PRECONDITIONERS}
+    for s, cap in enumerate(caps):
+        if cap.rtol != RTOLS[0]:
+            raise ValueError(f"the scene's krylov_tolerance is {cap.rtol}, not {RTOLS[0]}")
+        a, c = cap.matrix(), cap.off_band()
+        b_lu = BandedLU(cap.band, cap.nd, L.KL, L.KU)
+        band_s = lu_seconds(cap.band, cap.nd, L.KL, L.KU)
+        for label, pc in newton_preconditioners(cap, a, c, b_lu).items():
+            d = per[label]
+            for rtol in RTOLS:
+                its, ok = fgmres(a, cap.rhs, pc.apply, rtol)
+                d.setdefault(_tol(rtol), []).append(its)
+                d.setdefault("unconverged", []).append(not ok)
+            d.setdefault("nc", []).append(pc.coarse_unknowns)
+            d.setdefault("bw", []).append(pc.coarse_bandwidth)
+            d.setdefault("band_s", []).append(band_s)
+            d.setdefault("coarse_s", []).append(pc.coarse_lu_s)
+        counts = {k: (d[_tol(RTOLS[0])][-1], d[_tol(RTOLS[1])][-1]) for k, d in per.items()}
+        _say(
+            progress,
+            f"N={n} solve {s + 1}/{len(caps)} (simulator {cap.iterations} iterations, "
+            f"{len(cap.rows)} off-band blocks): iterations to {RTOLS[0]:g}, {RTOLS[1]:g}: "
+            + ", ".join(f"{k} {u} {v}" for k, (u, v) in counts.items()),
+        )
+        progress.advance(task)
+    rows = []
+    code = [cap.iterations for cap in caps]
+    for label, d in per.items():
+        rows.append(
+            {
+                "nodes": n,
+                "unknowns": caps[0].nd,
+                "off_band_blocks": float(np.mean([len(cap.rows) for cap in caps])),
+                "solves": len(caps),
+                "preconditioner": label,
+                "coarse_unknowns": int(np.max(d["nc"])),
+                "coarse_bandwidth": int(np.max(d["bw"])),
+                f"simulator_iterations_rtol_{_tol(RTOLS[0])}": float(np.mean(code)),
+                **{f"iterations_rtol_{_tol(r)}": float(np.mean(d[_tol(r)])) for r in RTOLS},
+                f"simulator_iterations_rtol_{_tol(RTOLS[0])}_each": " ".join(map(str, code)),
+                **{
+                    f"iterations_rtol_{_tol(r)}_each": " ".join(map(str, d[_tol(r)])) for r in RTOLS
+                },
+                "unconverged_solves": int(np.sum(d["unconverged"])),
+                "band_lu_ms": 1e3 * float(np.mean(d["band_s"])),
+                "coarse_lu_ms": 1e3 * float(np.mean(d["coarse_s"])),
+                "coarse_lu_over_band_lu": float(
+                    np.mean(np.array(d["coarse_s"]) / np.array(d["band_s"]))
+                ),
+            }
+        )
+    band = per["band"][_tol(RTOLS[0])]
+    if band != code:
+        progress.console.print(f"N={n}: band {band} differs from the simulator's {code}")
+    return rows
+
+
+def newton_part(sizes: Sequence[int], n_solves: int, out_dir: Path) -> Path:
+    rows: list[dict] = []
+    t0 = time.perf_counter()
+    with Progress() as progress:
+        task = progress.add_task("newton", total=len(sizes) * (1 + n_solves))
+        for n in sizes:
+            rows += newton_size(n, n_solves, progress, task)
+    hi, lo = (f"iterations_rtol_{_tol(r)}" for r in RTOLS)
+    print(f"\n{'N':>6} {'preconditioner':>18} {hi:>20} {lo:>21} {'coarse':>7} {'bw':>4} "
+          f"{'LU cost':>8}")  # fmt: skip
+    for r in rows:
+        print(
+            f"{r['nodes']:>6} {r['preconditioner']:>18} {r[hi]:>20.2f} {r[lo]:>21.2f} "
+            f"{r['coarse_unknowns']:>7} {r['coarse_bandwidth']:>4} "
+            f"{r['coarse_lu_over_band_lu']:>7.2f}x"
+        )
+    path = write_csv(out_dir / "preconditioner_newton.csv", rows)
+    print("wrote", path, f"({time.perf_counter() - t0:.0f} s)")
+    return path
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--part", choices=("all", "random", "newton"), default="all")
+    ap.add_argument(
+        "--sizes",
+        type=lambda s: [int(x) for x in s.split(",")],
+        default=list(NEWTON_SIZES),
+        help="part newton: node counts N, comma-separated",
+    )
+    ap.add_argument("--solves", type=int, default=SOLVES, help="part newton: solves per N")
+    ap.add_argument("--out", type=Path, default=RESULTS, help="directory of the CSV files")
+    args = ap.parse_args(argv)
+    if args.part in ("all", "random"):
+        random_part(args.out)
+    if args.part in ("all", "newton"):
+        newton_part(args.sizes, args.solves, args.out)
+    return 0
 
 
 if __name__ == "__main__":
-    main()
+    raise SystemExit(main())

@@ -1,0 +1,58 @@
+"""The Newton part of ``benchmarks/bench_preconditioner.py`` on the smallest stack: it
+captures a solve by replaying the integrator's Python source (which breaks when a replayed
+kernel changes), its GMRES reproduces the simulator's iteration count with the
+simulator's preconditioner, and the whole axial problem as coarse space takes no more
+iterations than the band alone."""
+
+from __future__ import annotations
+
+import csv
+from pathlib import Path
+
+BENCH = Path(__file__).resolve().parents[1] / "benchmarks"
+COLUMNS = {
+    "nodes",
+    "unknowns",
+    "off_band_blocks",
+    "solves",
+    "preconditioner",
+    "coarse_unknowns",
+    "coarse_bandwidth",
+    "simulator_iterations_rtol_0.05",
+    "iterations_rtol_0.05",
+    "iterations_rtol_0.001",
+    "simulator_iterations_rtol_0.05_each",
+    "iterations_rtol_0.05_each",
+    "iterations_rtol_0.001_each",
+    "unconverged_solves",
+    "band_lu_ms",
+    "coarse_lu_ms",
+    "coarse_lu_over_band_lu",
+}
+
+
+def test_newton_part_reproduces_the_simulators_count(tmp_path, monkeypatch, load_script):
+    monkeypatch.syspath_prepend(str(BENCH))  # the script imports _common and bench_contact
+    mod = load_script(BENCH / "bench_preconditioner.py")
+    args = ["--part", "newton", "--sizes", "100", "--solves", "1", "--out", str(tmp_path)]
+    assert mod.main(args) == 0
+    with (tmp_path / "preconditioner_newton.csv").open() as f:
+        reader = csv.DictReader(f)
+        assert set(reader.fieldnames or ()) == COLUMNS
+        rows = {r["preconditioner"]: r for r in reader}
+    assert set(rows) == set(mod.NEWTON_PRECONDITIONERS)
+    band, axial = rows["band"], rows["axial"]
+    assert int(band["nodes"]) == 100 and int(band["solves"]) == 1
+    assert int(band["off_band_blocks"].split(".")[0]) > 0  # the turns touch
+    simulator = int(band["simulator_iterations_rtol_0.05_each"])
+    assert simulator >= 1
+    assert int(band["iterations_rtol_0.05_each"]) == simulator
+    for r in rows.values():
+        assert int(r["unconverged_solves"]) == 0
+        assert float(r["iterations_rtol_0.001"]) >= float(r["iterations_rtol_0.05"]) >= 1
+    for tol in ("0.05", "0.001"):
+        assert float(axial[f"iterations_rtol_{tol}"]) <= float(band[f"iterations_rtol_{tol}"])
+    assert int(axial["coarse_unknowns"]) == 100  # one z a node (none is clamped here)
+    assert int(rows["hat_4_z"]["coarse_unknowns"]) == 26  # nodes 0, 4, ..., 100 of 0..99
+    assert float(axial["coarse_lu_over_band_lu"]) > 0.0
+    assert (tmp_path / "preconditioner_newton.meta.json").exists()
