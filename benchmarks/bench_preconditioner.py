@@ -74,7 +74,7 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as sla
 from _common import RESULTS, best_of, write_csv
 from bench_contact import coil_stack
-from bench_profile import REPLAYED
+from bench_profile import REPLAYED, replay_records
 from numba import njit
 from rich.progress import Progress
 
@@ -364,11 +364,6 @@ class Captured(NamedTuple):
         return assemble_matrix(z, self.rows, self.cols, self.blocks, self.nd)
 
 
-def _named(records: np.ndarray) -> np.ndarray:
-    """A structured record array as ``np.recarray`` (fields by name, same memory)."""
-    return records.view(np.recarray)
-
-
 def capture(sim: Simulation, n_solves: int, max_rounds: int = 200) -> list[Captured]:
     """The first Newton solve (with blocks off the band) after each of the next ``n_solves``
     factorisations of ``sim``, advancing it by replaying the integrator's Python source in
@@ -422,15 +417,7 @@ def capture(sim: Simulation, n_solves: int, max_rounds: int = 200) -> list[Captu
         damping_times=solver.damping_times,
         off_band=solver.off_band,
     )
-    model = sim.model.record._replace(params=_named(sim.model.params))
-
-    def named_ws() -> object:
-        ws = sim.ws
-        return ws._replace(
-            solver=_named(ws.solver),
-            tail=_named(ws.tail),
-            contact=ws.contact._replace(memory=_named(ws.contact.memory)),
-        )
+    model, named_ws = replay_records(sim)
 
     try:
         integ.solver = wrapper

@@ -331,6 +331,23 @@ def _named(records: np.ndarray) -> np.ndarray:
     return records.view(np.recarray)
 
 
+def replay_records(sim: Simulation) -> tuple[object, object]:
+    """(model, a function returning the workspace) of ``sim`` for kernels replayed from their
+    Python source: the parameter, solver, tail and contact-memory records as ``np.recarray``
+    (Python reads their fields by attribute; the same memory as the simulation's)."""
+    model = sim.model.record._replace(params=_named(sim.model.params))
+
+    def named_ws() -> object:
+        ws = sim.ws
+        return ws._replace(
+            solver=_named(ws.solver),
+            tail=_named(ws.tail),
+            contact=ws.contact._replace(memory=_named(ws.contact.memory)),
+        )
+
+    return model, named_ws
+
+
 def replay_counts(sim: Simulation, window_s: float) -> tuple[dict[str, float], dict[str, int]]:
     """Kernel calls per step over ``window_s``, replaying ``advance`` from its Python source.
 
@@ -362,17 +379,7 @@ def replay_counts(sim: Simulation, window_s: float) -> tuple[dict[str, float], d
         prepare=counting("contact: prepare", contact.prepare),
         check=counting("contact: check", contact.check),
     )
-    m = sim.model
-    model = m.record._replace(params=_named(m.params))
-
-    def named_ws() -> object:
-        ws = sim.ws
-        return ws._replace(
-            solver=_named(ws.solver),
-            tail=_named(ws.tail),
-            contact=ws.contact._replace(memory=_named(ws.contact.memory)),
-        )
-
+    model, named_ws = replay_records(sim)
     before = sim.counts()
     builds = int(sim.ws.contact.memory[0]["builds"])
     t_end = sim.t + window_s
