@@ -1201,6 +1201,26 @@ def preconditioners() -> str:
     return _table(head, rows) + "\n\n" + provenance(path)
 
 
+def preconditioner_newton() -> str:
+    path = RESULTS / "preconditioner_newton.csv"
+    table = _csv(path)
+    names = list(dict.fromkeys(r["preconditioner"] for r in table))
+    coarse = [n for n in names if n not in ("band", "hat_4_z_symmetric")]  # its LU: hat_4_z's
+    by = {(r["nodes"], r["preconditioner"]): r for r in table}
+    rows = []
+    for n in dict.fromkeys(r["nodes"] for r in table):
+        row = [n, _g(by[(n, "band")]["simulator_iterations_rtol_0.05"], 2)]
+        for name in names:
+            r = by[(n, name)]
+            row.append(f"{_g(r['iterations_rtol_0.05'], 2)} / {_g(r['iterations_rtol_0.001'], 3)}")
+        row += [f"{_g(by[(n, c)]['coarse_lu_over_band_lu'], 2)}×" for c in coarse]
+        rows.append(row)
+    head = ["nodes", "simulator's GMRES iterations"]
+    head += [f"`{name}`: to 0.05 / 1e-3" for name in names]
+    head += [f"`{c}`: coarse LU / banded LU" for c in coarse]
+    return _table(head, rows) + "\n\n" + provenance(path)
+
+
 def contact_scenes() -> str:
     path = RESULTS / "contact_scenes.csv"
     rows = [
@@ -1414,6 +1434,7 @@ TABLES: dict[str, Callable[[], str]] = {
     "contact-near-gap": contact_near_gap,
     "contact-seeds": contact_seeds,
     "contact-onset": contact_onset,
+    "preconditioner-newton": preconditioner_newton,
     "contact-krylov": contact_krylov,
     "bc-search": bc_search,
     "bc-dagger": bc_dagger,
