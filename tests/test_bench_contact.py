@@ -23,6 +23,7 @@ def test_the_scene_parts_run_and_report_against_the_run_without_contact(bench, m
     monkeypatch.setattr(mod, "NEAR_GAPS", (0.05, 0.3))
     monkeypatch.setattr(mod, "SEEDS", (1,))
     monkeypatch.setattr(mod, "ONSETS", (0.2,))
+    monkeypatch.setattr(mod, "ONSETS_BEFORE_CONTACT", ((0.2, 1.02),))
     monkeypatch.setattr(mod, "KRYLOV_TOLERANCES", (0.2,))
     near = mod.near_gap_rows()
     assert [r["variant"] for r in near] == [
@@ -35,7 +36,14 @@ def test_the_scene_parts_run_and_report_against_the_run_without_contact(bench, m
     seeds = mod.seed_rows()
     assert [r["seed"] for r in seeds] == [1, 1, 1] and len({r["variant"] for r in seeds}) == 3
     onset = mod.onset_rows()
-    assert [r["variant"] for r in onset] == ["without contact", "contact, soft onset 0.2 delta"]
+    assert [r["variant"] for r in onset] == [
+        "without contact",
+        "contact, soft onset 0.2 delta",
+        "contact, soft onset 0.2 delta from 1.02 (r_A + r_B)",
+    ]
+    for r in onset:  # the touching segments' gaps at the end: none without turns touching
+        n = r["touching_segments_final"]
+        assert n >= 0 and (n == 0) == math.isnan(r["touching_gap_median_final"])
     krylov = mod.krylov_rows()
     assert [r["variant"] for r in krylov] == ["without contact", "contact, GMRES to 0.2"]
     for rows in (near, seeds, onset, krylov):
