@@ -943,6 +943,7 @@ def headline() -> str:
             "ppo_residual": "residual PPO",
             "ppo_bc": "PPO pretrained by cloning",
             "ppo_bc_e100": "PPO pretrained by cloning (100 epochs)",
+            "ppo_bc_ens5": "PPO pretrained by cloning five actors",
             "ppo": "PPO",
             "sac": "SAC",
             "tqc_her": "TQC+HER",
@@ -1080,7 +1081,7 @@ def _contact_scene_table(name: str, label: Any, first: str) -> str:
             _g(r["krylov_per_newton"]),
             _g(r["min_gap_ratio"], 3),
             *(
-                [f"{_g(r['touching_gap_p10_final'], 3)} / {_g(r['touching_gap_median_final'], 3)}"]
+                [f"{_g(r['touching_gap_p10_final'], 4)} / {_g(r['touching_gap_median_final'], 4)}"]
                 if gaps
                 else []
             ),
@@ -1383,6 +1384,25 @@ def bc_dagger(env: str = "WriteShape-v1") -> str:
     return _table(head, rows) + "\n\n" + provenance(path)
 
 
+def bc_ensemble(env: str = "WriteShape-v1") -> str:
+    path = RESULTS / f"bc_search_{env}_ensemble.csv"
+    rows = [
+        [
+            r["policy"],
+            f"{_g(r['validation_mean_metric'])} [{_g(r['validation_ci_low'])}, "
+            f"{_g(r['validation_ci_high'])}]",
+        ]
+        for r in _csv(path)
+    ]
+    table = _table(["policy", "validation metric (mean, 95% CI)"], rows)
+    first = _csv(path)[0]
+    fit = (
+        f"Search row {first['row']}'s demonstrations ({first['demonstration_pairs']} pairs), "
+        f"seed {first['seed']}; fitting the actors took {float(first['fit_wall_s']):.0f} s."
+    )
+    return table + "\n\n" + fit + "\n\n" + provenance(path)
+
+
 def study_wall(name: str = "ablation_wall") -> str:
     path = RESULTS / f"{name}.csv"
     rows = [
@@ -1438,6 +1458,7 @@ TABLES: dict[str, Callable[[], str]] = {
     "contact-krylov": contact_krylov,
     "bc-search": bc_search,
     "bc-dagger": bc_dagger,
+    "bc-ensemble": bc_ensemble,
     "study-wall": study_wall,
     "ablation": ablation,
     "gravity": gravity,
