@@ -183,6 +183,15 @@ def main(argv: list[str] | None = None) -> int:
     return 0
 
 
+def _part_row(args: argparse.Namespace, row: int, part: str) -> tuple[Path, tuple]:
+    """A part's CSV (``--out``, else results/bc_search_<Env>_<part>.csv) and search row
+    ``row``'s settings, its training targets scaled by ``--targets-scale``."""
+    name = args.env.split("/")[-1]
+    out = Path(args.out) if args.out else RESULTS / f"bc_search_{name}_{part}.csv"
+    n, noise, width, epochs, replays, rho = ROWS[row]
+    return out, (max(1, round(n * args.targets_scale)), noise, width, epochs, replays, rho)
+
+
 def _fitted(env: object, demos: object, width: int, epochs: int, seed: int) -> tuple:
     """A fresh PPO model (two tanh layers of ``width``) whose policy is cloned on ``demos``
     (no PPO step), and the fit's record."""
@@ -229,10 +238,7 @@ def diagnose(args: argparse.Namespace) -> int:
     from bathprint.envs import make
 
     torch.set_num_threads(1)
-    name = args.env.split("/")[-1]
-    out = Path(args.out) if args.out else RESULTS / f"bc_search_{name}_diagnosis.csv"
-    n, noise, width, epochs, replays, rho = ROWS[args.diagnose]
-    n = max(1, round(n * args.targets_scale))
+    out, (n, noise, width, epochs, replays, rho) = _part_row(args, args.diagnose, "diagnosis")
     env = make(args.env, target_set="validation", accuracy="draft")
     rows: list[dict] = []
     try:
@@ -299,10 +305,7 @@ def ensemble(args: argparse.Namespace) -> int:
     from bathprint.envs import make
 
     torch.set_num_threads(1)
-    name = args.env.split("/")[-1]
-    out = Path(args.out) if args.out else RESULTS / f"bc_search_{name}_ensemble.csv"
-    n, noise, width, epochs, replays, rho = ROWS[args.ensemble_row]
-    n = max(1, round(n * args.targets_scale))
+    out, (n, noise, width, epochs, replays, rho) = _part_row(args, args.ensemble_row, "ensemble")
     env = make(args.env, target_set="validation", accuracy="draft")
     rows: list[dict] = []
     try:
@@ -376,10 +379,7 @@ def dagger(args: argparse.Namespace) -> int:
     from bathprint.envs import make
 
     torch.set_num_threads(1)
-    name = args.env.split("/")[-1]
-    out = Path(args.out) if args.out else RESULTS / f"bc_search_{name}_dagger.csv"
-    n, noise, width, epochs, replays, rho = ROWS[args.dagger]
-    n = max(1, round(n * args.targets_scale))
+    out, (n, noise, width, epochs, replays, rho) = _part_row(args, args.dagger, "dagger")
     kw = {"accuracy": "draft"}
     val = make(args.env, target_set="validation", **kw)
     env = make(args.env, target_set="train", **kw)

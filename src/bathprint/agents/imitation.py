@@ -204,7 +204,7 @@ def fit_policy(
     opt = torch.optim.Adam(params, lr=learning_rate)
     obs = torch.as_tensor(demos.obs, dtype=torch.float32, device=policy.device)
     act = torch.as_tensor(demos.actions, dtype=torch.float32, device=policy.device)
-    members = int(getattr(policy, "members", 1)) if hasattr(policy, "member_mean") else 1
+    members = int(getattr(policy, "members", 1))  # EnsembleMlpPolicy's actors
     gens = [torch.Generator().manual_seed(int(seed) + k) for k in range(members)]
     before = action_mse(policy, demos)
     was_training = policy.training
@@ -216,11 +216,11 @@ def fit_policy(
             if members == 1:
                 idx = orders[0][i : i + bs]
                 loss = ((_action_mean(policy, obs[idx]) - act[idx]) ** 2).mean()
-            else:
-                loss = sum(
-                    ((policy.member_mean(obs[o[i : i + bs]], k) - act[o[i : i + bs]]) ** 2).mean()
-                    for k, o in enumerate(orders)
-                )
+            else:  # each actor on its own minibatch: the sum of K separate losses
+                loss = 0.0
+                for k, order in enumerate(orders):
+                    idx = order[i : i + bs]
+                    loss = loss + ((policy.member_mean(obs[idx], k) - act[idx]) ** 2).mean()
             opt.zero_grad()
             loss.backward()
             opt.step()

@@ -873,7 +873,7 @@ def _frame_gap(f: np.ndarray, delta: float) -> float | None:
     return None if gaps is None else float(gaps.min())
 
 
-TOUCHING_GAP_RATIO = 1.1  # segment_gaps' statistics count segments within this many 2r
+TOUCHING_GAP_RATIO = 1.1  # touching_gaps counts the segments within this many 2r
 
 
 @_never_raise(lambda: None)
