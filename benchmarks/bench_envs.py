@@ -40,12 +40,12 @@ PRESETS = ("draft", "balanced", "fine")
 
 def _kwargs(env_id: str, pool: int) -> dict:
     """Version 1: draw training targets from the first ``pool`` (printed beforehand)."""
-    return {"spec_overrides": {"target": {"train_pool": pool}}} if env_id.endswith("-v1") else {}
+    return {"spec_overrides": {"target": {"train_pool": pool}}} if E.printed_targets(env_id) else {}
 
 
 def _print_pool(env_id: str, pool: int) -> float:
     """Print (or load) the first ``pool`` training targets of a v1 environment; seconds."""
-    if not env_id.endswith("-v1"):
+    if not E.printed_targets(env_id):
         return 0.0
     t0 = time.perf_counter()
     fam = E.make(env_id, accuracy="draft", **_kwargs(env_id, pool)).unwrapped.printed

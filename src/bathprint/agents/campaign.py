@@ -53,6 +53,7 @@ from typing import Any
 
 import numpy as np
 
+from bathprint.envs import printed_targets
 from bathprint.errors import ConfigError
 from bathprint.interrupt import exit_code, signals_interrupt
 
@@ -252,7 +253,7 @@ def seeds_campaign(
     env_id = resolve_id(env_id)
     short = env_id.split("/")[-1]
     out_dir = Path(out or f"runs/{algo}_{short}")
-    v1 = env_id.endswith("-v1")
+    v1 = printed_targets(env_id)
     baselines = ["constant", "feedforward_calibrated"] + (["oracle"] if v1 else [])
     runs = [
         RunSpec(algo, env_id, algo, s, str(env_dir(out_dir, env_id) / algo / f"seed{s}"),
@@ -592,7 +593,7 @@ def write_results(camp: Campaign, env_id: str) -> Path:
         rows.append(summ)
     record = {
         "env_id": env_id,
-        "target_set": "test" if env_id.endswith("-v1") else "eval",
+        "target_set": "test" if printed_targets(env_id) else "eval",
         "targets": keys,
         "episodes": len(keys),
         "eval_seed": camp.eval_seed,
@@ -760,7 +761,7 @@ def _parser() -> argparse.ArgumentParser:
                     help="only rebuild the results from what is on disk")
     ap.add_argument("--export", default=None, metavar="DIR",
                     help="then copy the results and the runs' small files (no checkpoints) "
-                    "into DIR/<Env>-v1/")
+                    "into DIR/<Env>/")
     ap.add_argument("--quiet", action="store_true")
     return ap
 

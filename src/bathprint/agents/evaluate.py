@@ -39,6 +39,7 @@ from tqdm import tqdm
 from bathprint.agents.hyperparams import split_hyperparams
 from bathprint.agents.rollout import METRIC_KEYS, Episode, run_episode
 from bathprint.agents.train import read_run_info, trained_files
+from bathprint.envs import printed_targets
 from bathprint.errors import ConfigError
 
 
@@ -84,7 +85,7 @@ def _safe_label(label: str) -> str:
 
 def default_target_set(env_id: str) -> str:
     """``eval`` for version-0 environments, ``test`` for version 1."""
-    return "test" if env_id.endswith("-v1") else "eval"
+    return "test" if printed_targets(env_id) else "eval"
 
 
 def summarize(episodes: list[Episode]) -> dict[str, Any]:
@@ -122,7 +123,7 @@ def evaluate_policy_spec(
     _check_episodes(episodes)
     env_id = resolve_id(env_id)
     target_set = target_set or default_target_set(env_id)
-    allowed = ("validation", "test") if env_id.endswith("-v1") else ("eval",)
+    allowed = ("validation", "test") if printed_targets(env_id) else ("eval",)
     if target_set not in allowed:
         raise ConfigError(
             f"target_set = {target_set!r}; allowed for {env_id}: " + ", ".join(map(repr, allowed))
@@ -295,7 +296,7 @@ def evaluate_many(
         if name in PLANNERS:
             cls = planning.CEMSettings if name == "oracle" else planning.MPCSettings
             planning.parse_options(spec, cls)
-            if name == "mpc" and not resolve_id(env_id).endswith("-v1"):
+            if name == "mpc" and not printed_targets(env_id):
                 raise ConfigError(f"policy 'mpc' needs a version-1 environment, not {env_id}")
             continue
         if name is not None:

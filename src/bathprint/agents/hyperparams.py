@@ -56,6 +56,7 @@ from typing import Any
 import yaml
 
 from bathprint._resources import shared_dir
+from bathprint.envs import printed_targets
 from bathprint.errors import ConfigError
 
 ALGOS = ("ppo", "sac", "tqc")
@@ -498,7 +499,7 @@ def _check_bc(algo: str, hp: dict[str, Any], where: str, env_id: str | None) -> 
             f"{where}: bc_pretrain = {hp['bc_pretrain']!r} with algo = {algo!r}; behaviour "
             "cloning pretrains PPO's policy only: remove bc_pretrain or use ppo"
         )
-    if env_id is not None and not env_id.endswith("-v1"):
+    if env_id is not None and not printed_targets(env_id):
         raise ConfigError(
             f"{where}: bc_pretrain on {env_id}: only version-1 environments print their "
             "targets (the printing actions are the demonstrations): remove bc_pretrain"

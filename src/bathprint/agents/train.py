@@ -61,6 +61,7 @@ from bathprint.agents.hyperparams import (
 )
 from bathprint.agents.imitation import bc_settings
 from bathprint.agents.signals import Interrupted, SignalStop, signal_name
+from bathprint.envs import printed_targets
 from bathprint.errors import ConfigError
 
 _CKPT = re.compile(r"model_(\d+)_steps\.zip$")
@@ -129,7 +130,7 @@ def checkpoints(run_dir: Path) -> list[tuple[int, Path]]:
 
 def eval_target_set(env_id: str) -> str:
     """The target set model selection plays: ``validation`` (version 1), ``eval`` (v0)."""
-    return "validation" if env_id.endswith("-v1") else "eval"
+    return "validation" if printed_targets(env_id) else "eval"
 
 
 def make_eval_env(env_id: str, env_kwargs: dict[str, Any], wrapper: dict[str, Any] | None) -> Any:

@@ -10,6 +10,7 @@
 id                             task
 =============================  ===========================================================
 ``bathprint/CoilRadius-v1``    track a coil-radius schedule with the flow (printed targets)
+``bathprint/WriteShape-v2``    WriteShape-v1 with the target's positions near the needle
 ``bathprint/WriteShape-v1``    write a 3D curve with the needle and the flow
 ``bathprint/BuoyantLayers-v1`` parts that settle at target heights, the oil pump lagging
 ``bathprint/CoilRadius-v0``    track a schedule of coil radius (and pitch) along the length
@@ -18,9 +19,10 @@ id                             task
 =============================  ===========================================================
 
 Version 1 (:mod:`bathprint.envs.v1`, ``docs/envs/``) is the suite to use; version 0 stays as
-it was for reproducing older results. Specs (scene, ranges, targets, metric) live in
-``envs/*.toml``; the metric is in :mod:`bathprint.envs.metric`. ``bathprint play`` is
-:func:`play_main`.
+it was for reproducing older results. ``WriteShape-v2`` is version 1's protocol (printed
+targets, train / validation / test sets) with a new observation. Specs (scene, ranges,
+targets, metric) live in ``envs/*.toml``; the metric is in :mod:`bathprint.envs.metric`.
+``bathprint play`` is :func:`play_main`.
 """
 
 from __future__ import annotations
@@ -39,6 +41,7 @@ ENV_ENTRY_POINTS: dict[str, str] = {
     "bathprint/CoilRadius-v1": "bathprint.envs.coil_radius:CoilRadiusEnvV1",
     "bathprint/WriteShape-v1": "bathprint.envs.write_shape:WriteShapeEnvV1",
     "bathprint/BuoyantLayers-v1": "bathprint.envs.buoyant_layers:BuoyantLayersEnvV1",
+    "bathprint/WriteShape-v2": "bathprint.envs.write_shape:WriteShapeEnvV2",
 }
 ENV_IDS: tuple[str, ...] = tuple(ENV_ENTRY_POINTS)
 
@@ -65,6 +68,12 @@ def resolve_id(name: str) -> str:
         if key in (short, short.removesuffix("-v0")):
             return env_id
     raise ValueError(f"unknown environment {name!r}; known: {', '.join(ENV_IDS)}")
+
+
+def printed_targets(env_id: str) -> bool:
+    """Whether an environment has version 1's protocol (printed targets with train,
+    validation and test sets): every version from 1 on; version 0 has an eval set."""
+    return not resolve_id(env_id).endswith("-v0")
 
 
 def make(env_id: str, **kwargs: Any) -> Any:
@@ -112,6 +121,7 @@ def play_main(argv: Sequence[str] | None = None) -> int:
 
 __all__ = [
     "ENV_IDS",
+    "printed_targets",
     "make",
     "make_from_config",
     "play_main",

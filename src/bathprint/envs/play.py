@@ -177,9 +177,9 @@ def _set_size(env: Any, target_set: str) -> int | None:
 
 
 def run(args: argparse.Namespace) -> dict[str, Any]:
-    from bathprint.envs import make, resolve_id
+    from bathprint.envs import make, printed_targets
 
-    args.env_version = 1 if resolve_id(args.env).endswith("-v1") else 0
+    args.env_version = 1 if printed_targets(args.env) else 0
     if args.target_set is None:
         args.target_set = "test" if args.env_version else "eval"
     check_args(args)

@@ -27,6 +27,7 @@ SPEC_FILES: dict[str, str] = {
     "bathprint/CoilRadius-v1": "coil_radius_v1.toml",
     "bathprint/WriteShape-v1": "write_shape_v1.toml",
     "bathprint/BuoyantLayers-v1": "buoyant_layers_v1.toml",
+    "bathprint/WriteShape-v2": "write_shape_v2.toml",
 }
 
 #: Allowed keys of each table (anything else is an error naming the key).
@@ -92,7 +93,7 @@ _SCHEMA: dict[str, set[str]] = {
         "missing_error",
         "allow_reflection",
     },
-    "observation": {"density_ref_kg_m3", "density_scale_kg_m3"},
+    "observation": {"density_ref_kg_m3", "density_scale_kg_m3", "target_positions_mm"},
     "success": {"metric_max"},
 }
 
@@ -357,15 +358,18 @@ def _present(data: dict[str, Any], name: str) -> bool:
 
 
 def _check_version(data: dict[str, Any], where: str) -> int:
-    """The spec's ``version`` (0 when absent) and the keys only one version knows."""
+    """The spec's ``version`` (0 when absent) and the keys only one version knows. Versions
+    1 and 2 share one protocol (printed targets, train / validation / test sets); a version
+    is the environment's, so that a new observation gets a new number."""
     version = data.get("version", 0)
-    if isinstance(version, bool) or version not in (0, 1):
-        raise SpecError(f"{where}: version = {version!r}; allowed: 0, 1")
+    if isinstance(version, bool) or version not in (0, 1, 2):
+        raise SpecError(f"{where}: version = {version!r}; allowed: 0, 1, 2")
     wrong = V1_ONLY if version == 0 else V0_ONLY
     for name in sorted(wrong):
         if _present(data, name):
             raise SpecError(
-                f"{where}: {name} is a key of version-{1 - version} specs; this spec has "
+                f"{where}: {name} is a key of version-{'0' if version else '1'} specs; this "
+                f"spec has "
                 f"version = {version}"
             )
     if version == 0:
@@ -401,7 +405,18 @@ def _check_version(data: dict[str, Any], where: str) -> int:
         raise SpecError(f"{where}: target.sets_file = {sets_file!r}; allowed: a relative path")
     if "length_mm" not in target:
         raise SpecError(f"{where}: target.length_mm is missing (a number > 0)")
-    return 1
+    offsets = data.get("observation", {}).get("target_positions_mm")
+    if offsets is not None and not (
+        isinstance(offsets, list)
+        and 1 <= len(offsets) <= 32
+        and all(isinstance(v, int | float) and not isinstance(v, bool) for v in offsets)
+        and all(math.isfinite(v) and abs(v) <= 1000 for v in offsets)
+    ):
+        raise SpecError(
+            f"{where}: observation.target_positions_mm = {offsets!r}; allowed: a list of 1 to "
+            "32 arclength offsets (mm, finite, |offset| <= 1000) from the needle's sample"
+        )
+    return int(version)
 
 
 def read_spec_dict(env_id: str | None = None, path: str | Path | None = None) -> dict[str, Any]:

@@ -132,10 +132,10 @@ class BathprintEnvV1(BathprintEnv):
         }
         self.spec_data = load_spec(None if spec_file else self.env_id, spec_file, spec_overrides)
         sd = self.spec_data
-        if sd.version != 1:
+        if sd.version < 1:
             raise ConfigError(
                 f"spec_file = {spec_file!r} is a version-{sd.version} spec; {self.env_id} "
-                "needs version = 1"
+                "needs version >= 1"
             )
         self._init_scene(accuracy, scene_overrides)
         self._init_controls(needle_velocity)
@@ -320,6 +320,12 @@ class BathprintEnvV1(BathprintEnv):
         if self.needle_axes:
             layout.append(("needle_position", len(self.needle_axes)))
         layout.append(("progress", 2 if self.goal_conditioned else 4))
+        # the target's own positions near the needle's sample, relative to the needle
+        # (observation.target_positions_mm; the goal form holds the whole target already)
+        offsets = [] if self.goal_conditioned else ob.get("target_positions_mm", [])
+        self._obs_tpos_off = np.asarray(offsets, np.float64)
+        if len(offsets):
+            layout.append(("target_positions", 3 * len(offsets)))
         self.obs_layout: tuple[tuple[str, int], ...] = tuple(layout)
         size = sum(n for _, n in layout)
         self._obs_dens_off = np.array(DENS_OFFSETS_MM) if self.observes_density else np.zeros(0)
@@ -795,6 +801,8 @@ class BathprintEnvV1(BathprintEnv):
                 math.sqrt(self._sse / j) / miss if j else 0.0,
                 math.sqrt(recent / (j - lo)) / miss if j > lo else 0.0,
             ]
+        if self._obs_tpos_off.size:
+            extra += self._target_positions()
         return observe_v1(
             self._x,
             self._v,
@@ -813,6 +821,19 @@ class BathprintEnvV1(BathprintEnv):
             np.array(extra),
             OBS_CLIP,
         )
+
+    def _target_positions(self) -> list[float]:
+        """The target's centreline at ``observation.target_positions_mm`` of arclength from
+        the sample the needle extrudes now (the nearest sample, clamped to the target's
+        ends, as the target features are read), relative to the needle, in units of
+        OBS_LENGTH_MM: where the target lies in the bath, which its curvature and torsion
+        do not say (an S and a C have the same curvature)."""
+        tgt = self.target
+        assert tgt is not None
+        s = (self._printed_mm - self.lead_in_mm + self._obs_tpos_off) / tgt.spacing_mm
+        k = np.clip(np.rint(s), 0, tgt.n_samples - 1).astype(np.int64)
+        rel = (tgt.points_mm[k] - self._needle_mm[None, :]) / OBS_LENGTH_MM
+        return rel.ravel().tolist()
 
     def target_ahead(self, obs: np.ndarray, lead_mm: float = 0.0) -> dict[str, float]:
         """The target features an observation shows at ``lead_mm`` (one of

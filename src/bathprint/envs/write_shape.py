@@ -105,3 +105,34 @@ class WriteShapeEnvV1(BathprintEnvV1):
     """
 
     env_id = "bathprint/WriteShape-v1"
+
+
+class WriteShapeEnvV2(WriteShapeEnvV1):
+    """
+    ## Description
+
+    ``WriteShape-v1``'s task (the same scene, actions, targets, metric and test sets) with
+    the target observed where it lies: the observation adds the target's centreline at 7
+    arclength offsets (-10 to 20 mm, every 5 mm) from the sample the needle extrudes now,
+    relative to the needle. Version 1 observes the target only by its curvature and torsion,
+    which do not say which way it turns (an S and a C have the same curvature), and a policy
+    cloned on it plateaus at a metric of about 0.31 on the validation targets; with the
+    positions, the same cloning reaches about 0.18 (``docs/agents.md#writeshape-v2``).
+    Episodes start from the target's own start state, so its positions are reachable in the
+    bath's frame. ``docs/envs/WriteShape-v2.md``; spec ``envs/write_shape_v2.toml``.
+
+    ## Action Space
+
+    As ``WriteShapeEnvV1``.
+
+    ## Observation Space
+
+    ``Box(-10, 10, (100,), float32)``: ``WriteShapeEnvV1``'s 79 entries, then the target
+    positions (21; ``target_positions``, mm / 10); the goal form is version 1's.
+
+    ## Rewards, Episode End, Arguments
+
+    As ``WriteShapeEnvV1``.
+    """
+
+    env_id = "bathprint/WriteShape-v2"
