@@ -40,6 +40,12 @@ benchmarks/results/bc_search_<Env>_dagger.csv.
 k) on that row's demonstrations and plays every actor alone and their mean on the
 validation targets: what averaging the clones' errors is worth.
 benchmarks/results/bc_search_<Env>_ensemble.csv.
+
+``--frame-stack K,...`` clones that row's policy on observations stacked over the last K
+steps (gymnasium's ``FrameStackObservation``, the first observation repeated at a reset;
+K = 1 is the row itself) and plays it on the validation targets: whether the observation's
+history says what one observation does not. Rows are kept per (K, seed), so runs with
+other seeds add to the file. benchmarks/results/bc_search_<Env>_frame_stack.csv.
 """
 
 from __future__ import annotations
@@ -108,7 +114,11 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--ensemble", type=int, default=None, metavar="K",
                     help="fit K actors on one row's demonstrations instead")  # fmt: skip
     ap.add_argument("--ensemble-row", type=int, default=5, metavar="ROW")
+    ap.add_argument("--frame-stack", default=None, metavar="K,...",
+                    help="clone --ensemble-row's policy on K stacked observations")  # fmt: skip
     args = ap.parse_args(argv)
+    if args.frame_stack is not None:
+        return frame_stack(args)
     if args.ensemble is not None:
         return ensemble(args)
     if args.diagnose is not None:
@@ -334,6 +344,58 @@ def ensemble(args: argparse.Namespace) -> int:
         w.writeheader()
         w.writerows(rows)
     write_meta(out)
+    print(f"wrote {out}")
+    return 0
+
+
+def frame_stack(args: argparse.Namespace) -> int:
+    """One row's cloned policy on observations stacked over K steps, per K (module doc)."""
+    import torch
+    from gymnasium.wrappers import FrameStackObservation
+    from rich.progress import track
+
+    from bathprint.agents.imitation import collect_demonstrations
+    from bathprint.agents.rollout import run_episode
+    from bathprint.agents.statistics import bootstrap_ci
+    from bathprint.envs import make
+
+    torch.set_num_threads(1)
+    out, (n, noise, width, epochs, replays, rho) = _part_row(args, args.ensemble_row, "frame_stack")
+    stacks = [int(k) for k in str(args.frame_stack).split(",")]
+    if any(k < 1 for k in stacks):
+        raise SystemExit(f"--frame-stack {args.frame_stack!r}: every K must be >= 1")
+    rows = list(csv.DictReader(out.open())) if out.exists() and not args.fresh else []
+    have = {(int(r["frames"]), int(r["seed"])) for r in rows}
+    for k in stacks:
+        if (k, args.seed) in have:
+            continue
+
+        def wrap(env, k=k):
+            return FrameStackObservation(env, k) if k > 1 else env
+
+        demos = collect_demonstrations(args.env, {"accuracy": "draft"}, n, args.seed, noise,
+                                       replays, rho, wrap=wrap)  # fmt: skip
+        val = wrap(make(args.env, target_set="validation", accuracy="draft"))
+        try:
+            model, fit = _fitted(val, demos, width, epochs, args.seed)
+            played = track(range(args.episodes), description=f"{k} frames")
+            m = np.array([run_episode(val, model, seed=i, target_index=i).metrics["metric"]
+                          for i in played])  # fmt: skip
+        finally:
+            val.close()
+        _, lo, hi = bootstrap_ci(np.mean, m[None, :], seed=args.seed)
+        rows.append({"frames": k, "row": args.ensemble_row, "seed": args.seed,
+                     "demonstration_pairs": len(demos.obs), "mse_after": fit["mse_after"],
+                     "validation_mean_metric": float(m.mean()), "validation_ci_low": lo,
+                     "validation_ci_high": hi,
+                     "collect_wall_s": demos.wall_time_s,
+                     "fit_wall_s": fit["fit_wall_time_s"]})  # fmt: skip
+        with out.open("w", newline="") as f:  # rewritten whole after every row
+            w = csv.DictWriter(f, fieldnames=list(rows[0]))
+            w.writeheader()
+            w.writerows(rows)
+        write_meta(out)
+        print(f"{k} frames: validation {m.mean():.3f} [{lo:.3f}, {hi:.3f}]", flush=True)
     print(f"wrote {out}")
     return 0
 

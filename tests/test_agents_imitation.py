@@ -365,3 +365,14 @@ def test_bc_search_smoke_writes_its_row_and_resumes(tmp_path, monkeypatch, load_
     lines = ens.read_text().splitlines()
     assert [line.split(",")[0] for line in lines[1:]] == ["actor 0", "actor 1", "mean of 2"]
     assert set(seen) == {"validation"}
+    stack = tmp_path / "stack.csv"
+    common = ["--env", "bathprint/CoilRadius-v1", "--ensemble-row", "0", "--targets-scale",
+              "0.0125", "--episodes", "1", "--out", str(stack)]  # fmt: skip
+    assert mod.main(["--frame-stack", "1,3", *common]) == 0
+    lines = stack.read_text().splitlines()
+    assert [line.split(",")[0] for line in lines[1:]] == ["1", "3"]
+    pairs = [int(line.split(",")[3]) for line in lines[1:]]
+    assert pairs[0] == pairs[1] > 0  # the same replays, seen through the stack
+    assert mod.main(["--frame-stack", "3", *common]) == 0  # kept, not recomputed
+    assert stack.read_text().splitlines() == lines
+    assert set(seen) == {"validation"}

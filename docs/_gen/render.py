@@ -694,8 +694,9 @@ def agents() -> str:
     )
 
 
-#: the version-1 campaigns whose tables the docs render (agents/results/<Env>/results.json)
-CAMPAIGN_ENVS = ("CoilRadius-v1", "BuoyantLayers-v1", "WriteShape-v1")
+#: the campaigns (version 1 and later) whose tables the docs render
+#: (agents/results/<Env>/results.json)
+CAMPAIGN_ENVS = ("CoilRadius-v1", "BuoyantLayers-v1", "WriteShape-v1", "WriteShape-v2")
 
 
 def campaign(env: str) -> str:
@@ -1459,6 +1460,7 @@ TABLES: dict[str, Callable[[], str]] = {
     "bc-search": bc_search,
     "bc-dagger": bc_dagger,
     "bc-ensemble": bc_ensemble,
+    "bc-search-v2": lambda: bc_search("WriteShape-v2"),
     "study-wall": study_wall,
     "ablation": ablation,
     "gravity": gravity,

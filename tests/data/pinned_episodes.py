@@ -77,10 +77,16 @@ V1: tuple[Case, ...] = (
     ),
 )
 
+V2: tuple[Case, ...] = (
+    ("shape_train", "bathprint/WriteShape-v2", {}, 1, {}, 3, 60),
+    ("shape_test", "bathprint/WriteShape-v2", {"target_set": "test"}, 2, {"target_index": 7}, 4, 40),
+)
+
 #: version -> (recording, cases)
 VERSIONS: dict[str, tuple[Path, tuple[Case, ...]]] = {
     "v0": (Path(__file__).with_name("v0_episodes.npz"), V0),
     "v1": (Path(__file__).with_name("v1_episodes.npz"), V1),
+    "v2": (Path(__file__).with_name("v2_episodes.npz"), V2),
 }
 
 

@@ -100,6 +100,7 @@ def collect_demonstrations(
     action_noise: float = 0.0,
     replays: int = 1,
     noise_correlation: float = 0.0,
+    wrap: Any = None,
 ) -> Demonstrations:
     """Replay the printing actions of training targets 0 .. n_targets-1, ``replays`` times
     each, in a training environment (``env_kwargs`` as training uses them) and record the
@@ -109,11 +110,15 @@ def collect_demonstrations(
     demonstrations also cover states off the printed path (DART, Laskey et al. 2017). The
     noise is white, or with ``noise_correlation`` rho > 0 an AR(1) process of the same
     stationary std, n_t = rho n_(t-1) + sqrt(1 - rho^2) e_t, whose drift resembles the
-    correlated error of a cloned policy more than white noise does."""
+    correlated error of a cloned policy more than white noise does. ``wrap`` (a callable
+    taking and returning an environment, e.g. an observation wrapper) records the
+    observations the policy will see through it."""
     from bathprint.envs import make
 
     t0 = time.perf_counter()
     env = make(env_id, target_set="train", **env_kwargs)
+    if wrap is not None:
+        env = wrap(env)
     try:
         u = env.unwrapped
         family = getattr(u, "printed", None)
