@@ -925,8 +925,8 @@ def headline() -> str:
         for n in ("50", "100")
     ]
     v1 = {
-        e: AGENTS / f"{e}-v1" / "results.json"
-        for e in ("BuoyantLayers", "CoilRadius", "WriteShape")
+        e: AGENTS / e / "results.json"
+        for e in ("BuoyantLayers-v1", "CoilRadius-v1", "WriteShape-v1", "WriteShape-v2")
     }
 
     def best_on_validation(path: Path) -> str:
@@ -976,7 +976,7 @@ def headline() -> str:
         [
             "agents: the one chosen on the validation targets, scored on the test targets: "
             "share of the gap from the calibrated feedforward to the oracle it closes (95% CI)",
-            "; ".join(f"{e}-v1 {best_on_validation(p)}" for e, p in v1.items()),
+            "; ".join(f"{e} {best_on_validation(p)}" for e, p in v1.items()),
             "[agents](docs/agents.md#results-on-the-test-targets-version-1)",
         ],
     ]
@@ -1404,6 +1404,28 @@ def bc_ensemble(env: str = "WriteShape-v1") -> str:
     return table + "\n\n" + fit + "\n\n" + provenance(path)
 
 
+def bc_frame_stack(env: str = "WriteShape-v1") -> str:
+    """The cloned policy on K stacked observations (bench_bc_search.py --frame-stack): per
+    K, each seed's validation metric and the mean over seeds."""
+    path = RESULTS / f"bc_search_{env}_frame_stack.csv"
+    by_k: dict[int, list[dict[str, str]]] = {}
+    for r in _csv(path):
+        by_k.setdefault(int(r["frames"]), []).append(r)
+    rows = []
+    for k in sorted(by_k):
+        rs = sorted(by_k[k], key=lambda r: int(r["seed"]))
+        per_seed = "; ".join(
+            f"{r['seed']}: {_g(r['validation_mean_metric'])} [{_g(r['validation_ci_low'])}, "
+            f"{_g(r['validation_ci_high'])}]"
+            for r in rs
+        )
+        mean = sum(float(r["validation_mean_metric"]) for r in rs) / len(rs)
+        rows.append([str(k), rs[0]["demonstration_pairs"], per_seed, _g(mean)])
+    head = ["observations stacked", "pairs", "validation metric per seed (95% CI)",
+            "mean over seeds"]  # fmt: skip
+    return _table(head, rows) + "\n\n" + provenance(path)
+
+
 def study_wall(name: str = "ablation_wall") -> str:
     path = RESULTS / f"{name}.csv"
     rows = [
@@ -1461,6 +1483,7 @@ TABLES: dict[str, Callable[[], str]] = {
     "bc-dagger": bc_dagger,
     "bc-ensemble": bc_ensemble,
     "bc-search-v2": lambda: bc_search("WriteShape-v2"),
+    "bc-frame-stack": bc_frame_stack,
     "study-wall": study_wall,
     "ablation": ablation,
     "gravity": gravity,
