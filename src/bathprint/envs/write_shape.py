@@ -116,8 +116,8 @@ class WriteShapeEnvV2(WriteShapeEnvV1):
     arclength offsets (-10 to 20 mm, every 5 mm) from the sample the needle extrudes now,
     relative to the needle. Version 1 observes the target only by its curvature and torsion,
     which do not say which way it turns (an S and a C have the same curvature), and a policy
-    cloned on it plateaus at a metric of about 0.31 on the validation targets; with the
-    positions, the same cloning reaches about 0.18 (``docs/agents.md#writeshape-v2``).
+    cloned on it scores 0.31-0.36 on the validation targets; with the positions, the same
+    cloning scores 0.18-0.19 (``docs/agents.md#writeshape-v2``).
     Episodes start from the target's own start state, so its positions are reachable in the
     bath's frame. ``docs/envs/WriteShape-v2.md``; spec ``envs/write_shape_v2.toml``.
 
