@@ -54,7 +54,7 @@ def test_v2_is_v1_plus_the_target_positions_step_for_step() -> None:
     np.testing.assert_array_equal(u.target.actions, v1.unwrapped.target.actions)
     rng = np.random.default_rng(0)
     checked = 0
-    for t in range(200):
+    for _ in range(200):
         np.testing.assert_array_equal(o2[:79], o1)
         # the positions, computed here from the target and the needle
         s = (u._printed_mm - u.lead_in_mm + np.array(OFFSETS_MM)) / u.target.spacing_mm

@@ -79,7 +79,15 @@ V1: tuple[Case, ...] = (
 
 V2: tuple[Case, ...] = (
     ("shape_train", "bathprint/WriteShape-v2", {}, 1, {}, 3, 60),
-    ("shape_test", "bathprint/WriteShape-v2", {"target_set": "test"}, 2, {"target_index": 7}, 4, 40),
+    (
+        "shape_test",
+        "bathprint/WriteShape-v2",
+        {"target_set": "test"},
+        2,
+        {"target_index": 7},
+        4,
+        40,
+    ),
 )
 
 #: version -> (recording, cases)
