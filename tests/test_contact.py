@@ -350,6 +350,27 @@ def test_a_stalled_gmres_solve_is_reported_not_passed_on() -> None:
     assert not ok and counters[L.C_KRYLOV_FAILURES] == 1
 
 
+def test_a_krylov_failure_is_reported_with_time_node_pair_and_cause() -> None:
+    """At the smallest step a stalled GMRES solve raises a SimulationError that names the
+    time, the worst node and the node pair of the strongest off-band coupling."""
+    sim = Simulation("period_doubling_22G", {"duration_s": 0.01})
+    cpl = sim.ws.cpl
+    assert cpl.row.shape[0] >= 2
+    cpl.row[:2], cpl.col[:2] = (3, 40), (30, 7)
+    cpl.block[:2] = 0.0
+    cpl.block[0, 1, 2], cpl.block[1, 0, 0] = -2.0, 5.0  # the second block is the strongest
+    cpl.count[0] = 2
+    sim.info[:] = (0.25, 12.0, 0.0)
+    with pytest.raises(SimulationError, match="Krylov") as info:
+        sim._raise(L.STATUS_KRYLOV)
+    err = info.value
+    assert math.isclose(err.time_s, 0.25) and err.node == 12
+    assert "nodes 40 and 7" in err.detail and "of 2 blocks" in err.detail
+    cpl.count[0] = 0
+    with pytest.raises(SimulationError, match="no couplings off the band"):
+        sim._raise(L.STATUS_KRYLOV)
+
+
 def test_without_couplings_off_the_band_the_path_is_the_banded_one_bit_for_bit(
     monkeypatch,
 ) -> None:
@@ -391,12 +412,13 @@ def test_builtin_scenes_with_contact_keep_their_turns_apart(scene: str) -> None:
     spacing = res.summary["numerics"]["node_spacing_mm"] * MM
     worst = min(gap_ratio(f, r, spacing) for f in res.frames[1:])
     assert worst >= 0.9
+    assert {"krylov_iterations", "krylov_failures"} <= res.summary.keys()  # summary.json
 
 
 def test_rope_coiling_on_the_floor_lays_turns_beside_turns_instead_of_through_them() -> None:
     """After about 15 s the rope coil's new turns reach the ones already on the floor:
     without contact they pass through them (distance ~0), with contact they stay apart."""
-    worst = {}
+    worst, krylov = {}, {}
     for name, effects in (("contact", ["contact"]), ("none", [])):
         over = {
             "duration_s": 20.0,
@@ -408,7 +430,10 @@ def test_rope_coiling_on_the_floor_lays_turns_beside_turns_instead_of_through_th
         r = float(res.material[0, L.MAT_RADIUS])
         spacing = res.summary["numerics"]["node_spacing_mm"] * MM
         worst[name] = min(gap_ratio(f, r, spacing) for f in res.frames[1:])
+        krylov[name] = res.summary["krylov_iterations"]  # summary.json's count
     assert worst["none"] < 0.5
+    # touching turns couple off the band: GMRES runs with contact, never without it
+    assert krylov["contact"] > 0 and krylov["none"] == 0
     assert worst["contact"] >= 0.9
 
 

@@ -560,4 +560,22 @@ class Simulation:
                 if self.scene.numerics.time_step_s == 0
                 else f"fixed step {self.scene.numerics.time_step_s:g} s"
             )
+            if status == L.STATUS_KRYLOV:
+                detail += self._strongest_coupling()
         raise SimulationError(cause, t, int(node), detail)
+
+    def _strongest_coupling(self) -> str:
+        """The node pair of the largest off-band block of the last Newton matrix (the
+        contact pair or hydrodynamic coupling GMRES could not resolve), for the error."""
+        cpl = self.ws.cpl
+        count = min(int(cpl.count[0]), len(cpl.row))
+        if count == 0:
+            return "; no couplings off the band"
+        norms = np.abs(cpl.block[:count]).reshape(count, 9).max(axis=1)
+        k = int(np.argmax(norms))
+        first = self.n_frozen  # the active system starts after the frozen tail
+        return (
+            f"; strongest coupling off the band: nodes {int(cpl.row[k]) + first} and "
+            f"{int(cpl.col[k]) + first} (from the free end), |block| {norms[k]:.3g}, "
+            f"of {count} blocks"
+        )

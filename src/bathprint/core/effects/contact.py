@@ -20,12 +20,14 @@ F = -mu N u_t / sqrt(|u_t|^2 + u_eps^2) on A (and the opposite on B), N = dE/dp 
 force, distributed to the nodes by the closest-point weights. Its velocity Jacobian is exact
 with the geometry (normal, closest points, N) held at the iterate (as the floor holds N).
 
-Candidate pairs come from a uniform spatial hash, rebuilt at the start of every step
-(:func:`prepare`) with a search distance delta_max + skin; an accepted step must keep
-every pair's relative node displacement below its start distance, and every node's motion
-relative to the common motion below half the skin (:func:`check`, the no-pass-through
-bound): otherwise it is retried shorter, never accepted. The skin follows the motion (2.5x
-the last step's, between 0.25 and 4 delta_max), so few pairs are searched where turns are
+Candidate pairs come from a uniform spatial hash with a search distance delta_max + skin,
+kept as a Verlet list (:func:`prepare`): rebuilt when two nodes may have closed half the
+skin since (twice the largest motion relative to the common motion), when nodes are born or
+freeze, or when the radius changes. An accepted step must keep every pair's relative node
+displacement below its start distance, and every node's motion relative to the common
+motion below half the skin (:func:`check`, the no-pass-through bound): otherwise it is
+retried shorter, never accepted. The skin follows the motion (SKIN_STEPS x the last
+step's, between SKIN_MIN and SKIN_MAX delta_max), so few pairs are searched where turns are
 far apart.
 """
 
