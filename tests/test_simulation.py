@@ -320,3 +320,26 @@ def test_damped_newton_updates_are_counted() -> None:
     beam.advance(0.3)
     assert beam.counts()["damped_newton_iterations"] == 0
     assert beam.counts()["newton_iterations"] > 0
+
+
+def test_the_compiled_entry_point_is_found_again_by_the_layout_of_the_records() -> None:
+    """A second simulation of the same layout reuses the entry point (no typeof of its
+    records) and steps exactly as the first; the key tells layouts numba types apart."""
+    from bathprint.core import simulation as simulation_module
+    from bathprint.core.simulation import _layout_key
+
+    over = {"duration_s": 0.05, "effects": ["elasticity", "drag", "gravity"]}
+    first = Simulation("paper_simulation", over)
+    first.advance(0.05)
+    known = len(simulation_module._ENTRY_POINTS)
+    second = Simulation("paper_simulation", over)
+    second.advance(0.05)
+    assert len(simulation_module._ENTRY_POINTS) == known
+    assert second._advance_entry[1] is first._advance_entry[1]
+    np.testing.assert_array_equal(first.centerline(), second.centerline())
+    a = np.zeros(4)
+    frozen = np.zeros(4)
+    frozen.flags.writeable = False
+    keys = {_layout_key(x) for x in (a, frozen, np.zeros(4, np.int64), np.zeros((2, 2)))}
+    assert len(keys) == 4
+    assert _layout_key((a, 1.0)) != _layout_key((a, 1))

@@ -753,10 +753,19 @@ def _reproduce_source(*names: str) -> str:
             f"*Source: `benchmarks/results/reproduce/{names[0]}`, written by `{m['command']}` "
             f"on {m['date']} (commit {m['commit']}); machine: {m['machine']}.*"
         )
-    return provenance(REPRODUCE / "reproduce.json").replace(
-        "`benchmarks/results/reproduce/reproduce.json`",
-        ", ".join(f"`benchmarks/results/reproduce/{n}`" for n in names or ("reproduce.json",)),
+    # reproduce.json holds every part and is rewritten when one part runs alone: its
+    # provenance is reproduce.meta.json's, with the part run alone named apart
+    names = names or ("reproduce.json",)
+    files = ", ".join(f"`benchmarks/results/reproduce/{n}`" for n in names)
+    text = (
+        f"*Source: {files}, written by `{meta['command']}` on {meta['date']} "
+        f"(commit {meta['commit']}); machine: {meta['machine']}"
     )
+    for name, m in alone.items():
+        part = name.split(".")[0]
+        if name in names or "reproduce.json" in names:
+            text += f"; {part} by `{m['command']}` on {m['date']} (commit {m['commit']})"
+    return text + ".*"
 
 
 def reproduce_times() -> str:

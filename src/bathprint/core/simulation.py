@@ -37,6 +37,22 @@ def _perpendicular(d: np.ndarray) -> np.ndarray:
     return u / np.linalg.norm(u)
 
 
+#: compiled entry points of :func:`advance`, by :func:`_layout_key` of its arguments
+_ENTRY_POINTS: dict[tuple, Any] = {}
+
+
+def _layout_key(value: Any) -> Any:
+    """What numba's type of ``value`` depends on, cheaply: the class and children of a
+    record (named tuple), each array's dtype, dimensions, contiguity, writeability and
+    alignment, a scalar's class. Equal keys mean equal numba types."""
+    if isinstance(value, np.ndarray):
+        f = value.flags
+        return (value.dtype, value.ndim, f.c_contiguous, f.f_contiguous, f.writeable, f.aligned)
+    if isinstance(value, tuple):
+        return (type(value), tuple(_layout_key(v) for v in value))
+    return type(value)
+
+
 class Simulation:
     """A running simulation of one scene.
 
@@ -528,12 +544,18 @@ class Simulation:
         entry = self.__dict__.get("_advance_entry")
         if entry is not None and entry[0] is self.ws:
             return entry[1]
-        sig = tuple(typeof(a, Purpose.argument) for a in args)
-        compiled = advance.overloads.get(sig)
-        if compiled is None:  # not compiled for these types yet: the dispatcher compiles
-            return advance
-        self._advance_entry = (self.ws, compiled.entry_point)
-        return compiled.entry_point
+        # numba's typeof of the records (1-2 ms) is paid once per layout of their arrays,
+        # not once per simulation: a key at least as fine as numba's types finds it again
+        key = _layout_key(args)
+        point = _ENTRY_POINTS.get(key)
+        if point is None:
+            sig = tuple(typeof(a, Purpose.argument) for a in args)
+            compiled = advance.overloads.get(sig)
+            if compiled is None:  # not compiled for these types yet: the dispatcher compiles
+                return advance
+            point = _ENTRY_POINTS[key] = compiled.entry_point
+        self._advance_entry = (self.ws, point)
+        return point
 
     def _raise(self, status: int) -> None:
         cause = L.STATUS_MESSAGES.get(status, f"status {status}")
