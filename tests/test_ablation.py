@@ -9,6 +9,7 @@ import math
 
 import pytest
 
+from bathprint.analysis import theory
 from bathprint.cli import main
 from bathprint.studies.reproduce import ablation, fast_jets, fig2, gravity
 from bathprint.studies.reproduce.ablation import Variant
@@ -134,8 +135,11 @@ def test_fig2_fits_recover_known_prefactors() -> None:
         r = 0.5 * scales["scale_B_mu_v_m"]
         result = {
             "measurements.buckling_length_m": 3.0 * r,
+            "measurements.buckling_length_2r_m": 0.5 * r,
+            "measurements.buckling_length_quarter_m": 1.0 * r,
             "measurements.coil_radius_m": r,
             "measurements.coil_frequency_rad_s": 2.0 * scales["scale_omega_rad_s"],
+            "measurements.omega_r_over_v": 0.9 + 0.1 * len(table),
         }
         table.append(fig2.law_row(over, result))
     fits = fig2.fit_laws(table)
@@ -143,7 +147,28 @@ def test_fig2_fits_recover_known_prefactors() -> None:
     assert fits["R_prefactor"] == pytest.approx(0.5)
     assert fits["omega_prefactor"] == pytest.approx(2.0)
     assert fits["points"] == {"l_R": 3, "R": 3, "omega": 3}
+    # l under the other definitions; the full-radius one was not measured
+    by_def = fits["l_over_R_by_definition"]
+    assert by_def["inset"] == pytest.approx(3.0)
+    assert by_def["two_radii"] == pytest.approx(0.5)
+    assert by_def["quarter"] == pytest.approx(1.0)
+    assert math.isnan(by_def["full_radius"])
+    assert fits["l_over_R_points"] == {"inset": 3, "two_radii": 3, "quarter": 3, "full_radius": 0}
+    # the paper's B = E r^4 is 4/pi times bathprint's E pi r^4 / 4: b scales by (pi/4)^(1/3),
+    # c by (4/pi)^(1/3), each fitted on its own scale
+    assert fits["R_prefactor_paper_B"] == pytest.approx(0.5 * (math.pi / 4) ** (1 / 3))
+    assert fits["omega_prefactor_paper_B"] == pytest.approx(2.0 * (4 / math.pi) ** (1 / 3))
+    assert fits["omega_R_over_v_median"] == pytest.approx(1.0)
     assert math.isnan(fig2.fit_laws([])["l_over_R"])
+
+
+def test_the_paper_b_convention_reproduces_its_worked_example() -> None:
+    """The paper's l ~ 22 mm at E = 2.7 kPa, r = 0.5 mm, mu = 1 mPa s, v = 15 mm/s holds with
+    its B = E r^4 and not with E pi r^4 / 4 (fig2's docstring)."""
+    scale = theory.buckling_length_scale(fig2.paper_bending_stiffness(2700.0, 5e-4), 1e-3, 0.015)
+    ours = theory.buckling_length_scale(theory.bending_stiffness(2700.0, 5e-4), 1e-3, 0.015)
+    assert abs(scale * 1e3 - 22.0) < 0.5  # 22.4 mm
+    assert abs(ours * 1e3 - 22.0) > 1.0  # 20.7 mm
 
 
 def test_quick_gravity_writes_its_outputs(tmp_path) -> None:

@@ -543,6 +543,33 @@ def markdown(
             f"| {labels.get(name, name)} | {_num(f['l_over_R'])} | {_num(f['R_prefactor'])} | "
             f"{_num(f['omega_prefactor'])} | {pts['l_R']}, {pts['R']}, {pts['omega']} |"
         )
+    lines += [
+        "",
+        "## The same fits under the paper's other conventions",
+        "",
+        "l / R with l under each definition (`fig2.L_DEFINITIONS`; the table above uses the "
+        "inset's), b and c with the paper's B = E r^4 instead of E pi r^4 / 4 (the "
+        "`bathprint.studies.reproduce.fig2` docstring), and the median of omega R / v "
+        "(the paper's fits give b c = 0.4 x 1.1 = 0.44).",
+        "",
+        "| variant | l / R: departure by 2r | quarter of the excursion | coil at 0.9 R "
+        "| b, B = E r^4 | c, B = E r^4 | omega R / v (median) |",
+        "|---|---|---|---|---|---|---|",
+        f"| paper | {PAPER['l_over_R']} | {PAPER['l_over_R']} | {PAPER['l_over_R']} "
+        f"| {PAPER['R_prefactor']} | {PAPER['omega_prefactor']} "
+        f"| {_num(PAPER['R_prefactor'] * PAPER['omega_prefactor'])} |",
+    ]
+    for name, f in fits.items():
+        by_def, n_def = f["l_over_R_by_definition"], f["l_over_R_points"]
+        cells = [
+            f"{_num(by_def[k])} ({n_def[k]})" for k in ("two_radii", "quarter", "full_radius")
+        ]
+        cells += [
+            _num(f["R_prefactor_paper_B"]),
+            _num(f["omega_prefactor_paper_B"]),
+            _num(f["omega_R_over_v_median"]),
+        ]
+        lines.append(f"| {labels.get(name, name)} | " + " | ".join(cells) + " |")
     points = list(next(iter(regimes.values()))["paper"]) if regimes else []
     lines += [
         "",
