@@ -232,6 +232,47 @@ def test_contact_forces_balance_pairwise() -> None:
     assert np.abs(total).max() < 1e-9 * 1e-6  # N: zero to round-off
 
 
+def test_friction_between_touching_turns_balances_pairwise_and_dissipates() -> None:
+    """With ``contact.friction_coefficient`` 0.5 the collapsing coil's turns slide on each
+    other: per pair, the friction force (with friction less without) on segment A is minus
+    that on B, and its power on the nodes' velocities is never positive (regularised Coulomb
+    friction opposes the tangential sliding), and negative where turns slide."""
+    sim = _collapsing_coil(True, **{"contact.friction_coefficient": 0.5})
+    sim.advance(0.6)
+    model, rod, _, out = sim.kernel_inputs(1.0, 0.0, 0.0, False)
+    pairs = sim.ws.contact.pairs[: sim.ws.contact.count[0]].copy()
+    v = rod.vel.reshape(-1, 3)
+    params = model.params
+    assert params[0]["contact_friction"] == pytest.approx(0.5)
+    sliding, powers = 0, []
+    for i, j in pairs:
+        mem = sim.ws.contact.memory.copy()
+        mem[0]["n_near"] = 1
+        one = sim.ws.contact._replace(
+            pairs=np.array([[i, j]]), count=np.array([1]), near=np.array([0]), memory=mem
+        )
+        forces = {}
+        for mu in (0.5, 0.0):
+            params[0]["contact_friction"] = mu
+            o = out._replace(force=np.zeros_like(out.force), contact=one)
+            contact.accumulate(model, rod, Stage(sim.t, 0.0, 0.0, 0.0, False), o)
+            forces[mu] = o.force.reshape(-1, 3)
+        params[0]["contact_friction"] = 0.5
+        fric = forces[0.5] - forces[0.0]
+        on_a, on_b = fric[i : i + 2].sum(axis=0), fric[j : j + 2].sum(axis=0)
+        scale = np.abs(forces[0.5]).max()
+        if np.abs(on_a).max() <= 1e-12 * max(scale, 1e-300):
+            continue
+        sliding += 1
+        np.testing.assert_allclose(on_a, -on_b, rtol=1e-9, atol=1e-12 * scale)
+        idx = [i, i + 1, j, j + 1]
+        powers.append(float(np.sum(fric[idx] * v[idx])))
+    assert sliding > 10
+    top = max(abs(x) for x in powers)
+    assert all(x <= 1e-9 * top for x in powers)  # W: never feeds the sliding
+    assert sum(powers) < -0.5 * top  # it takes energy out
+
+
 # ------------------------------------------------------------------ the Jacobian
 @pytest.mark.parametrize("friction", [0.0, 0.5])
 def test_contact_jacobian_with_its_off_band_blocks_matches_finite_differences(friction) -> None:
