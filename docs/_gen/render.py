@@ -841,14 +841,26 @@ def paper_constants() -> str:
         ],
         ["l = a R", f"a = {_g(paper['L_OVER_R'])}", f"a = {fit['l_over_R']:.2f}"],
         [
+            "l = a R, l where the coil reaches 0.9 R",
+            f"a = {_g(paper['L_OVER_R'])}",
+            f"a = {fit['l_over_R_by_definition']['full_radius']:.2f}",
+        ],
+        [
             "R = b (B/(μv))^(1/3)",
             f"b = {_g(paper['R_PREFACTOR'])}",
-            f"b = {fit['R_prefactor']:.2f}",
+            f"b = {fit['R_prefactor']:.2f} (B = E π r⁴/4); "
+            f"{fit['R_prefactor_paper_B']:.2f} (the paper's B = E r⁴)",
         ],
         [
             "ω = c v^(4/3)(μ/B)^(1/3)",
             f"c = {_g(paper['OMEGA_PREFACTOR'])}",
-            f"c = {fit['omega_prefactor']:.2f}",
+            f"c = {fit['omega_prefactor']:.2f} (B = E π r⁴/4); "
+            f"{fit['omega_prefactor_paper_B']:.2f} (the paper's B = E r⁴)",
+        ],
+        [
+            "ω R / v",
+            f"{_g(paper['R_PREFACTOR'] * paper['OMEGA_PREFACTOR'])} (b c)",
+            f"{fit['omega_R_over_v_median']:.2f} (median over the runs)",
         ],
         ["Fig. 1B regimes at the paper's four points", paper_regimes, sim_regimes],
     ]
@@ -1513,6 +1525,7 @@ FIGURES: dict[str, Path] = {
     / "gif"
     / "test0_residual_vs_oracle.gif",
     "ablation.png": ABLATION / "ablation.png",
+    "fig2.png": REPRODUCE / "fig2.png",
     "profile.png": RESULTS / "profile.png",
 }
 
