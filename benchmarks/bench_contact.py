@@ -10,9 +10,12 @@ pressed stack's Newton matrix is indefinite, -P' Hess d exceeding the drag term,
 stalls: the adaptive steps are shorter there.) (2) drag_coiling_22G (4 s) and period_doubling_22G
 (0.5 s) with and without contact: wall time ratio, Krylov iterations per Newton iteration,
 steps, and the smallest distance between non-adjacent segments over the saved frames.
-Every ratio is measured within the same run.
+Every ratio is measured within the same run. (3) ``--part whole``: every built-in scene that
+lists contact, for its whole duration as shipped, with the smallest distance between
+non-adjacent segments over all its saved frames (the validation's "never closer than 0.9
+contact distances", for whole runs; tests/test_contact.py checks shortened ones).
 
-    python benchmarks/bench_contact.py [--quick] [--part scaling|scenes]
+    python benchmarks/bench_contact.py [--quick] [--part scaling|scenes|whole]
 """
 
 from __future__ import annotations
@@ -152,12 +155,14 @@ def scenes(durations: dict[str, float]) -> list[dict]:
 def main() -> None:
     p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     p.add_argument("--quick", action="store_true", help="smaller sizes and shorter runs")
-    p.add_argument("--part", choices=("all", "scaling", "scenes"), default="all")
+    p.add_argument("--part", choices=("all", "scaling", "scenes", "whole"), default="all")
     args = p.parse_args()
     if args.part in ("all", "scaling"):
         scaling_part(args.quick)
     if args.part in ("all", "scenes"):
         scenes_part(args.quick)
+    if args.part in ("all", "whole"):
+        whole_part(args.quick)
 
 
 def scaling_part(quick: bool) -> None:
@@ -177,6 +182,54 @@ def scenes_part(quick: bool) -> None:
     )
     print("the coiling scenes with and without contact (same process):")
     print("wrote", write_csv("contact_scenes", scenes(durations)))
+
+
+def contact_scenes() -> list[str]:
+    """The built-in scenes whose effects list ``contact``."""
+    from bathprint.core.scene import builtin_scene_names
+
+    return [n for n in builtin_scene_names() if "contact" in Simulation(n).scene.effects]
+
+
+def whole_runs(scenes: list[str], fraction: float = 1.0) -> list[dict]:
+    """Each scene for ``fraction`` of its own duration: wall time, steps, the smallest gap
+    between non-adjacent segments over every saved frame (in contact distances r_i + r_j),
+    Krylov iterations and contact retries."""
+    rows = []
+    for scene in scenes:
+        duration = fraction * Simulation(scene).scene.duration_s
+        over = {"duration_s": duration, "outputs.plot": False}
+        simulate(scene, {**over, "duration_s": 1e-3})  # compile
+        t0 = time.perf_counter()
+        res = simulate(scene, over)
+        wall = time.perf_counter() - t0
+        s = res.summary
+        r = float(res.material[0, 2])
+        sep = min_separation_for(2 * r, s["numerics"]["node_spacing_mm"] * MM)
+        gaps = [_min_gap(np.ascontiguousarray(f).ravel(), len(f), r, sep) for f in res.frames[1:]]
+        row = {
+            "scene": scene,
+            "duration_s": duration,
+            "frames": len(gaps),
+            "wall_s": wall,
+            "steps": s["steps"],
+            "min_gap_ratio": min(gaps),
+            "frames_below_0.9": sum(g < 0.9 for g in gaps),
+            "krylov_iterations": s["krylov_iterations"],
+            "contact_rejections": s["contact_rejections"],
+        }
+        rows.append(row)
+        print(
+            f"{scene:>24} {duration:g} s: {wall:.1f} s wall, {row['steps']} steps, smallest gap "
+            f"{row['min_gap_ratio']:.3f} over {len(gaps)} frames, Krylov {row['krylov_iterations']}"
+        )
+    return rows
+
+
+def whole_part(quick: bool) -> None:
+    print("every built-in scene with contact, its whole run:")
+    rows = whole_runs(contact_scenes(), 0.05 if quick else 1.0)
+    print("wrote", write_csv("contact_whole_runs", rows))
 
 
 if __name__ == "__main__":

@@ -11,7 +11,9 @@ the work and splits the wall time of the training steps into
   flows, info dicts), Monitor and the residual wrapper's feedforward;
 - ``policy forward``: rollout collection outside the vector environment (the policy's
   forward pass, the rollout buffer, VecNormalize);
-- ``policy update``: PPO's / SAC's ``train`` (gradient steps);
+- ``policy update``: PPO's / SAC's ``train`` (gradient steps), less the hindsight rewards;
+- ``hindsight rewards``: the goal environment's ``compute_reward`` that hindsight
+  experience replay calls on every relabelled sample it draws (inside ``train``);
 - ``validation``: the ValidationCallback's episodes (model selection), kept apart;
 - ``rest``: everything else (callbacks, logging, checkpoints, setup).
 
@@ -39,7 +41,7 @@ from typing import Any
 
 CATEGORIES = (
     "simulation", "observation", "scoring", "env other", "policy forward", "policy update",
-    "validation", "rest",
+    "hindsight rewards", "validation", "rest",
 )
 
 
@@ -116,6 +118,8 @@ def profile_training(
             t.wrap(DummyVecEnv, "reset", "vec_reset")
             t.wrap(collect, "collect_rollouts", "collect_rollouts")
             t.wrap(cls, "train", "policy_update")
+            if hasattr(env_cls, "goal_reward"):  # HER relabelling calls it inside train
+                t.wrap(env_cls, "goal_reward", "goal_reward")
             original_eval = ValidationCallback.evaluate
 
             def evaluate(self: Any) -> float:
@@ -150,7 +154,8 @@ def profile_training(
         - g("evaluate_metric", 0.0) + (vec - env),
         "policy forward": g("collect_rollouts", 0.0) - g("vec_step", 0.0)
         - (g("vec_reset", 0.0) if collect is OffPolicyAlgorithm else 0.0),
-        "policy update": g("policy_update", 0.0),
+        "policy update": g("policy_update", 0.0) - g("goal_reward", 0.0),
+        "hindsight rewards": g("goal_reward", 0.0),
         "validation": g("validation", 0.0),
     }
     split["rest"] = wall - sum(split.values())
