@@ -2,7 +2,10 @@
 much.
 
 Points: the paper's four Fig. 1B examples (floor 30 mm below the needle, as for Fig. 1C) and
-points spanning its Fig. 2 range (no floor, as for Fig. 2). Variants: local slender-body
+the 16 points of bathprint's Fig. 2 grid, d = 0.26-0.84 mm by Q = 0.3-2 ml/min (no floor, as
+for Fig. 2; the middle of the paper's d = 0.1-2 mm by Q = 0.2-20 ml/min, where the slow
+jets of wide needles take long to buckle and the fast ones of thin needles crumple).
+Variants: local slender-body
 (Stokes) drag with elasticity and gravity only, then one effect added at a time (inertia,
 self-contact, finite-Reynolds drag, nonlocal hydrodynamics, surface gelation, the solution's
 viscous stress), the two that tighten the coils together (finite-Re drag with nonlocal
