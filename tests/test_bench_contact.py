@@ -62,3 +62,17 @@ def test_every_coil_stack_stands_under_the_bath_surface(bench):
     assert tall[:, 2].max() == pytest.approx(surface - 5e-3, abs=1e-9)
     short = mod.coil_stack(300, False, 1.5).centerline()
     assert short[:, 2].min() == pytest.approx(-50e-3, abs=1e-9)
+
+
+def test_the_whole_run_part_lists_every_contact_scene_and_measures_its_gap(bench):
+    """``--part whole`` on a tiny fraction of two scenes' durations: one row per scene with
+    its frames' smallest gap (turns not yet touching: well above the contact distance)."""
+    mod = bench("bench_contact")
+    scenes = mod.contact_scenes()
+    assert {"drag_coiling_22G", "period_doubling_22G", "chaotic_crumpling_22G"} <= set(scenes)
+    assert "paper_simulation" not in scenes  # the minimal model lists no contact
+    rows = mod.whole_runs(["drag_coiling_22G", "rope_coiling_18G"], fraction=0.02)
+    assert [r["scene"] for r in rows] == ["drag_coiling_22G", "rope_coiling_18G"]
+    for r in rows:
+        assert r["frames"] >= 1 and r["steps"] > 0 and r["wall_s"] > 0.0
+        assert r["min_gap_ratio"] > 0.9 and r["frames_below_0.9"] == 0

@@ -1244,6 +1244,20 @@ def preconditioner_newton() -> str:
     return _table(head, rows) + "\n\n" + provenance(path)
 
 
+def profile_tqc_her() -> str:
+    """The training-step profile of TQC with hindsight replay (agents.profile's table)."""
+    path = AGENTS / "profile" / "CoilRadius-v1_tqc_her.json"
+    if not path.is_file():
+        raise RenderError(f"{_rel(path)} does not exist (run python -m bathprint.agents.profile)")
+    rec = json.loads(path.read_text())
+    rows = [
+        [k, f"{v:.2f}", f"{100 * rec['share'][k]:.1f}%", f"{rec['us_per_step'][k]:.0f}"]
+        for k, v in rec["seconds"].items()
+    ]
+    head = ["part", "s", "share", "µs per env step"]
+    return _table(head, rows) + f"\n\n*Source: `{_rel(path)}`.*"
+
+
 def contact_whole_runs() -> str:
     path = RESULTS / "contact_whole_runs.csv"
     rows = [
@@ -1520,6 +1534,7 @@ TABLES: dict[str, Callable[[], str]] = {
     "contact-scaling": contact_scaling,
     "contact-scenes": contact_scenes,
     "contact-whole-runs": contact_whole_runs,
+    "profile-tqc-her": profile_tqc_her,
     "preconditioners": preconditioners,
     "contact-newton": contact_newton,
     "contact-line-search": contact_line_search,
