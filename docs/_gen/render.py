@@ -1255,7 +1255,7 @@ def profile_tqc_her() -> str:
         for k, v in rec["seconds"].items()
     ]
     head = ["part", "s", "share", "µs per env step"]
-    return _table(head, rows) + f"\n\n*Source: `{_rel(path)}`.*"
+    return _table(head, rows) + "\n\n" + provenance(path)
 
 
 def contact_whole_runs() -> str:
