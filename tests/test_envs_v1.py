@@ -96,6 +96,29 @@ def test_compute_reward_agrees_with_the_step_reward(env_id: str) -> None:
 
 
 @pytest.mark.parametrize("env_id", V1)
+def test_the_compiled_batch_of_hindsight_rewards_is_the_sample_by_sample_one(env_id: str) -> None:
+    """HER's relabelled batches (achieved goals of one episode against desired goals of
+    another target, in random pairs) score bit for bit as one sample at a time does."""
+    env = make(env_id, goal_conditioned=True)
+    rng = np.random.default_rng(5)
+    achieved, desired = [], []
+    for seed in (1, 2):
+        obs, _ = env.reset(seed=seed)
+        done = False
+        while not done:
+            obs, _, term, trunc, _ = env.step(rng.uniform(-1, 1, env.action_space.shape))
+            achieved.append(obs["achieved_goal"])
+            desired.append(obs["desired_goal"])
+            done = term or trunc
+    ag, dg = np.array(achieved), np.array(desired)
+    i, j = rng.integers(0, len(ag), 64), rng.integers(0, len(ag), 64)
+    batch = env.unwrapped.compute_reward(ag[i], dg[j], None)
+    reference = env.unwrapped._goal_reward_one_by_one(ag[i], dg[j])
+    np.testing.assert_array_equal(batch, reference)  # the same operations, bit for bit
+    assert np.count_nonzero(reference) > 10
+
+
+@pytest.mark.parametrize("env_id", V1)
 def test_return_is_minus_the_final_squared_error(env_id: str) -> None:
     env = make(env_id)
     rng = np.random.default_rng(0)

@@ -8,7 +8,7 @@ import math
 import numpy as np
 from numba import njit
 
-from bathprint.envs._kernels import circle_curvature, interp_rows, step_at
+from bathprint.envs._kernels import circle_curvature, interp_rows, metric_errors, step_at
 
 
 @njit(cache=True)
@@ -137,3 +137,80 @@ def observe_v1(
             y = -clip
         out[i] = y
     return out
+
+
+@njit(cache=True)
+def _split_goal(g, size, shape_on, density_on, free_lo, free_hi):
+    """A goal vector's samples (size x 3), densities lo and hi, count and previous count
+    (:meth:`bathprint.envs.v1.BathprintEnvV1._split_goal`)."""
+    pts = np.zeros((size, 3))
+    lo = np.full(size, free_lo)
+    hi = np.full(size, free_hi)
+    k = 0
+    if shape_on:
+        pts = np.ascontiguousarray(g[: 3 * size]).reshape(size, 3)
+        k = 3 * size
+    if density_on:
+        lo = np.ascontiguousarray(g[k : k + size])
+        hi = np.ascontiguousarray(g[k + size : k + 2 * size])
+    return pts, lo, hi, int(np.rint(g[g.shape[0] - 2])), int(np.rint(g[g.shape[0] - 1]))
+
+
+@njit(cache=True)
+def goal_rewards(
+    achieved: np.ndarray,
+    desired: np.ndarray,
+    size: int,
+    shape_on: bool,
+    density_on: bool,
+    free_lo: float,
+    free_hi: float,
+    half: int,
+    k: int,
+    curvature_on: bool,
+    w: np.ndarray,
+    reflect: bool,
+    bath_lo: float,
+    bath_hi: float,
+    out: np.ndarray,
+) -> None:
+    """out[i]: the reward of reaching ``achieved[i]`` for ``desired[i]`` (rows of goal
+    vectors), the decrease of the scored samples' sum of squared errors from the achieved
+    goal's previous count to its count, over the desired goal's count; the operations of
+    :meth:`bathprint.envs.v1.BathprintEnvV1.goal_reward` sample by sample, in one compiled
+    loop (hindsight replay asks for a batch at every gradient step)."""
+    for i in range(achieved.shape[0]):
+        a_pts, a_rho, _, n, n_prev = _split_goal(
+            achieved[i], size, shape_on, density_on, free_lo, free_hi
+        )
+        d_pts, d_lo, d_hi, n_d, _ = _split_goal(
+            desired[i], size, shape_on, density_on, free_lo, free_hi
+        )
+        if n_d <= 0:
+            out[i] = 0.0
+            continue
+        tpts = d_pts[:n_d]
+        tcurv = np.zeros(0)
+        if curvature_on:
+            tcurv = np.empty(n_d)
+            circle_curvature(tpts, k, tcurv)
+        sse = np.zeros(2)
+        for s in range(2):
+            count = n_prev if s == 0 else n
+            j = min(count, n_d)
+            errors = metric_errors(
+                a_pts[:j],
+                a_rho[:j],
+                tpts,
+                tcurv,
+                d_lo[:n_d],
+                d_hi[:n_d],
+                half,
+                k,
+                w,
+                reflect,
+                bath_lo,
+                bath_hi,
+            )[0]
+            sse[s] = squared_sum(errors, j)
+        out[i] = (sse[0] - sse[1]) / n_d

@@ -46,7 +46,7 @@ import numpy as np
 from gymnasium import spaces
 
 from bathprint.envs._kernels import metric_errors, printed_at, read_state
-from bathprint.envs._kernels_v1 import observe_v1, record_samples, squared_sum
+from bathprint.envs._kernels_v1 import goal_rewards, observe_v1, record_samples, squared_sum
 from bathprint.envs.accuracy import ACCURACY_PRESETS
 from bathprint.envs.core import (
     _OBS_CURV_INDEX,
@@ -898,6 +898,20 @@ class BathprintEnvV1(BathprintEnv):
             hi = np.ascontiguousarray(g[k + size : k + 2 * size])
         return pts, lo, hi, int(round(g[-2])), int(round(g[-1]))
 
+    def _goal_weights(self) -> np.ndarray:
+        """The metric's weights and scales as :func:`metric_errors` takes them."""
+        mp = self.metric_params
+        return np.array(
+            [
+                mp.w_shape,
+                mp.w_curvature,
+                mp.w_density,
+                mp.length_scale_mm,
+                mp.density_scale_kg_m3,
+                mp.missing_error**2,
+            ]
+        )
+
     def _goal_sse(
         self,
         a_pts: np.ndarray,
@@ -916,16 +930,7 @@ class BathprintEnvV1(BathprintEnv):
         k = max(1, int(round(mp.curvature_span_mm / h)))
         tpts = np.ascontiguousarray(d_pts[:n_d])
         tcurv = discrete_curvature(tpts, k) if mp.w_curvature > 0 else np.zeros(0)
-        w = np.array(
-            [
-                mp.w_shape,
-                mp.w_curvature,
-                mp.w_density,
-                mp.length_scale_mm,
-                mp.density_scale_kg_m3,
-                mp.missing_error**2,
-            ]
-        )
+        w = self._goal_weights()
         b_lo, b_hi = (-math.inf, math.inf) if self.bath_range is None else self.bath_range
         j = min(n, n_d)
         errors = metric_errors(
@@ -959,18 +964,47 @@ class BathprintEnvV1(BathprintEnv):
         ag = np.asarray(achieved_goal, np.float64)
         dg = np.asarray(desired_goal, np.float64)
         single = ag.ndim == 1
-        ag2, dg2 = np.atleast_2d(ag), np.atleast_2d(dg)
+        ag2 = np.ascontiguousarray(np.atleast_2d(ag))
+        dg2 = np.ascontiguousarray(np.atleast_2d(dg))
         out = np.empty(len(ag2))
-        for i in range(len(ag2)):
-            a_pts, a_rho, _, n, n_prev = self._split_goal(ag2[i])
-            d_pts, d_lo, d_hi, n_d, _ = self._split_goal(dg2[i])
+        # the operations of _split_goal and _goal_sse per sample, in one compiled loop
+        mp = self.metric_params
+        h = self.target_spacing_mm
+        b_lo, b_hi = (-math.inf, math.inf) if self.bath_range is None else self.bath_range
+        goal_rewards(
+            ag2,
+            dg2,
+            self.n_target_samples,
+            bool(self.scores_shape),
+            bool(self.scores_density),
+            float(FREE_DENSITY[0]),
+            float(FREE_DENSITY[1]),
+            max(1, int(round(0.5 * mp.window_mm / h))),
+            max(1, int(round(mp.curvature_span_mm / h))),
+            bool(mp.w_curvature > 0),
+            self._goal_weights(),
+            bool(mp.allow_reflection),
+            float(b_lo),
+            float(b_hi),
+            out,
+        )
+        return float(out[0]) if single else out
+
+    def _goal_reward_one_by_one(self, achieved: np.ndarray, desired: np.ndarray) -> np.ndarray:
+        """:meth:`goal_reward` of rows of goals, sample by sample in Python (``_split_goal``,
+        ``_goal_sse``): the reference the compiled batch matches bit for bit (tests,
+        benchmarks/bench_hindsight.py)."""
+        out = np.empty(len(achieved))
+        for i in range(len(achieved)):
+            a_pts, a_rho, _, n, n_prev = self._split_goal(achieved[i])
+            d_pts, d_lo, d_hi, n_d, _ = self._split_goal(desired[i])
             if n_d <= 0:
                 out[i] = 0.0
                 continue
             before = self._goal_sse(a_pts, a_rho, n_prev, d_pts, d_lo, d_hi, n_d)
             after = self._goal_sse(a_pts, a_rho, n, d_pts, d_lo, d_hi, n_d)
             out[i] = (before - after) / n_d
-        return float(out[0]) if single else out
+        return out
 
     def _obs_out(self, obs: np.ndarray) -> Any:
         if not self.goal_conditioned:
