@@ -1258,6 +1258,24 @@ def profile_tqc_her() -> str:
     return _table(head, rows) + "\n\n" + provenance(path)
 
 
+def hindsight_rewards() -> str:
+    path = RESULTS / "hindsight_rewards.csv"
+    rows = [
+        [
+            f"`{r['env_id']}`",
+            r["batch"],
+            _g(r["python_ms"]),
+            _g(r["compiled_ms"]),
+            f"{_g(r['speedup'], 2)}×",
+            "yes" if r["identical"] == "True" else "no",
+        ]
+        for r in _csv(path)
+    ]
+    head = ["environment", "batch", "sample by sample (ms)", "compiled (ms)", "speed-up"]
+    head.append("identical")
+    return _table(head, rows) + "\n\n" + provenance(path)
+
+
 def contact_whole_runs() -> str:
     path = RESULTS / "contact_whole_runs.csv"
     rows = [
@@ -1535,6 +1553,7 @@ TABLES: dict[str, Callable[[], str]] = {
     "contact-scenes": contact_scenes,
     "contact-whole-runs": contact_whole_runs,
     "profile-tqc-her": profile_tqc_her,
+    "hindsight-rewards": hindsight_rewards,
     "preconditioners": preconditioners,
     "contact-newton": contact_newton,
     "contact-line-search": contact_line_search,
