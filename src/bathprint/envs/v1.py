@@ -898,6 +898,13 @@ class BathprintEnvV1(BathprintEnv):
             hi = np.ascontiguousarray(g[k + size : k + 2 * size])
         return pts, lo, hi, int(round(g[-2])), int(round(g[-1]))
 
+    def _goal_spans(self) -> tuple[int, int]:
+        """The metric's alignment half-window and curvature span, in target samples."""
+        mp = self.metric_params
+        h = self.target_spacing_mm
+        half = max(1, int(round(0.5 * mp.window_mm / h)))
+        return half, max(1, int(round(mp.curvature_span_mm / h)))
+
     def _goal_weights(self) -> np.ndarray:
         """The metric's weights and scales as :func:`metric_errors` takes them."""
         mp = self.metric_params
@@ -925,9 +932,7 @@ class BathprintEnvV1(BathprintEnv):
         """Sum of squared errors of the first n achieved samples against the desired goal's
         first n_d samples (the metric of the environment)."""
         mp = self.metric_params
-        h = self.target_spacing_mm
-        half = max(1, int(round(0.5 * mp.window_mm / h)))
-        k = max(1, int(round(mp.curvature_span_mm / h)))
+        half, k = self._goal_spans()
         tpts = np.ascontiguousarray(d_pts[:n_d])
         tcurv = discrete_curvature(tpts, k) if mp.w_curvature > 0 else np.zeros(0)
         w = self._goal_weights()
@@ -969,7 +974,7 @@ class BathprintEnvV1(BathprintEnv):
         out = np.empty(len(ag2))
         # the operations of _split_goal and _goal_sse per sample, in one compiled loop
         mp = self.metric_params
-        h = self.target_spacing_mm
+        half, k = self._goal_spans()
         b_lo, b_hi = (-math.inf, math.inf) if self.bath_range is None else self.bath_range
         goal_rewards(
             ag2,
@@ -979,8 +984,8 @@ class BathprintEnvV1(BathprintEnv):
             bool(self.scores_density),
             float(FREE_DENSITY[0]),
             float(FREE_DENSITY[1]),
-            max(1, int(round(0.5 * mp.window_mm / h))),
-            max(1, int(round(mp.curvature_span_mm / h))),
+            half,
+            k,
             bool(mp.w_curvature > 0),
             self._goal_weights(),
             bool(mp.allow_reflection),
