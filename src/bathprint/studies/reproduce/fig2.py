@@ -13,9 +13,10 @@ Two of the paper's conventions are open, so the fits are given under each:
   (departure by 2r, by a quarter of the largest excursion, where the coil reaches 0.9 R);
 - B: bathprint's B = E pi r^4 / 4 (a solid rod's), and the paper's own B = E r^4: its text
   takes "B ~ E r^4 (E = 2.7 kPa, r ~ 0.1-2 mm)" for the experimental fits, and its worked
-  example (l ~ 22 mm at E = 2.7 kPa, r = 0.5 mm, mu = 1 mPa s, v = 15 mm/s) holds with B =
-  E r^4 (22.4 mm; 20.7 mm with E pi r^4 / 4). With the paper's B, b is (pi/4)^(1/3) = 0.92 of
-  bathprint's and c is (4/pi)^(1/3) = 1.08 times it; l / R does not depend on B.
+  example, a line its LaTeX source keeps as a comment (l ~ 22 mm at E = 2.7 kPa,
+  r = 0.5 mm, mu = 1 mPa s, v = 15 mm/s), holds with B = E r^4 (22.4 mm; 20.7 mm with
+  E pi r^4 / 4). With the paper's B, b is (pi/4)^(1/3) = 0.92 of bathprint's and c is
+  (4/pi)^(1/3) = 1.08 times it; l / R does not depend on B.
 """
 
 from __future__ import annotations
