@@ -142,18 +142,31 @@ def observe_v1(
 @njit(cache=True)
 def _split_goal(g, size, shape_on, density_on, free_lo, free_hi):
     """A goal vector's samples (size x 3), densities lo and hi, count and previous count
-    (:meth:`bathprint.envs.v1.BathprintEnvV1._split_goal`)."""
-    pts = np.zeros((size, 3))
-    lo = np.full(size, free_lo)
-    hi = np.full(size, free_hi)
-    k = 0
+    (:meth:`bathprint.envs.v1.BathprintEnvV1._split_goal`); views of ``g`` where it holds
+    them, new arrays only for what it does not score."""
+    k = 3 * size if shape_on else 0
     if shape_on:
-        pts = np.ascontiguousarray(g[: 3 * size]).reshape(size, 3)
-        k = 3 * size
+        pts = np.ascontiguousarray(g[:k]).reshape(size, 3)
+    else:
+        pts = np.zeros((size, 3))
     if density_on:
         lo = np.ascontiguousarray(g[k : k + size])
         hi = np.ascontiguousarray(g[k + size : k + 2 * size])
+    else:
+        lo = np.full(size, free_lo)
+        hi = np.full(size, free_hi)
     return pts, lo, hi, int(np.rint(g[g.shape[0] - 2])), int(np.rint(g[g.shape[0] - 1]))
+
+
+@njit(cache=True)
+def _goal_sse(a_pts, a_rho, count, tpts, tcurv, tlo, thi, half, k, w, reflect, b_lo, b_hi):
+    """Sum of squared errors of the first ``count`` achieved samples against the desired
+    goal's (:meth:`bathprint.envs.v1.BathprintEnvV1._goal_sse`)."""
+    j = min(count, tpts.shape[0])
+    errors = metric_errors(
+        a_pts[:j], a_rho[:j], tpts, tcurv, tlo, thi, half, k, w, reflect, b_lo, b_hi
+    )[0]
+    return squared_sum(errors, j)
 
 
 @njit(cache=True)
@@ -194,23 +207,11 @@ def goal_rewards(
         if curvature_on:
             tcurv = np.empty(n_d)
             circle_curvature(tpts, k, tcurv)
-        sse = np.zeros(2)
-        for s in range(2):
-            count = n_prev if s == 0 else n
-            j = min(count, n_d)
-            errors = metric_errors(
-                a_pts[:j],
-                a_rho[:j],
-                tpts,
-                tcurv,
-                d_lo[:n_d],
-                d_hi[:n_d],
-                half,
-                k,
-                w,
-                reflect,
-                bath_lo,
-                bath_hi,
-            )[0]
-            sse[s] = squared_sum(errors, j)
-        out[i] = (sse[0] - sse[1]) / n_d
+        tlo, thi = d_lo[:n_d], d_hi[:n_d]
+        before = _goal_sse(
+            a_pts, a_rho, n_prev, tpts, tcurv, tlo, thi, half, k, w, reflect, bath_lo, bath_hi
+        )
+        after = _goal_sse(
+            a_pts, a_rho, n, tpts, tcurv, tlo, thi, half, k, w, reflect, bath_lo, bath_hi
+        )
+        out[i] = (before - after) / n_d
