@@ -44,7 +44,7 @@ def test_a_pile_with_contact_is_profiled_with_its_krylov_iterations(bench, monke
     _adds_up(rows)
     assert rows["contact: prepare"]["calls_per_step"] >= 1.0  # one per attempt
     assert rows["contact: check"]["calls_per_step"] >= 1.0
-    assert rows["contact: rebuild"]["calls_per_step"] > 0.0  # the skin used up: pairs found anew
+    assert rows["contact: rebuild"]["calls_per_step"] > 0.0  # nodes are born: pairs found anew
     assert rows["assemble+J: contact"]["us_per_call"] > 0.0
     assert rows["krylov iterations"]["calls_per_step"] > 0.0  # GMRES: couplings off the band
     assert rows["krylov iterations"]["us_per_call"] > 0.0

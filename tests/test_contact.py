@@ -456,57 +456,6 @@ def test_builtin_scenes_with_contact_keep_their_turns_apart(scene: str) -> None:
     assert {"krylov_iterations", "krylov_failures"} <= res.summary.keys()  # summary.json
 
 
-@njit(cache=True)
-def _pairs_missing(pos, n_seg, min_sep, frozen, reach, pairs, count) -> int:
-    """Segment pairs i < j - min_sep (not both frozen) closer than ``reach`` that are not
-    in ``pairs[:count]`` (brute force)."""
-    listed = set()
-    for q in range(count):
-        listed.add(pairs[q, 0] * 1_000_000 + pairs[q, 1])
-    missing = 0
-    for i in range(n_seg):
-        for j in range(i + min_sep + 1, n_seg):
-            if j < frozen:
-                continue
-            if segment_distance(pos, i, i + 1, j, j + 1) < reach:
-                if i * 1_000_000 + j not in listed:
-                    missing += 1
-    return missing
-
-
-def test_births_extend_the_pairs_and_no_pair_within_reach_is_missing() -> None:
-    """Nodes born at the inlet extend the candidate pairs without a new spatial hash, and
-    the list still holds every pair that can touch: after every step of a piling coil, each
-    pair closer than delta_max + skin / 2 - (the skin used since the build) is listed."""
-    sim = Simulation("period_doubling_22G", {"outputs.plot": False})
-    births = 0
-    checked = 0
-    t = 0.0
-    while t < 0.12:
-        n_before = sim.n_nodes
-        t += 2e-3
-        sim.advance(t)
-        births += sim.n_nodes - n_before
-        m = sim.ws.contact.memory[0]
-        if m["built_nodes"] != sim.n_nodes:
-            continue
-        pos = np.ascontiguousarray(sim.pos[: 3 * sim.n_nodes])
-        moved = contact._motion(pos, sim.ws.contact.build_pos, sim.n_nodes, 0, 0.0, 0.0, 0.0)
-        reach = m["delta_max"] + m["skin"] - 2.0 * moved
-        n_seg = sim.n_segments
-        frozen = int(m["built_frozen"])
-        count = int(sim.ws.contact.count[0])
-        missing = _pairs_missing(
-            pos, n_seg, int(m["min_separation"]), frozen, reach, sim.ws.contact.pairs, count
-        )
-        assert missing == 0, (t, missing)
-        checked += 1
-    assert births > 20 and checked > 40
-    mem = sim.ws.contact.memory  # (a grow replaces the records)
-    # most births extend the list (the rest fall on a step whose skin is used up anyway)
-    assert mem[0]["extensions"] > 0.5 * births
-
-
 def test_rope_coiling_on_the_floor_lays_turns_beside_turns_instead_of_through_them() -> None:
     """After about 15 s the rope coil's new turns reach the ones already on the floor:
     without contact they pass through them (distance ~0), with contact they stay apart."""

@@ -257,7 +257,6 @@ CONTACT_FIELDS: tuple[tuple[str, str, str], ...] = (
     ("motion_nodes", "i8", "nodes whose motion in the last step checked is in contact.motion[0]"),
     ("n_near", "i8", "pairs near enough to touch within the step"),
     ("builds", "i8", "spatial-hash builds so far"),
-    ("extensions", "i8", "updates of the pairs for nodes born at the inlet, without a build"),
 )
 CONTACT_DTYPE = np.dtype([(name, kind) for name, kind, _ in CONTACT_FIELDS])
 

@@ -22,13 +22,13 @@ with the geometry (normal, closest points, N) held at the iterate (as the floor 
 
 Candidate pairs come from a uniform spatial hash with a search distance delta_max + skin,
 kept as a Verlet list (:func:`prepare`): rebuilt when two nodes may have closed half the
-skin since (twice the largest motion relative to the common motion), when nodes freeze, or
-when the radius changes; nodes born at the inlet only extend it (:func:`_extend_at_inlet`).
-An accepted step must keep every pair's relative node displacement below its start
-distance, and every node's motion relative to the common motion below half the skin
-(:func:`check`, the no-pass-through bound): otherwise it is retried shorter, never
-accepted. The skin follows the motion (SKIN_STEPS x the last step's, between SKIN_MIN and
-SKIN_MAX delta_max), so few pairs are searched where turns are far apart.
+skin since (twice the largest motion relative to the common motion), when nodes are born or
+freeze, or when the radius changes. An accepted step must keep every pair's relative node
+displacement below its start distance, and every node's motion relative to the common
+motion below half the skin (:func:`check`, the no-pass-through bound): otherwise it is
+retried shorter, never accepted. The skin follows the motion (SKIN_STEPS x the last
+step's, between SKIN_MIN and SKIN_MAX delta_max), so few pairs are searched where turns are
+far apart.
 """
 
 from __future__ import annotations
@@ -41,7 +41,6 @@ from numba import njit
 from bathprint.core.effects._band import add_coupling
 from bathprint.core.effects._segment_geometry import (
     D_FLOOR_REL,
-    _boxes_near,
     _distance_derivs,
     _start_distance,
     build_candidate_pairs,
@@ -111,87 +110,6 @@ def _motion(pos, ref, n_nodes: int, first: int, shift0, shift1, shift2) -> float
 
 
 @njit(**KERNEL)
-def _motion_centre(pos, ref, n_nodes: int, centre) -> float:
-    """As :func:`_motion` (no frozen shift) over nodes 0..n-1, with the centre c of the
-    displacement box into ``centre`` (3,)."""
-    lo0 = lo1 = lo2 = np.inf
-    hi0 = hi1 = hi2 = -np.inf
-    for g in range(n_nodes):
-        d0 = pos[3 * g] - ref[3 * g]
-        d1 = pos[3 * g + 1] - ref[3 * g + 1]
-        d2 = pos[3 * g + 2] - ref[3 * g + 2]
-        lo0, hi0 = min(lo0, d0), max(hi0, d0)
-        lo1, hi1 = min(lo1, d1), max(hi1, d1)
-        lo2, hi2 = min(lo2, d2), max(hi2, d2)
-    centre[0], centre[1], centre[2] = 0.5 * (lo0 + hi0), 0.5 * (lo1 + hi1), 0.5 * (lo2 + hi2)
-    m2 = 0.0
-    for g in range(n_nodes):
-        d0 = pos[3 * g] - ref[3 * g] - centre[0]
-        d1 = pos[3 * g + 1] - ref[3 * g + 1] - centre[1]
-        d2 = pos[3 * g + 2] - ref[3 * g + 2] - centre[2]
-        m2 = max(m2, d0 * d0 + d1 * d1 + d2 * d2)
-    return math.sqrt(m2)
-
-
-@njit(**KERNEL)
-def _extend_at_inlet(model, whole, frozen: int, contact) -> bool:
-    """Bring the candidate pairs up to date after nodes were born at the inlet (clamped rod,
-    same frozen tail and radius): drop the pairs of the segment that was split and search
-    it and the new segments against every other segment; False when the list must be
-    rebuilt instead (skin used up, or no room).
-
-    Births split the inlet segment (:func:`bathprint.core.extrusion.split_inlet`): nodes
-    0..b-3 (b the node count at the build) keep their numbers and places, the rest are new.
-    The Verlet argument carries over. Let c1 and m be the centre and the largest distance
-    from it of the old nodes' displacement box since the build. A new node is given the
-    build position x - c1 (as if it had moved with the common motion), so that later, when
-    :func:`check` and :func:`prepare` hold every node within skin / 2 of a common
-    displacement c2 since its build position, the relative motion of a new and an old node
-    since now is at most skin / 2 + skin / 2 + m (and of two old nodes skin + 2 m). A pair
-    missing from a search of radius delta_max + skin + 2 m now therefore stays beyond
-    delta_max. O(N) per birth against the hash's O(N) with a much larger constant."""
-    p = model.params[0]
-    mem = contact.memory[0]
-    n_nodes = whole.n_nodes
-    old_nodes = mem.built_nodes - 2  # the tip and the ghost of the build are renumbered
-    centre = contact.pair_x  # scratch (12,)
-    m = _motion_centre(whole.pos, contact.build_pos, old_nodes, centre)
-    if 2.0 * m >= 0.5 * mem.skin:
-        return False
-    pos = whole.pos
-    first_new = filament_segments(mem.built_nodes, p) - 1  # the split inlet segment
-    n_seg = filament_segments(n_nodes, p)
-    # drop the pairs of the split segment (and of any segment after it)
-    n = 0
-    for q in range(contact.count[0]):
-        if contact.pairs[q, 1] < first_new:
-            contact.pairs[n, 0] = contact.pairs[q, 0]
-            contact.pairs[n, 1] = contact.pairs[q, 1]
-            n += 1
-    radius = mem.delta_max + mem.skin + 2.0 * m
-    sep = mem.min_separation
-    capacity = contact.pairs.shape[0]
-    for j in range(first_new, n_seg):
-        for i in range(0, j - sep):
-            if i < frozen and j < frozen:
-                continue
-            if _boxes_near(pos, i, j, radius):
-                if n < capacity:
-                    contact.pairs[n, 0] = i
-                    contact.pairs[n, 1] = j
-                n += 1
-    contact.count[0] = n
-    if n > capacity:
-        return False
-    for g in range(old_nodes, n_nodes):
-        for c in range(3):
-            contact.build_pos[3 * g + c] = pos[3 * g + c] - centre[c]
-    mem.built_nodes = n_nodes
-    mem.extensions += 1
-    return True
-
-
-@njit(**KERNEL)
 def prepare(model, whole, frozen: int, contact) -> bool:
     """At the start of a step: the candidate pairs (rebuilt only when needed), each pair's
     allowance (how far its nodes may move relative to each other in the step), and the
@@ -202,7 +120,7 @@ def prepare(model, whole, frozen: int, contact) -> bool:
     and with the frozen tail, an obstacle), are every pair within delta_max + skin when the
     spatial hash was built; they stay valid while no node has moved more than skin / 2
     relative to the common motion since (a Verlet list), and are rebuilt when that fails,
-    when nodes freeze, or when the radius changes (births extend them). Of them, the pairs closer
+    when nodes are born or freeze, or when the radius changes. Of them, the pairs closer
     than their delta + margin are near: only those are evaluated in Newton's iterations.
     Each pair's margin comes from its own nodes' motion in the last step: any choice is
     safe (:func:`check` rejects a step that brings a pair left out within delta), a tight
@@ -212,12 +130,7 @@ def prepare(model, whole, frozen: int, contact) -> bool:
     n_nodes = whole.n_nodes
     n_seg = filament_segments(n_nodes, p)
     delta_max = _delta_max(model, whole)
-    rebuild = mem.built_frozen != frozen or mem.delta_max != delta_max or mem.built_nodes < 0
-    if not rebuild and mem.built_nodes < n_nodes and p.clamped:
-        # nodes born at the inlet since: extend the list instead of finding every pair anew
-        rebuild = not _extend_at_inlet(model, whole, frozen, contact)
-    elif not rebuild and mem.built_nodes != n_nodes:
-        rebuild = True
+    rebuild = mem.built_nodes != n_nodes or mem.built_frozen != frozen or mem.delta_max != delta_max
     if not rebuild:  # half the skin used up: rebuild now rather than retry the step
         m = _motion(whole.pos, contact.build_pos, n_nodes, 0, 0.0, 0.0, 0.0)
         rebuild = 2.0 * m >= 0.5 * mem.skin
