@@ -270,8 +270,8 @@ def _distance_derivs(
         pf = 1.0 / cc
     # w_i = sum_k beta_{k,i} g_k per node: w = (-g_s, g_s, g_t, -g_t). Every per-node and
     # per-component factor is picked from scalars (_pick4, _pick3) rather than indexed out
-    # of a tuple: numba copies a tuple to the stack at each runtime index, which made this
-    # loop 20x slower than its arithmetic; the entries are the same expressions, bit for bit
+    # of a tuple: numba copies a tuple to the stack at each runtime index, which made the
+    # distance's derivatives 5x slower; the entries are the same expressions, bit for bit
     n0, n1, n2 = n
     f0, f1, f2 = f
     gs0, gs1, gs2 = gs
