@@ -86,6 +86,25 @@ def test_bootstrap_intervals_hold_the_estimate_and_repeat():
     assert (np.random.get_state()[1] == state).all()  # noqa: NPY002 (restored)
 
 
+@pytest.mark.parametrize("shape", [(1, 1), (1, 6), (3, 1), (2, 2), (3, 16), (5, 7)])
+def test_the_bootstrap_is_rliables_bit_for_bit(shape):
+    """The replicates drawn directly are rliable's StratifiedBootstrap's (its interval and
+    IQM, exactly: the same draws and the same numpy operations)."""
+    from rliable import metrics
+
+    rng = np.random.default_rng(sum(shape))
+    m = rng.lognormal(-1.5, 1.0, size=shape)
+    r = m + rng.normal(0.0, 0.05, size=shape)
+    assert st.iqm(m) == float(metrics.aggregate_iqm(m))
+    cases = [(lambda a: a.mean(), (m,)), (st.iqm_raw, (m,)),
+             (lambda a, r_: (a - r_).mean(), (m, r))]  # fmt: skip
+    for func, arrays in cases:
+        for reps, seed, size in ((300, 0, 0.95), (97, 11, 0.9)):
+            ours = st.bootstrap_ci(func, *arrays, reps=reps, seed=seed, size=size)
+            theirs = st.rliable_bootstrap_ci(func, *arrays, reps=reps, seed=seed, size=size)
+            assert ours == theirs
+
+
 def test_paired_difference_and_gap_closed():
     rng = np.random.default_rng(3)
     ref = rng.uniform(0.15, 0.25, size=16)
