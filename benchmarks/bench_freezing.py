@@ -1,7 +1,7 @@
 """What freezing settled material (``numerics.freeze_beyond_mm``) costs in accuracy and
 saves in time.
 
-    python benchmarks/bench_freezing.py [--part coil|rope|envs] [--episodes 8]
+    python benchmarks/bench_freezing.py [--part coil|seeds|rope|envs] [--episodes 8]
 
 (1) A steady coil (scene ``gelation_coiling_22G``, 3 s; draft and balanced presets, and draft
     with ``inertia``): coil
@@ -9,6 +9,10 @@ saves in time.
     frozen, against the same run without freezing; beside it, how much the coil varies by
     itself: the change that tightening the tolerance ten times makes (the error the preset
     already accepts) and the change from three other seeds of the needle imperfection.
+(1b) ``--part seeds``: the same coil, draft, with and without ``inertia``, frozen beyond
+    100 mm (what ``tests/test_freezing.py`` asserts) and not, for each of ``SEED_PAIRS``
+    seeds of the needle imperfection: freezing's change paired by seed, beside how much R
+    varies from seed to seed. One seed's change can hide a bias that every seed shares.
 (2) Rope coiling on the floor (scene ``rope_coiling_18G``, 6 s, or as far as 20 times the
     steps of the run without freezing take it): the RMS change of the last
     30 mm of material next to the needle and of the pile's centre, with the material resting
@@ -18,7 +22,8 @@ saves in time.
     beside the difference between the draft and balanced presets (both without freezing),
     and environment steps per CPU second of each.
 
-Writes benchmarks/results/freezing_coil.csv, freezing_rope.csv and freezing_envs.csv. Times
+Writes benchmarks/results/freezing_coil.csv, freezing_seeds.csv, freezing_rope.csv and
+freezing_envs.csv. Times
 are ratios to the run without freezing measured in the same process.
 """
 
@@ -89,6 +94,39 @@ def coil_table() -> list[dict]:
                     "radius_change": r / r0 - 1,
                     "frequency_change": om / om0 - 1,
                     "wall_ratio": w / w0,
+                }
+            )
+    return rows
+
+
+SEED_PAIRS = 8  # seeds of the paired comparison (--part seeds)
+SEEDS_FREEZE_MM = 100.0
+
+
+def seeds_table(n_seeds: int = SEED_PAIRS) -> list[dict]:
+    """R and omega of the steady coil with and without freezing beyond SEEDS_FREEZE_MM, per
+    seed, draft, with and without inertia."""
+    scene = Simulation(COIL).scene
+    rows = []
+    for label, effects in (
+        ("draft", list(scene.effects)),
+        ("draft + inertia", [*scene.effects, "inertia"]),
+    ):
+        base = {"numerics.accuracy": "draft", "effects": effects}
+        for k in range(n_seeds):
+            r0, om0, _ = _coil({**base, "seed": k})
+            rf, omf, _ = _coil({**base, "seed": k, "numerics.freeze_beyond_mm": SEEDS_FREEZE_MM})
+            rows.append(
+                {
+                    "preset": label,
+                    "seed": k,
+                    "freeze_beyond_mm": SEEDS_FREEZE_MM,
+                    "coil_radius_m": r0,
+                    "coil_radius_frozen_m": rf,
+                    "radius_change": rf / r0 - 1,
+                    "frequency_rad_s": om0,
+                    "frequency_frozen_rad_s": omf,
+                    "frequency_change": omf / om0 - 1,
                 }
             )
     return rows
@@ -186,10 +224,14 @@ def env_table(episodes: int) -> list[dict]:
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__)
     ap.add_argument("--episodes", type=int, default=8)
-    ap.add_argument("--part", choices=("coil", "rope", "envs"), default=None, help="only this")
+    ap.add_argument(
+        "--part", choices=("coil", "seeds", "rope", "envs"), default=None, help="only this"
+    )
     args = ap.parse_args()
     if args.part in (None, "coil"):
         coil_part()
+    if args.part in (None, "seeds"):
+        seeds_part()
     if args.part in (None, "rope"):
         rope_part()
     if args.part in (None, "envs"):
@@ -205,6 +247,20 @@ def coil_part() -> None:
             f"{r['frequency_change']:+13.4f} {r['wall_ratio']:10.2f}"
         )
     print("->", write_csv("freezing_coil", coil))
+
+
+def seeds_part() -> None:
+    rows = seeds_table()
+    print(f"\nfrozen beyond {SEEDS_FREEZE_MM:g} mm, paired by seed: dR/R (%)")
+    for preset in dict.fromkeys(r["preset"] for r in rows):
+        sel = [r for r in rows if r["preset"] == preset]
+        change = np.array([r["radius_change"] for r in sel]) * 100
+        radius = np.array([r["coil_radius_m"] for r in sel])
+        print(
+            f"{preset:16s} freezing {change.mean():+.2f} (min {change.min():+.2f}, max "
+            f"{change.max():+.2f}); R over seeds: std {100 * radius.std() / radius.mean():.2f}"
+        )
+    print("->", write_csv("freezing_seeds", rows))
 
 
 def rope_part() -> None:
