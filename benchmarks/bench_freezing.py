@@ -9,10 +9,11 @@ saves in time.
     frozen, against the same run without freezing; beside it, how much the coil varies by
     itself: the change that tightening the tolerance ten times makes (the error the preset
     already accepts) and the change from three other seeds of the needle imperfection.
-(1b) ``--part seeds``: the same coil, draft, with and without ``inertia``, frozen beyond
-    100 mm (what ``tests/test_freezing.py`` asserts) and not, for each of ``SEED_PAIRS``
-    seeds of the needle imperfection: freezing's change paired by seed, beside how much R
-    varies from seed to seed. One seed's change can hide a bias that every seed shares.
+(1b) ``--part seeds``: the same coil, draft, with ``inertia``, and with ``inertia`` but not
+    ``contact``, frozen beyond 100 mm (what ``tests/test_freezing.py`` asserts), 150 and
+    200 mm and not, for each of ``SEED_PAIRS`` seeds of the needle imperfection: freezing's
+    change paired by seed, beside how much R varies from seed to seed. One seed's change
+    can hide a bias that every seed shares.
 (2) Rope coiling on the floor (scene ``rope_coiling_18G``, 6 s, or as far as 20 times the
     steps of the run without freezing take it): the RMS change of the last
     30 mm of material next to the needle and of the pile's centre, with the material resting
@@ -30,12 +31,15 @@ are ratios to the run without freezing measured in the same process.
 from __future__ import annotations
 
 import argparse
+import itertools
 import time
+from pathlib import Path
 
 import numpy as np
-from _common import write_csv
+from _common import RESULTS, write_csv
 
 import bathprint.envs as E
+from bathprint.analysis.measure import coil_geometry
 from bathprint.core.simulation import Simulation
 from bathprint.errors import SimulationError
 from bathprint.studies.accuracy import coil_run
@@ -45,9 +49,9 @@ FREEZE_MM = (20.0, 40.0, 60.0, 100.0, 150.0)
 SEEDS = (1, 2, 3)
 
 
-def _coil(overrides: dict) -> tuple[float, float, float]:
+def _coil(overrides: dict, duration_s: float = 3.0) -> tuple[float, float, float]:
     t0 = time.perf_counter()
-    r, om = coil_run(overrides)
+    r, om = coil_run(overrides, duration_s)
     return r, om, time.perf_counter() - t0
 
 
@@ -100,36 +104,164 @@ def coil_table() -> list[dict]:
 
 
 SEED_PAIRS = 8  # seeds of the paired comparison (--part seeds)
-SEEDS_FREEZE_MM = 100.0
+SEEDS_FREEZE_MM = (100.0, 125.0, 150.0)
+# the coil at 3 s (as tests/test_freezing.py) and at 4.5 s: the filament reaches 150 mm at
+# about 2.3 s, so at 3 s the farthest freezing has acted for under two turns of the coil
+SEEDS_DURATION_S = (3.0, 4.5)
 
 
 def seeds_table(n_seeds: int = SEED_PAIRS) -> list[dict]:
-    """R and omega of the steady coil with and without freezing beyond SEEDS_FREEZE_MM, per
-    seed, draft, with and without inertia."""
+    """R and omega of the steady coil at each of SEEDS_DURATION_S with and without freezing
+    beyond each of SEEDS_FREEZE_MM, per seed: draft, draft with inertia, and draft with
+    inertia but without contact (whether the frozen tail acts through contact)."""
     scene = Simulation(COIL).scene
+    effects = list(scene.effects)
+    rows = []
+    for label, chosen in (
+        ("draft", effects),
+        ("draft + inertia", [*effects, "inertia"]),
+        ("draft + inertia - contact", [*(e for e in effects if e != "contact"), "inertia"]),
+    ):
+        base = {"numerics.accuracy": "draft", "effects": chosen}
+        for duration, k in itertools.product(SEEDS_DURATION_S, range(n_seeds)):
+            r0, om0, _ = _coil({**base, "seed": k}, duration)
+            for freeze_mm in SEEDS_FREEZE_MM:
+                frozen = {**base, "seed": k, "numerics.freeze_beyond_mm": freeze_mm}
+                rf, omf, _ = _coil(frozen, duration)
+                rows.append(
+                    {
+                        "preset": label,
+                        "duration_s": duration,
+                        "seed": k,
+                        "freeze_beyond_mm": freeze_mm,
+                        "coil_radius_m": r0,
+                        "coil_radius_frozen_m": rf,
+                        "radius_change": rf / r0 - 1,
+                        "frequency_rad_s": om0,
+                        "frequency_frozen_rad_s": omf,
+                        "frequency_change": omf / om0 - 1,
+                    }
+                )
+    return rows
+
+
+TURNS_DURATION_S = 6.0  # about 380 mm of filament: freezing beyond 200 mm holds 12 turns
+TURNS_FREEZE_MM = (60.0, 100.0, 150.0, 200.0)
+TURNS_SEEDS = 6
+NEAR_NEEDLE_TURNS = 3  # the first full turns below the stem
+
+
+def turns_table(n_seeds: int = TURNS_SEEDS) -> list[dict]:
+    """The radius of each full turn of the steady coil at TURNS_DURATION_S, counted from the
+    needle, with and without freezing beyond each of TURNS_FREEZE_MM, per seed: draft, with
+    inertia, and without contact or gelation (which effects the change needs).
+    ``coil_run``'s R is the median over the core turns, the frozen ones among them; the
+    turns next to the needle are the coil being written."""
+    effects_of = list(Simulation(COIL).scene.effects)
     rows = []
     for label, effects in (
-        ("draft", list(scene.effects)),
-        ("draft + inertia", [*scene.effects, "inertia"]),
+        ("draft", effects_of),
+        ("draft + inertia", [*effects_of, "inertia"]),
+        ("draft - contact", [e for e in effects_of if e != "contact"]),
+        ("draft - gelation", [e for e in effects_of if e != "gelation"]),
     ):
-        base = {"numerics.accuracy": "draft", "effects": effects}
         for k in range(n_seeds):
-            r0, om0, _ = _coil({**base, "seed": k})
-            rf, omf, _ = _coil({**base, "seed": k, "numerics.freeze_beyond_mm": SEEDS_FREEZE_MM})
-            rows.append(
+            for freeze_mm in (0.0, *TURNS_FREEZE_MM):
+                over = {"numerics.accuracy": "draft", "effects": effects, "seed": k}
+                over["numerics.freeze_beyond_mm"] = freeze_mm
+                over["duration_s"] = TURNS_DURATION_S
+                sim = Simulation(COIL, over)
+                sim.advance(TURNS_DURATION_S)
+                pos, axis = sim.model.needle[0, 1:4].copy(), sim.model.needle[0, 4:7].copy()
+                geom = coil_geometry(sim.centerline(), pos, axis)
+                if geom is None or len(geom.radii) < NEAR_NEEDLE_TURNS:
+                    raise RuntimeError(f"{label}, seed {k}, frozen beyond {freeze_mm} mm: no coil")
+                rows.append(
+                    {
+                        "preset": label,
+                        "seed": k,
+                        "freeze_beyond_mm": freeze_mm,
+                        "frozen_nodes": sim.n_frozen,
+                        "nodes": sim.n_nodes,
+                        "near_needle_radius_m": float(np.median(geom.radii[:NEAR_NEEDLE_TURNS])),
+                        "coil_radius_m": geom.radius,
+                        "turn_radii_m": " ".join(f"{r:.6e}" for r in geom.radii),
+                        "turn_lengths_m": " ".join(f"{t:.6e}" for t in geom.turn_lengths),
+                    }
+                )
+    return rows
+
+
+def turns_summary(rows: list[dict]) -> list[dict]:
+    """Per preset and freeze distance, freezing's change paired by seed: of the radius next
+    to the needle, of the core median, and per turn (means over the seeds)."""
+    base = {(r["preset"], r["seed"]): r for r in rows if float(r["freeze_beyond_mm"]) == 0.0}
+    out = []
+    for preset in dict.fromkeys(r["preset"] for r in rows):
+        mine = [base[k] for k in base if k[0] == preset]
+        near0 = np.array([float(r["near_needle_radius_m"]) for r in mine])
+        for freeze_mm in TURNS_FREEZE_MM:
+            sel = [
+                r
+                for r in rows
+                if r["preset"] == preset and float(r["freeze_beyond_mm"]) == freeze_mm
+            ]
+            near, core, per_turn = [], [], []
+            for r in sel:
+                b = base[(preset, r["seed"])]
+                near.append(float(r["near_needle_radius_m"]) / float(b["near_needle_radius_m"]) - 1)
+                core.append(float(r["coil_radius_m"]) / float(b["coil_radius_m"]) - 1)
+                ra = np.array(str(r["turn_radii_m"]).split(), dtype=float)
+                rb = np.array(str(b["turn_radii_m"]).split(), dtype=float)
+                n = min(len(ra), len(rb))
+                per_turn.append(ra[:n] / rb[:n] - 1)
+            n = min(len(t) for t in per_turn)
+            turn_mean = np.mean([t[:n] for t in per_turn], axis=0)
+            worst = int(np.argmax(np.abs(turn_mean)))
+            out.append(
                 {
-                    "preset": label,
-                    "seed": k,
-                    "freeze_beyond_mm": SEEDS_FREEZE_MM,
-                    "coil_radius_m": r0,
-                    "coil_radius_frozen_m": rf,
-                    "radius_change": rf / r0 - 1,
-                    "frequency_rad_s": om0,
-                    "frequency_frozen_rad_s": omf,
-                    "frequency_change": omf / om0 - 1,
+                    "preset": preset,
+                    "freeze_beyond_mm": freeze_mm,
+                    "seeds": len(sel),
+                    "near_needle_change_mean": float(np.mean(near)),
+                    "near_needle_change_min": float(np.min(near)),
+                    "near_needle_change_max": float(np.max(near)),
+                    "near_needle_seed_spread": float(np.std(near0) / np.mean(near0)),
+                    "core_median_change_mean": float(np.mean(core)),
+                    "largest_turn_change": float(turn_mean[worst]),
+                    "largest_turn_index": worst,
+                    "turn_change_mean": " ".join(f"{x:.5f}" for x in turn_mean),
                 }
             )
-    return rows
+    return out
+
+
+def plot_turns(summary: list[dict]) -> Path:
+    """Freezing's mean change of each turn's radius against its index from the needle."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    presets = list(dict.fromkeys(r["preset"] for r in summary))
+    fig, axes = plt.subplots(2, 2, figsize=(10, 7.2), sharey=True)
+    for ax, preset in zip(axes.ravel(), presets, strict=True):
+        for r in (r for r in summary if r["preset"] == preset):
+            y = 100 * np.array(str(r["turn_change_mean"]).split(), dtype=float)
+            ax.plot(
+                np.arange(len(y)), y, marker="o", ms=3, label=f"beyond {r['freeze_beyond_mm']:g} mm"
+            )
+        ax.axhline(0.0, color="k", lw=0.6)
+        ax.set_title(f"{COIL}, {preset}, {TURNS_DURATION_S:g} s")
+        ax.set_xlabel("full turn, counted from the needle")
+    for ax in axes[:, 0]:
+        ax.set_ylabel("radius change by freezing (%),\nmean over seeds")
+    axes[0, 0].legend(fontsize=8)
+    fig.tight_layout()
+    path = RESULTS / "freezing_turns.png"
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+    return path
 
 
 ROPE_STEP_BUDGET = 20  # a variant may take this many times the steps of the run without freezing
@@ -225,13 +357,15 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__)
     ap.add_argument("--episodes", type=int, default=8)
     ap.add_argument(
-        "--part", choices=("coil", "seeds", "rope", "envs"), default=None, help="only this"
+        "--part", choices=("coil", "seeds", "turns", "rope", "envs"), default=None, help="only this"
     )
     args = ap.parse_args()
     if args.part in (None, "coil"):
         coil_part()
     if args.part in (None, "seeds"):
         seeds_part()
+    if args.part in (None, "turns"):
+        turns_part()
     if args.part in (None, "rope"):
         rope_part()
     if args.part in (None, "envs"):
@@ -251,16 +385,37 @@ def coil_part() -> None:
 
 def seeds_part() -> None:
     rows = seeds_table()
-    print(f"\nfrozen beyond {SEEDS_FREEZE_MM:g} mm, paired by seed: dR/R (%)")
-    for preset in dict.fromkeys(r["preset"] for r in rows):
-        sel = [r for r in rows if r["preset"] == preset]
+    print("\nfreezing, paired by seed: dR/R (%)")
+    groups: dict[tuple, list[dict]] = {}
+    for r in rows:
+        groups.setdefault((r["preset"], r["duration_s"], r["freeze_beyond_mm"]), []).append(r)
+    for (preset, duration, freeze_mm), sel in groups.items():
         change = np.array([r["radius_change"] for r in sel]) * 100
         radius = np.array([r["coil_radius_m"] for r in sel])
         print(
-            f"{preset:16s} freezing {change.mean():+.2f} (min {change.min():+.2f}, max "
-            f"{change.max():+.2f}); R over seeds: std {100 * radius.std() / radius.mean():.2f}"
+            f"{preset:26s} {duration:3.1f} s, beyond {freeze_mm:3.0f} mm: {change.mean():+.2f} "
+            f"(min {change.min():+.2f}, max {change.max():+.2f}); R over seeds: std "
+            f"{100 * radius.std() / radius.mean():.2f}"
         )
     print("->", write_csv("freezing_seeds", rows))
+
+
+def turns_part() -> None:
+    rows = turns_table()
+    print("->", write_csv("freezing_turns_runs", rows))
+    summary = turns_summary(rows)
+    print(f"\nat {TURNS_DURATION_S:g} s, paired by seed: radius change (%)")
+    for r in summary:
+        print(
+            f"{r['preset']:16s} beyond {r['freeze_beyond_mm']:3.0f} mm: near the needle "
+            f"{100 * r['near_needle_change_mean']:+.2f} ({100 * r['near_needle_change_min']:+.2f}"
+            f" to {100 * r['near_needle_change_max']:+.2f}; seeds' spread "
+            f"{100 * r['near_needle_seed_spread']:.2f}), core median "
+            f"{100 * r['core_median_change_mean']:+.2f}, largest "
+            f"{100 * r['largest_turn_change']:+.2f} at turn {r['largest_turn_index']}"
+        )
+    print("->", write_csv("freezing_turns", summary))
+    print("->", plot_turns(summary))
 
 
 def rope_part() -> None:

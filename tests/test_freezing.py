@@ -4,7 +4,8 @@ Material further behind the needle than the set arclength leaves the solve; it m
 rigidly with the active end and acts on it through its lumped drag and net weight. The
 checks: the tail keeps its shape and stays attached, mass balance holds, the answer of a
 steady coil changes by less than the coil varies by itself (under a tenfold tolerance or
-another imperfection seed), and bad settings are refused.
+another imperfection seed), an inertial coil at the needle does not feel a far tail, and bad
+settings are refused.
 """
 
 from __future__ import annotations
@@ -13,6 +14,7 @@ import numpy as np
 import pytest
 
 from bathprint import SceneError, Simulation
+from bathprint.analysis.measure import coil_geometry
 from bathprint.core import layout as L
 from bathprint.core.effects import drag, gravity
 from bathprint.core.freezing import accumulate_tail, tail_is_frozen, tail_load
@@ -95,6 +97,34 @@ def test_freezing_with_inertia_changes_a_steady_coil_less_than_the_coil_varies()
     tolerance or another seed: an inertial coil needs the tail further away
     (docs/numerics.md)."""
     _freezing_against_the_coils_own_spread([*Simulation(COIL).scene.effects, "inertia"], 100.0)
+
+
+def _near_needle_radius(effects: list[str], seed: int, freeze_mm: float) -> float:
+    """Median radius (m) of the first three full turns below the stem at 6 s, draft."""
+    over = {"numerics.accuracy": "draft", "effects": effects, "seed": seed, "duration_s": 6.0}
+    sim = Simulation(COIL, {**over, "numerics.freeze_beyond_mm": freeze_mm})
+    sim.advance(6.0)
+    pos, axis = sim.model.needle[0, 1:4].copy(), sim.model.needle[0, 4:7].copy()
+    geom = coil_geometry(sim.centerline(), pos, axis)
+    assert geom is not None and len(geom.radii) >= 3
+    return float(np.median(geom.radii[:3]))
+
+
+def test_an_inertial_coil_at_the_needle_feels_a_near_frozen_tail_and_not_a_far_one() -> None:
+    """With inertia the turns just above the frozen tail widen (by about 6%), and the
+    change reaches the needle when the tail is near: over two seeds, freezing beyond 60 mm
+    widens the three turns next to the needle by 4.1% on average, beyond 150 mm by 0.5%
+    (six seeds: +3.6% and +0.3%, against 0.27% from seed to seed;
+    ``python benchmarks/bench_freezing.py --part turns``, docs/numerics.md)."""
+    effects = [*Simulation(COIL).scene.effects, "inertia"]
+    near, far = [], []
+    for seed in (0, 1):
+        r0 = _near_needle_radius(effects, seed, 0.0)
+        near.append(_near_needle_radius(effects, seed, 60.0) / r0 - 1)
+        far.append(_near_needle_radius(effects, seed, 150.0) / r0 - 1)
+    assert np.mean(near) > 0.02, near
+    assert abs(np.mean(far)) < 0.01, far
+    assert abs(np.mean(far)) < abs(np.mean(near)) / 3, (near, far)
 
 
 def test_the_frozen_tail_carries_its_mass() -> None:

@@ -525,6 +525,31 @@ def freezing_coil() -> str:
     )
 
 
+def freezing_turns() -> str:
+    path = RESULTS / "freezing_turns.csv"
+    rows = [
+        [
+            r["preset"],
+            f"{_g(r['freeze_beyond_mm'])} mm",
+            f"{_pct(r['near_needle_change_mean'])} ({_pct(r['near_needle_change_min'])} to "
+            f"{_pct(r['near_needle_change_max'])})",
+            f"{100 * float(r['near_needle_seed_spread']):.2g}%",
+            _pct(r["core_median_change_mean"]),
+            f"{_pct(r['largest_turn_change'])} (turn {r['largest_turn_index']})",
+        ]
+        for r in _csv(path)
+    ]
+    head = [
+        "preset",
+        "frozen beyond",
+        "ΔR of the 3 turns at the needle: mean (seeds' range)",
+        "their R from seed to seed (std)",
+        "ΔR, median of the core turns",
+        "largest mean ΔR of one turn",
+    ]
+    return _table(head, rows) + "\n\n" + provenance(path)
+
+
 def freezing_rope() -> str:
     path = RESULTS / "freezing_rope.csv"
     rows = [
@@ -1537,6 +1562,7 @@ TABLES: dict[str, Callable[[], str]] = {
     "profile": profile,
     "hard-cases": hard_cases,
     "freezing-coil": freezing_coil,
+    "freezing-turns": freezing_turns,
     "freezing-rope": freezing_rope,
     "freezing-envs": freezing_envs,
     "accuracy-presets": accuracy_presets,
@@ -1590,6 +1616,7 @@ FIGURES: dict[str, Path] = {
     "ablation.png": ABLATION / "ablation.png",
     "fig2.png": REPRODUCE / "fig2.png",
     "profile.png": RESULTS / "profile.png",
+    "freezing_turns.png": RESULTS / "freezing_turns.png",
 }
 
 
