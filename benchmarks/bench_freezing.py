@@ -113,7 +113,8 @@ SEEDS_DURATION_S = (3.0, 4.5)
 def seeds_table(n_seeds: int = SEED_PAIRS) -> list[dict]:
     """R and omega of the steady coil at each of SEEDS_DURATION_S with and without freezing
     beyond each of SEEDS_FREEZE_MM, per seed: draft, draft with inertia, and draft with
-    inertia but without contact (whether the frozen tail acts through contact)."""
+    inertia but without contact (whether the frozen tail acts through contact); the free
+    joint (``numerics.freeze_joint``), where ``--part turns`` compares both."""
     scene = Simulation(COIL).scene
     effects = list(scene.effects)
     rows = []
@@ -122,7 +123,7 @@ def seeds_table(n_seeds: int = SEED_PAIRS) -> list[dict]:
         ("draft + inertia", [*effects, "inertia"]),
         ("draft + inertia - contact", [*(e for e in effects if e != "contact"), "inertia"]),
     ):
-        base = {"numerics.accuracy": "draft", "effects": chosen}
+        base = {"numerics.accuracy": "draft", "effects": chosen, "numerics.freeze_joint": "free"}
         for duration, k in itertools.product(SEEDS_DURATION_S, range(n_seeds)):
             r0, om0, _ = _coil({**base, "seed": k}, duration)
             for freeze_mm in SEEDS_FREEZE_MM:
@@ -153,25 +154,32 @@ NEAR_NEEDLE_TURNS = 3  # the first full turns below the stem
 
 def turns_table(n_seeds: int = TURNS_SEEDS) -> list[dict]:
     """The radius of each full turn of the steady coil at TURNS_DURATION_S, counted from the
-    needle, with and without freezing beyond each of TURNS_FREEZE_MM, per seed: draft, with
-    inertia, and without contact or gelation (which effects the change needs).
+    needle, with and without freezing beyond each of TURNS_FREEZE_MM, per seed: draft and
+    with inertia, each with the free and the default (clamped) joint
+    (``numerics.freeze_joint``), and with the free joint without contact or gelation (which
+    effects its change needs).
     ``coil_run``'s R is the median over the core turns, the frozen ones among them; the
     turns next to the needle are the coil being written."""
     effects_of = list(Simulation(COIL).scene.effects)
     rows = []
-    for label, effects in (
-        ("draft", effects_of),
-        ("draft + inertia", [*effects_of, "inertia"]),
-        ("draft - contact", [e for e in effects_of if e != "contact"]),
-        ("draft - gelation", [e for e in effects_of if e != "gelation"]),
+    free = {"numerics.freeze_joint": "free"}
+    for label, effects, joint in (
+        ("draft, free joint", effects_of, free),
+        ("draft, clamped joint", effects_of, {}),
+        ("draft + inertia, free joint", [*effects_of, "inertia"], free),
+        ("draft + inertia, clamped joint", [*effects_of, "inertia"], {}),
+        ("draft - contact, free joint", [e for e in effects_of if e != "contact"], free),
+        ("draft - gelation, free joint", [e for e in effects_of if e != "gelation"], free),
     ):
         for k in range(n_seeds):
             for freeze_mm in (0.0, *TURNS_FREEZE_MM):
                 over = {"numerics.accuracy": "draft", "effects": effects, "seed": k}
                 over["numerics.freeze_beyond_mm"] = freeze_mm
                 over["duration_s"] = TURNS_DURATION_S
-                sim = Simulation(COIL, over)
+                sim = Simulation(COIL, {**over, **(joint if freeze_mm > 0.0 else {})})
+                t0 = time.perf_counter()
                 sim.advance(TURNS_DURATION_S)
+                wall = time.perf_counter() - t0
                 pos, axis = sim.model.needle[0, 1:4].copy(), sim.model.needle[0, 4:7].copy()
                 geom = coil_geometry(sim.centerline(), pos, axis)
                 if geom is None or len(geom.radii) < NEAR_NEEDLE_TURNS:
@@ -182,6 +190,7 @@ def turns_table(n_seeds: int = TURNS_SEEDS) -> list[dict]:
                         "seed": k,
                         "freeze_beyond_mm": freeze_mm,
                         "frozen_nodes": sim.n_frozen,
+                        "wall_s": wall,
                         "nodes": sim.n_nodes,
                         "near_needle_radius_m": float(np.median(geom.radii[:NEAR_NEEDLE_TURNS])),
                         "coil_radius_m": geom.radius,
@@ -206,9 +215,10 @@ def turns_summary(rows: list[dict]) -> list[dict]:
                 for r in rows
                 if r["preset"] == preset and float(r["freeze_beyond_mm"]) == freeze_mm
             ]
-            near, core, per_turn = [], [], []
+            near, core, per_turn, wall = [], [], [], []
             for r in sel:
                 b = base[(preset, r["seed"])]
+                wall.append(float(r["wall_s"]) / float(b["wall_s"]))
                 near.append(float(r["near_needle_radius_m"]) / float(b["near_needle_radius_m"]) - 1)
                 core.append(float(r["coil_radius_m"]) / float(b["coil_radius_m"]) - 1)
                 ra = np.array(str(r["turn_radii_m"]).split(), dtype=float)
@@ -230,6 +240,7 @@ def turns_summary(rows: list[dict]) -> list[dict]:
                     "core_median_change_mean": float(np.mean(core)),
                     "largest_turn_change": float(turn_mean[worst]),
                     "largest_turn_index": worst,
+                    "wall_ratio": float(np.mean(wall)),
                     "turn_change_mean": " ".join(f"{x:.5f}" for x in turn_mean),
                 }
             )
@@ -242,9 +253,10 @@ def plot_turns(summary: list[dict]) -> Path:
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
+    from matplotlib.ticker import MaxNLocator
 
     presets = list(dict.fromkeys(r["preset"] for r in summary))
-    fig, axes = plt.subplots(2, 2, figsize=(10, 7.2), sharey=True)
+    fig, axes = plt.subplots(3, 2, figsize=(10, 10.4), sharey=True)
     for ax, preset in zip(axes.ravel(), presets, strict=True):
         for r in (r for r in summary if r["preset"] == preset):
             y = 100 * np.array(str(r["turn_change_mean"]).split(), dtype=float)
@@ -252,6 +264,7 @@ def plot_turns(summary: list[dict]) -> Path:
                 np.arange(len(y)), y, marker="o", ms=3, label=f"beyond {r['freeze_beyond_mm']:g} mm"
             )
         ax.axhline(0.0, color="k", lw=0.6)
+        ax.xaxis.set_major_locator(MaxNLocator(integer=True))
         ax.set_title(f"{COIL}, {preset}, {TURNS_DURATION_S:g} s")
         ax.set_xlabel("full turn, counted from the needle")
     for ax in axes[:, 0]:
@@ -407,12 +420,13 @@ def turns_part() -> None:
     print(f"\nat {TURNS_DURATION_S:g} s, paired by seed: radius change (%)")
     for r in summary:
         print(
-            f"{r['preset']:16s} beyond {r['freeze_beyond_mm']:3.0f} mm: near the needle "
+            f"{r['preset']:30s} beyond {r['freeze_beyond_mm']:3.0f} mm: near the needle "
             f"{100 * r['near_needle_change_mean']:+.2f} ({100 * r['near_needle_change_min']:+.2f}"
             f" to {100 * r['near_needle_change_max']:+.2f}; seeds' spread "
             f"{100 * r['near_needle_seed_spread']:.2f}), core median "
             f"{100 * r['core_median_change_mean']:+.2f}, largest "
-            f"{100 * r['largest_turn_change']:+.2f} at turn {r['largest_turn_index']}"
+            f"{100 * r['largest_turn_change']:+.2f} at turn {r['largest_turn_index']}; wall "
+            f"{r['wall_ratio']:.2f}x"
         )
     print("->", write_csv("freezing_turns", summary))
     print("->", plot_turns(summary))

@@ -4,8 +4,9 @@ Material further behind the needle than the set arclength leaves the solve; it m
 rigidly with the active end and acts on it through its lumped drag and net weight. The
 checks: the tail keeps its shape and stays attached, mass balance holds, the answer of a
 steady coil changes by less than the coil varies by itself (under a tenfold tolerance or
-another imperfection seed), an inertial coil at the needle does not feel a far tail, and bad
-settings are refused.
+another imperfection seed), an inertial coil at the needle does not feel a far tail and
+feels a near one less through the clamped joint, whose bending matches the filament's,
+and bad settings are refused.
 """
 
 from __future__ import annotations
@@ -17,7 +18,8 @@ from bathprint import SceneError, Simulation
 from bathprint.analysis.measure import coil_geometry
 from bathprint.core import layout as L
 from bathprint.core.effects import drag, gravity
-from bathprint.core.freezing import accumulate_tail, tail_is_frozen, tail_load
+from bathprint.core.effects.elasticity import bend_energy_grad_hess, segment_bending_stiffness
+from bathprint.core.freezing import accumulate_joint, accumulate_tail, tail_is_frozen, tail_load
 from bathprint.core.records import Out, Rod, Stage, new_scratch, new_workspace
 from bathprint.studies.accuracy import coil_run
 
@@ -99,10 +101,11 @@ def test_freezing_with_inertia_changes_a_steady_coil_less_than_the_coil_varies()
     _freezing_against_the_coils_own_spread([*Simulation(COIL).scene.effects, "inertia"], 100.0)
 
 
-def _near_needle_radius(effects: list[str], seed: int, freeze_mm: float) -> float:
+def _near_needle_radius(effects: list[str], seed: int, freeze_mm: float, joint: str) -> float:
     """Median radius (m) of the first three full turns below the stem at 6 s, draft."""
     over = {"numerics.accuracy": "draft", "effects": effects, "seed": seed, "duration_s": 6.0}
-    sim = Simulation(COIL, {**over, "numerics.freeze_beyond_mm": freeze_mm})
+    over |= {"numerics.freeze_beyond_mm": freeze_mm, "numerics.freeze_joint": joint}
+    sim = Simulation(COIL, over)
     sim.advance(6.0)
     pos, axis = sim.model.needle[0, 1:4].copy(), sim.model.needle[0, 4:7].copy()
     geom = coil_geometry(sim.centerline(), pos, axis)
@@ -110,21 +113,26 @@ def _near_needle_radius(effects: list[str], seed: int, freeze_mm: float) -> floa
     return float(np.median(geom.radii[:3]))
 
 
-def test_an_inertial_coil_at_the_needle_feels_a_near_frozen_tail_and_not_a_far_one() -> None:
-    """With inertia the turns just above the frozen tail widen (by about 6%), and the
-    change reaches the needle when the tail is near: over two seeds, freezing beyond 60 mm
-    widens the three turns next to the needle by 4.1% on average, beyond 150 mm by 0.5%
-    (six seeds: +3.6% and +0.3%, against 0.27% from seed to seed;
-    ``python benchmarks/bench_freezing.py --part turns``, docs/numerics.md)."""
+def test_an_inertial_coil_at_the_needle_and_the_frozen_tails_joint() -> None:
+    """With inertia and the free joint (the tail takes no moment) the turns just above the
+    frozen tail widen by about 6%, and the change reaches the needle when the tail is
+    near: over two seeds, frozen beyond 60 mm the three turns next to the needle widen by
+    4.1% on average, beyond 150 mm by 0.5%. The clamped joint (the default) holds the end's
+    tangent: beyond 60 mm they change by -1.1% (six seeds: free +3.6%, +0.3%; clamped
+    -1.3%; 0.27% from seed to seed; ``python benchmarks/bench_freezing.py --part turns``,
+    docs/numerics.md)."""
     effects = [*Simulation(COIL).scene.effects, "inertia"]
-    near, far = [], []
+    free_near, free_far, clamped_near = [], [], []
     for seed in (0, 1):
-        r0 = _near_needle_radius(effects, seed, 0.0)
-        near.append(_near_needle_radius(effects, seed, 60.0) / r0 - 1)
-        far.append(_near_needle_radius(effects, seed, 150.0) / r0 - 1)
-    assert np.mean(near) > 0.02, near
-    assert abs(np.mean(far)) < 0.01, far
-    assert abs(np.mean(far)) < abs(np.mean(near)) / 3, (near, far)
+        r0 = _near_needle_radius(effects, seed, 0.0, "free")
+        free_near.append(_near_needle_radius(effects, seed, 60.0, "free") / r0 - 1)
+        free_far.append(_near_needle_radius(effects, seed, 150.0, "free") / r0 - 1)
+        clamped_near.append(_near_needle_radius(effects, seed, 60.0, "clamped") / r0 - 1)
+    assert np.mean(free_near) > 0.02, free_near
+    assert abs(np.mean(free_far)) < 0.01, free_far
+    assert abs(np.mean(free_far)) < abs(np.mean(free_near)) / 3, (free_near, free_far)
+    assert abs(np.mean(clamped_near)) < 0.02, clamped_near
+    assert abs(np.mean(clamped_near)) < abs(np.mean(free_near)) / 2, (free_near, clamped_near)
 
 
 def test_the_frozen_tail_carries_its_mass() -> None:
@@ -179,6 +187,15 @@ def test_without_freezing_nothing_is_frozen() -> None:
             {"numerics.freeze_beyond_mm": 30.0, "effects": ["elasticity", "drag", "end_load"]},
             "end_load",
         ),
+        (
+            {
+                "numerics.freeze_beyond_mm": 30.0,
+                "numerics.freeze_joint": "clamped",
+                "effects": ["elasticity", "drag", "gravity", "floor"],
+            },
+            "freeze_joint = 'clamped' with the floor",
+        ),
+        ({"numerics.freeze_joint": "glued"}, "freeze_joint"),
     ],
 )
 def test_bad_freezing_settings_are_refused(overrides: dict, match: str) -> None:
@@ -398,3 +415,67 @@ def test_the_tail_load_jacobian_matches_finite_differences(on_floor: bool) -> No
         dv[b] = h
         fd[:, b] = -(force(vel + dv, False) - force(vel - dv, False)) / (2 * h)
     np.testing.assert_allclose(jac, fd, rtol=1e-6, atol=1e-9 * np.abs(fd).max())
+
+
+def test_the_clamped_joint_is_the_bending_of_the_joining_node_with_its_exact_jacobian() -> None:
+    """``numerics.freeze_joint = "clamped"``: the joint's energy is the bending energy of
+    the joining node in the whole filament (the frozen segment held as it is), its forces
+    on the active nodes 0 and 1 are -dE/dx (central differences of the energy, the frozen
+    node moving with node 0), and cx * the Hessian sits in the banded Jacobian."""
+    sim = Simulation(
+        COIL,
+        {
+            "numerics.accuracy": "draft",
+            "numerics.freeze_beyond_mm": 20.0,
+            "numerics.freeze_joint": "clamped",
+        },
+    )
+    sim.advance(0.8)
+    k = sim.n_frozen
+    assert k > 5 and sim.ws.tail[0]["clamped"]
+    ws = new_workspace(sim.capacity, 1)
+    whole = Rod(sim.pos, sim.vel, sim.vel, sim.n_nodes, sim.node_s, sim.seg_rest, sim.seg_mat)
+    tail_load(sim.model.record, whole, k, True, False, ws)
+    n_act = 10
+    zero = np.zeros(3 * n_act)
+    band = np.zeros((3 * n_act, L.BAND_WIDTH))
+    base = sim.pos[3 * k : 3 * (k + n_act)].copy()
+    base[3:6] += (2e-5, -1e-5, 3e-5)  # bend the joint away from its rest curvature
+
+    def joint(x: np.ndarray, do_jac: bool) -> tuple[float, np.ndarray]:
+        f = np.zeros(3 * n_act)
+        rod = Rod(x, zero, zero, n_act, sim.node_s[k:], sim.seg_rest[k:], sim.seg_mat[k:])
+        out = Out(f, band, ws.tail, new_scratch(), ws.cpl_drop, ws.contact, rod, 0, sim.pos)
+        energy = accumulate_joint(sim.model.record, rod, Stage(0.0, 1.0, 0.0, 0.0, do_jac), out)
+        return energy, f[:6].copy()
+
+    energy, f = joint(base, True)
+    # the same energy from the whole filament's bending term at the joining node k
+    e1 = sim.pos[3 * k : 3 * k + 3] - sim.pos[3 * k - 3 : 3 * k]
+    e2 = base[3:6] - base[:3]
+    dl = 0.5 * (sim.seg_rest[k - 1] + sim.seg_rest[k])
+    bend = 0.5 * (
+        segment_bending_stiffness(sim.seg_mat, k - 1) + segment_bending_stiffness(sim.seg_mat, k)
+    )
+    kappa = sim.seg_mat[:, L.MAT_KAPPA_X : L.MAT_KAPPA_X + 3]
+    kbar = 0.5 * dl * (kappa[k - 1] + kappa[k])
+    grad, hess = np.zeros(6), np.zeros((6, 6))
+    expected = bend_energy_grad_hess(e1, e2, kbar, bend / dl, grad, hess, np.zeros(128), False)
+    assert energy > 0.0
+    assert energy == pytest.approx(expected, rel=1e-12)
+    h = 1e-9
+    fd_force = np.zeros(6)
+    for i in range(6):
+        dx = np.zeros_like(base)
+        dx[i] = h
+        fd_force[i] = -(joint(base + dx, False)[0] - joint(base - dx, False)[0]) / (2 * h)
+    np.testing.assert_allclose(f, fd_force, rtol=1e-5, atol=1e-6 * np.abs(f).max())
+    jac = np.array(
+        [[band[i, j - i + L.KL] for j in range(6)] for i in range(6)]
+    )  # -dF/dx of nodes 0 and 1
+    fd_jac = np.zeros((6, 6))
+    for j in range(6):
+        dx = np.zeros_like(base)
+        dx[j] = 1e-10
+        fd_jac[:, j] = -(joint(base + dx, False)[1] - joint(base - dx, False)[1]) / 2e-10
+    np.testing.assert_allclose(jac, fd_jac, rtol=1e-5, atol=1e-6 * np.abs(fd_jac).max())

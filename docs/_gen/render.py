@@ -536,6 +536,7 @@ def freezing_turns() -> str:
             f"{100 * float(r['near_needle_seed_spread']):.2g}%",
             _pct(r["core_median_change_mean"]),
             f"{_pct(r['largest_turn_change'])} (turn {r['largest_turn_index']})",
+            f"{_g(r['wall_ratio'], 2)}×",
         ]
         for r in _csv(path)
     ]
@@ -546,6 +547,7 @@ def freezing_turns() -> str:
         "their R from seed to seed (std)",
         "ΔR, median of the core turns",
         "largest mean ΔR of one turn",
+        "wall time vs not frozen",
     ]
     return _table(head, rows) + "\n\n" + provenance(path)
 

@@ -23,7 +23,7 @@ from bathprint.core.effects import (
     inertia,
     viscosity,
 )
-from bathprint.core.freezing import accumulate_tail
+from bathprint.core.freezing import accumulate_joint, accumulate_tail
 from bathprint.core.jit import KERNEL
 from bathprint.core.layout import (
     E_CONTACT,
@@ -81,3 +81,4 @@ def assemble(model, rod, stage, out, calls: np.ndarray, energies: np.ndarray) ->
         energies[E_DRAG] = hydrodynamics.accumulate(model, rod, stage, out)
     if out.tail[0].on:  # a frozen tail (numerics.freeze_beyond_mm): part of the drag
         energies[E_DRAG] += accumulate_tail(model, rod, stage, out)
+        energies[E_ELASTICITY] += accumulate_joint(model, rod, stage, out)

@@ -89,6 +89,7 @@ PARAMS_FIELDS: tuple[tuple[str, str, str], ...] = (
     ("newton_reuse", "?", "modified Newton (reuse the factorised Jacobian)"),
     ("max_strain", "f8", "-, adaptive steps ending with a larger |l/l0 - 1| are retried"),
     ("freeze_beyond", "f8", "m, material further behind the needle is frozen (0: off)"),
+    ("freeze_clamped", "?", "the frozen tail holds the active end's tangent (joint bending)"),
     ("buckling_steps", "f8", "-, adaptive steps per e-folding of the fastest buckling mode"),
     ("integrator", "i8", "-, one of INTEGRATOR_*"),
     ("contact_stiffness", "f8", "Pa, self-contact force per length per penetration"),
@@ -237,6 +238,11 @@ TAIL_FIELDS: tuple[tuple[str, str, str], ...] = (
     ("mass", "(3,3)f8", "kg, its mass with added mass (with inertia): force -mass a at the end"),
     ("normal", "f8", "N, the weight the floor carries (floor mode)"),
     ("on_floor", "?", "the tail rests on the floor and slides at its height"),
+    ("clamped", "?", "the joint bends: the tail holds the active end's tangent"),
+    ("edge", "3f8", "m, the joining segment x_f - x_(f-1): constant while the tail translates"),
+    ("bend", "f8", "N m^2, bending stiffness of the joining segment"),
+    ("rest", "f8", "m, rest length of the joining segment"),
+    ("kappa", "3f8", "1/m, natural curvature of the joining segment"),
 )
 TAIL_DTYPE = np.dtype([(name, kind) for name, kind, _ in TAIL_FIELDS])
 

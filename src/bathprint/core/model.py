@@ -183,6 +183,12 @@ def _freeze_beyond(scene: Scene, node_spacing_mm: float) -> float:
             "on the filament's free end, which freezing takes out of the solve; allowed: 0 with "
             "end_load"
         )
+    if scene.numerics.freeze_joint == "clamped" and "floor" in scene.effects:
+        raise SceneError(
+            "numerics.freeze_joint = 'clamped' with the floor effect: a tail resting on the "
+            "floor slides at its height while the active end rises and falls, so it cannot "
+            "hold the end's tangent; allowed: 'free' with floor"
+        )
     return value
 
 
@@ -273,6 +279,8 @@ def compile_model(scene: Scene) -> Model:
     p.max_inlet_growth = num["max_inlet_growth"]
     p.clamped = True
     p.freeze_beyond = _freeze_beyond(scene, num["node_spacing_mm"]) * MM
+    joint = scene.numerics.freeze_joint
+    p.freeze_clamped = joint == "clamped" or (joint == "auto" and "floor" not in scene.effects)
     p.buckling_steps = scene.numerics.buckling_steps
     gel = scene.gelation
     if "gelation" in scene.effects and gel.final_modulus_pa < gel.initial_modulus_pa:

@@ -392,6 +392,15 @@ class Numerics:
         doc="material further than this behind the needle (arclength) leaves the solve and "
         "follows the active filament's end rigidly; 0: off",
     )
+    freeze_joint: str = field(
+        default="auto",
+        metadata={
+            "choices": ("auto", "clamped", "free"),
+            "doc": "how the frozen tail holds the active end: clamped, the tail does not turn "
+            "and the bending of the node that joins them holds the end's tangent (not with "
+            "the floor effect); free, it takes no moment; auto: clamped, or free with floor",
+        },
+    )
     newton_tolerance: float = _num(0.01, 1e-8, 1.0, lo_open=True, doc="in units of tolerance")
     krylov_tolerance: float = _num(
         0.05,

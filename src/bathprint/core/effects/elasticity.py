@@ -31,7 +31,8 @@ from bathprint.core.topology import filament_segments, free_nodes
 
 
 @njit(**KERNEL, inline="always")
-def _bending_stiffness(seg_mat: np.ndarray, j: int) -> float:
+def segment_bending_stiffness(seg_mat: np.ndarray, j: int) -> float:
+    """B = f_B E pi r^4 / 4 of segment j (N m^2)."""
     r = seg_mat[j, MAT_RADIUS]
     return seg_mat[j, MAT_YOUNGS_MODULUS] * seg_mat[j, MAT_BEND_FACTOR] * math.pi * r**4 / 4.0
 
@@ -259,7 +260,8 @@ def accumulate(model, rod, stage, out) -> float:
         ja = i - 1
         jb = i if i < n_seg else i - 1  # the ghost segment carries the inlet's material
         dl = 0.5 * (seg_rest[i - 1] + seg_rest[i])
-        bend = 0.5 * (_bending_stiffness(seg_mat, ja) + _bending_stiffness(seg_mat, jb))
+        bend_a = segment_bending_stiffness(seg_mat, ja)
+        bend = 0.5 * (bend_a + segment_bending_stiffness(seg_mat, jb))
         k = bend / dl
         for a in range(3):
             e1[a] = pos[3 * i + a] - pos[3 * i - 3 + a]
