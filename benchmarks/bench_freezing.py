@@ -39,7 +39,7 @@ import numpy as np
 from _common import RESULTS, write_csv
 
 import bathprint.envs as E
-from bathprint.analysis.measure import coil_geometry
+from bathprint.analysis.measure import buckling_length, coil_geometry
 from bathprint.core.simulation import Simulation
 from bathprint.errors import SimulationError
 from bathprint.studies.accuracy import coil_run
@@ -150,6 +150,7 @@ TURNS_DURATION_S = 6.0  # about 380 mm of filament: freezing beyond 200 mm holds
 TURNS_FREEZE_MM = (60.0, 100.0, 150.0, 200.0)
 TURNS_SEEDS = 6
 NEAR_NEEDLE_TURNS = 3  # the first full turns below the stem
+TURNS_EARLIER_S = 4.0  # the coil at the needle is also measured then (its drift to 6 s)
 
 
 def turns_table(n_seeds: int = TURNS_SEEDS) -> list[dict]:
@@ -177,13 +178,17 @@ def turns_table(n_seeds: int = TURNS_SEEDS) -> list[dict]:
                 over["numerics.freeze_beyond_mm"] = freeze_mm
                 over["duration_s"] = TURNS_DURATION_S
                 sim = Simulation(COIL, {**over, **(joint if freeze_mm > 0.0 else {})})
+                pos, axis = sim.model.needle[0, 1:4].copy(), sim.model.needle[0, 4:7].copy()
                 t0 = time.perf_counter()
+                sim.advance(TURNS_EARLIER_S)
+                earlier = coil_geometry(sim.centerline(), pos, axis)
                 sim.advance(TURNS_DURATION_S)
                 wall = time.perf_counter() - t0
-                pos, axis = sim.model.needle[0, 1:4].copy(), sim.model.needle[0, 4:7].copy()
                 geom = coil_geometry(sim.centerline(), pos, axis)
+                stem = buckling_length(sim.centerline(), pos, axis)
                 if geom is None or len(geom.radii) < NEAR_NEEDLE_TURNS:
                     raise RuntimeError(f"{label}, seed {k}, frozen beyond {freeze_mm} mm: no coil")
+                few = earlier is None or len(earlier.radii) < NEAR_NEEDLE_TURNS
                 rows.append(
                     {
                         "preset": label,
@@ -193,6 +198,10 @@ def turns_table(n_seeds: int = TURNS_SEEDS) -> list[dict]:
                         "wall_s": wall,
                         "nodes": sim.n_nodes,
                         "near_needle_radius_m": float(np.median(geom.radii[:NEAR_NEEDLE_TURNS])),
+                        "near_needle_radius_earlier_m": float("nan")
+                        if few
+                        else float(np.median(earlier.radii[:NEAR_NEEDLE_TURNS])),
+                        "buckling_length_m": float("nan") if stem is None else stem,
                         "coil_radius_m": geom.radius,
                         "turn_radii_m": " ".join(f"{r:.6e}" for r in geom.radii),
                         "turn_lengths_m": " ".join(f"{t:.6e}" for t in geom.turn_lengths),
@@ -215,10 +224,14 @@ def turns_summary(rows: list[dict]) -> list[dict]:
                 for r in rows
                 if r["preset"] == preset and float(r["freeze_beyond_mm"]) == freeze_mm
             ]
-            near, core, per_turn, wall = [], [], [], []
+            near, core, per_turn, wall, stem, drift = [], [], [], [], [], []
             for r in sel:
                 b = base[(preset, r["seed"])]
                 wall.append(float(r["wall_s"]) / float(b["wall_s"]))
+                stem.append(float(r["buckling_length_m"]) / float(b["buckling_length_m"]) - 1)
+                drift.append(
+                    float(r["near_needle_radius_m"]) / float(r["near_needle_radius_earlier_m"]) - 1
+                )
                 near.append(float(r["near_needle_radius_m"]) / float(b["near_needle_radius_m"]) - 1)
                 core.append(float(r["coil_radius_m"]) / float(b["coil_radius_m"]) - 1)
                 ra = np.array(str(r["turn_radii_m"]).split(), dtype=float)
@@ -227,6 +240,10 @@ def turns_summary(rows: list[dict]) -> list[dict]:
                 per_turn.append(ra[:n] / rb[:n] - 1)
             n = min(len(t) for t in per_turn)
             turn_mean = np.mean([t[:n] for t in per_turn], axis=0)
+            drift0 = [
+                float(b["near_needle_radius_m"]) / float(b["near_needle_radius_earlier_m"]) - 1
+                for b in mine
+            ]
             worst = int(np.argmax(np.abs(turn_mean)))
             out.append(
                 {
@@ -241,6 +258,9 @@ def turns_summary(rows: list[dict]) -> list[dict]:
                     "largest_turn_change": float(turn_mean[worst]),
                     "largest_turn_index": worst,
                     "wall_ratio": float(np.mean(wall)),
+                    "buckling_length_change_mean": float(np.mean(stem)),
+                    "near_needle_drift_mean": float(np.mean(drift)),
+                    "near_needle_drift_not_frozen_mean": float(np.mean(drift0)),
                     "turn_change_mean": " ".join(f"{x:.5f}" for x in turn_mean),
                 }
             )
@@ -426,7 +446,10 @@ def turns_part() -> None:
             f"{100 * r['near_needle_seed_spread']:.2f}), core median "
             f"{100 * r['core_median_change_mean']:+.2f}, largest "
             f"{100 * r['largest_turn_change']:+.2f} at turn {r['largest_turn_index']}; wall "
-            f"{r['wall_ratio']:.2f}x"
+            f"{r['wall_ratio']:.2f}x; stem {100 * r['buckling_length_change_mean']:+.1f}; R "
+            f"{TURNS_EARLIER_S:g} -> {TURNS_DURATION_S:g} s "
+            f"{100 * r['near_needle_drift_mean']:+.2f} (not frozen "
+            f"{100 * r['near_needle_drift_not_frozen_mean']:+.2f})"
         )
     print("->", write_csv("freezing_turns", summary))
     print("->", plot_turns(summary))

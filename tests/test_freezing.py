@@ -115,12 +115,12 @@ def _near_needle_radius(effects: list[str], seed: int, freeze_mm: float, joint: 
 
 def test_an_inertial_coil_at_the_needle_and_the_frozen_tails_joint() -> None:
     """With inertia and the free joint (the tail takes no moment) the turns just above the
-    frozen tail widen by about 6%, and the change reaches the needle when the tail is
-    near: over two seeds, frozen beyond 60 mm the three turns next to the needle widen by
-    4.1% on average, beyond 150 mm by 0.5%. The clamped joint (the default) holds the end's
-    tangent: beyond 60 mm they change by -1.1% (six seeds: free +3.6%, +0.3%; clamped
-    -1.3%; 0.27% from seed to seed; ``python benchmarks/bench_freezing.py --part turns``,
-    docs/numerics.md)."""
+    frozen tail widen by 5-6%, and the change reaches the needle when the tail is near:
+    over two seeds, frozen beyond 60 mm the three turns next to the needle widen by 4.1% on
+    average, beyond 150 mm by 0.5%. The clamped joint (the default) holds the end's
+    tangent: beyond 60 mm they change by -1.1% (six seeds, stopped at 4 s on the way: free
+    +3.1% and -0.1%, clamped -1.5%; 0.26% from seed to seed;
+    ``python benchmarks/bench_freezing.py --part turns``, docs/numerics.md)."""
     effects = [*Simulation(COIL).scene.effects, "inertia"]
     free_near, free_far, clamped_near = [], [], []
     for seed in (0, 1):

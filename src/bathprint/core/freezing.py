@@ -31,9 +31,9 @@ translates without turning, holds the end's tangent through the bending of the j
 node (:func:`accumulate_joint`), as the continuing filament would if the tail did not
 turn. With ``"free"`` (the default with the floor, where the tail stays at its height while
 the end rises and falls) it takes no moment: the active end turns freely. On a steady
-inertial coil the free joint widens the turns above the tail by about 6% and, frozen
-beyond 60 mm, those at the needle by 3.6%; the clamped one by at most 2.2% and -1.3%
-(``benchmarks/bench_freezing.py --part turns``). The error
+inertial coil the free joint widens the turns above the tail by 5-6% and, frozen beyond
+60 mm, those at the needle by 3.1%; the clamped one changes them by at most 2.3% and by
+-1.5% (``benchmarks/bench_freezing.py --part turns``). The error
 and Newton norms stay RMS over the whole filament, as without freezing (the frozen nodes
 count with zero error: they only follow the active end), so freezing does not tighten the
 step-size control.
