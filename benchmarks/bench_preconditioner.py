@@ -53,9 +53,19 @@ P^T A P is not timed.
 A run with the default sizes N = 100, 300, 1000, 3000, 10000 takes about 1 minute on one
 core (most of it N = 10000).
 
+``--part amg`` (needs pyamg: ``pip install -e ".[bench]"``): the same captured systems at
+N = 1000, 3000, 10000, solved with ``band`` and with the banded LU followed by one V-cycle
+of an algebraic multigrid hierarchy (pyamg) of the axial problem (every node's z: the block
+``axial`` solves exactly), smoothed aggregation (``axial_sa``) or Ruge-Stueben
+(``axial_rs``), or one smoothed-aggregation V-cycle of the whole matrix alone
+(``whole_sa``); per solve and hierarchy, the iterations, the V-cycle's own convergence
+factor, and its time and set-up time against the banded solve and LU
+(results/preconditioner_amg.csv).
+
     python benchmarks/bench_preconditioner.py                      # both parts
     python benchmarks/bench_preconditioner.py --part newton --sizes 100,1000 --solves 1
     python benchmarks/bench_preconditioner.py --part random --out /tmp/results  # CSV dir
+    python benchmarks/bench_preconditioner.py --part amg                       # pyamg
 """
 
 from __future__ import annotations
@@ -66,7 +76,7 @@ import time
 from collections.abc import Callable, Sequence
 from pathlib import Path
 from types import SimpleNamespace
-from typing import NamedTuple
+from typing import Any, NamedTuple
 
 import numpy as np
 import scipy.linalg as sla_dense
@@ -614,9 +624,169 @@ def newton_part(sizes: Sequence[int], n_solves: int, out_dir: Path) -> Path:
     return path
 
 
+# ------------------------------------------------------------------ part amg
+AMG_SIZES = (1000, 3000, 10000)
+
+
+def _amg_solvers(a: sp.csr_matrix) -> dict[str, tuple[Any, np.ndarray | None]]:
+    """Algebraic multigrid hierarchies (pyamg) for the captured Newton matrix ``a``: on the
+    axial problem (every node's z, the block that ``axial`` solves exactly) by smoothed
+    aggregation and by Ruge-Stueben, and on the whole matrix by smoothed aggregation with
+    the three translations as near-null space; with the unknowns each acts on (None: all)."""
+    import pyamg
+
+    nd = a.shape[0]
+    z = np.arange(2, nd, 3)
+    azz = a[z][:, z]
+    azz = ((azz + azz.T) * 0.5).tocsr()
+    whole = ((a + a.T) * 0.5).tocsr()
+    gs2 = ("gauss_seidel", {"sweep": "symmetric", "iterations": 2})
+    translations = np.zeros((nd, 3))
+    for c in range(3):
+        translations[c::3, c] = 1.0
+    return {
+        "axial_sa": (
+            pyamg.smoothed_aggregation_solver(
+                azz,
+                strength=("symmetric", {"theta": 0.1}),
+                presmoother=gs2,
+                postsmoother=gs2,
+                max_coarse=50,
+            ),
+            z,
+        ),
+        "axial_rs": (pyamg.ruge_stuben_solver(azz, max_coarse=50), z),
+        "whole_sa": (
+            pyamg.smoothed_aggregation_solver(
+                whole, B=translations, strength=("symmetric", {"theta": 0.0}), max_coarse=200
+            ),
+            None,
+        ),
+    }
+
+
+def _cycle_factor(ml: Any, n: int) -> float:
+    """Mean residual reduction per V-cycle of ``ml`` alone (30 cycles, random start)."""
+    res: list[float] = []
+    ml.solve(np.random.default_rng(0).standard_normal(n), tol=1e-10, maxiter=30, residuals=res)
+    return float((res[-1] / res[0]) ** (1.0 / (len(res) - 1)))
+
+
+def _iterations(a: sp.csr_matrix, b: Vector, apply: Apply) -> dict[str, int]:
+    """FGMRES iterations to each of RTOLS."""
+    return {f"iterations_rtol_{_tol(r)}": fgmres(a, b, apply, r)[0] for r in RTOLS}
+
+
+def amg_size(n: int, n_solves: int, progress: Progress, task: int) -> list[dict]:
+    """Rows of one N: for each captured solve and hierarchy, FGMRES iterations with the
+    banded LU then one V-cycle on its unknowns (multiplicative; whole_sa: the V-cycle
+    alone), the cycle's own convergence factor, and its set-up and cycle time against the
+    banded LU's factorisation and solve."""
+    sim = coil_stack(n, True, 0.98)
+    sim.advance(WARM_S)
+    caps = capture(sim, n_solves)
+    progress.advance(task)
+    rows = []
+    for s, cap in enumerate(caps):
+        a = cap.matrix()
+        b_lu = BandedLU(cap.band, cap.nd, L.KL, L.KU)
+        lu_ms = 1e3 * lu_seconds(cap.band, cap.nd, L.KL, L.KU)
+        solve_ms = 1e3 * best_of(lambda b_lu=b_lu, cap=cap: b_lu.solve(cap.rhs), 5)
+
+        def band_apply(v: Vector, b_lu=b_lu, a=a) -> tuple[Vector, Vector]:
+            z = b_lu.solve(v)
+            return z, a @ z
+
+        base = {
+            "nodes": n,
+            "unknowns": cap.nd,
+            "solve": s,
+            "simulator_iterations_rtol_0.05": cap.iterations,
+            "band_lu_ms": lu_ms,
+            "band_solve_ms": solve_ms,
+        }
+        rows.append(
+            {
+                **base,
+                "preconditioner": "band",  # set-up: its LU; cycle: its solve
+                **_iterations(a, cap.rhs, band_apply),
+                "levels": 1,
+                "cycle_factor": float("nan"),
+                "setup_ms_mean_of_three": lu_ms,
+                "cycle_ms": solve_ms,
+            }
+        )
+        t0 = time.perf_counter()
+        solvers = _amg_solvers(a)
+        setup_ms = 1e3 * (time.perf_counter() - t0) / len(solvers)
+        for label, (ml, unknowns) in solvers.items():
+            cycle = ml.aspreconditioner(cycle="V")
+
+            def apply(v: Vector, cycle=cycle, unknowns=unknowns, a=a, b_lu=b_lu):
+                if unknowns is None:
+                    z = cycle.matvec(v)
+                else:
+                    z = b_lu.solve(v)
+                    r = v - a @ z
+                    z[unknowns] += cycle.matvec(r[unknowns])
+                return z, a @ z
+
+            probe = cap.rhs if unknowns is None else cap.rhs[unknowns]
+            rows.append(
+                {
+                    **base,
+                    "preconditioner": label,
+                    **_iterations(a, cap.rhs, apply),
+                    "levels": len(ml.levels),
+                    "cycle_factor": _cycle_factor(ml, probe.size),
+                    "setup_ms_mean_of_three": setup_ms,
+                    "cycle_ms": 1e3 * best_of(lambda c=cycle, v=probe: c.matvec(v), 5),
+                }
+            )
+        _say(
+            progress,
+            f"N={n} solve {s + 1}: "
+            + ", ".join(
+                f"{r['preconditioner']} {r['iterations_rtol_0.05']}/{r['iterations_rtol_0.001']}"
+                for r in rows
+                if r["solve"] == s
+            ),
+        )
+        progress.advance(task)
+    return rows
+
+
+def amg_part(sizes: Sequence[int], n_solves: int, out_dir: Path) -> Path:
+    try:
+        import pyamg
+    except ImportError as exc:
+        raise SystemExit(
+            f"--part amg needs pyamg ({exc}); install it with pip install -e '.[bench]'"
+        ) from exc
+    rows: list[dict] = []
+    with Progress() as progress:
+        task = progress.add_task("amg", total=len(sizes) * (1 + n_solves))
+        for n in sizes:
+            rows += amg_size(n, n_solves, progress, task)
+    hi, lo = (f"iterations_rtol_{_tol(r)}" for r in RTOLS)
+    print(f"\n{'N':>6} {'preconditioner':>14} {hi:>20} {lo:>21} {'factor':>7} {'set-up ms':>9}")
+    for n in sizes:
+        for label in dict.fromkeys(r["preconditioner"] for r in rows):
+            sel = [r for r in rows if r["nodes"] == n and r["preconditioner"] == label]
+            print(
+                f"{n:>6} {label:>14} {np.mean([r[hi] for r in sel]):>20.2f} "
+                f"{np.mean([r[lo] for r in sel]):>21.2f} "
+                f"{np.mean([r['cycle_factor'] for r in sel]):>7.2f} "
+                f"{np.mean([r['setup_ms_mean_of_three'] for r in sel]):>9.2f}"
+            )
+    path = write_csv(out_dir / "preconditioner_amg.csv", rows)
+    print("wrote", path, f"(pyamg {pyamg.__version__})")
+    return path
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    ap.add_argument("--part", choices=("all", "random", "newton"), default="all")
+    ap.add_argument("--part", choices=("all", "random", "newton", "amg"), default="all")
     ap.add_argument(
         "--sizes",
         type=lambda s: [int(x) for x in s.split(",")],
@@ -630,6 +800,9 @@ def main(argv: Sequence[str] | None = None) -> int:
         random_part(args.out)
     if args.part in ("all", "newton"):
         newton_part(args.sizes, args.solves, args.out)
+    if args.part == "amg":
+        sizes = args.sizes if args.sizes != list(NEWTON_SIZES) else list(AMG_SIZES)
+        amg_part(sizes, args.solves, args.out)
     return 0
 
 

@@ -1197,11 +1197,7 @@ def contact_newton() -> str:
         f"{c['pairs_compared']} change class over the next 2 ms."
     )
     return (
-        table
-        + "\n\n"
-        + points
-        + "\n\n"
-        + provenance(path, RESULTS / "contact_closest_points.csv")
+        table + "\n\n" + points + "\n\n" + provenance(path, RESULTS / "contact_closest_points.csv")
     )
 
 
@@ -1268,6 +1264,43 @@ def preconditioner_newton() -> str:
     head = ["nodes", "simulator's GMRES iterations"]
     head += [f"`{name}`: to 0.05 / 1e-3" for name in names]
     head += [f"`{c}`: coarse LU / banded LU" for c in coarse]
+    return _table(head, rows) + "\n\n" + provenance(path)
+
+
+def preconditioner_amg() -> str:
+    path = RESULTS / "preconditioner_amg.csv"
+    table = _csv(path)
+    rows = []
+    for n in dict.fromkeys(r["nodes"] for r in table):
+        band = [r for r in table if r["nodes"] == n and r["preconditioner"] == "band"]
+        solve_ms = sum(float(r["cycle_ms"]) for r in band) / len(band)
+        lu_ms = sum(float(r["setup_ms_mean_of_three"]) for r in band) / len(band)
+        for name in dict.fromkeys(r["preconditioner"] for r in table):
+            sel = [r for r in table if r["nodes"] == n and r["preconditioner"] == name]
+
+            def mean(key: str, sel: list[dict[str, str]] = sel) -> float:
+                return sum(float(r[key]) for r in sel) / len(sel)
+
+            amg = name != "band"
+            rows.append(
+                [
+                    n,
+                    f"`{name}`",
+                    f"{_g(mean('iterations_rtol_0.05'), 2)} / "
+                    f"{_g(mean('iterations_rtol_0.001'), 3)}",
+                    _g(mean("cycle_factor"), 2) if amg else "–",
+                    f"{_g(mean('cycle_ms') / solve_ms, 2)}×" if amg else "1×",
+                    f"{_g(mean('setup_ms_mean_of_three') / lu_ms, 2)}×" if amg else "1×",
+                ]
+            )
+    head = [
+        "nodes",
+        "preconditioner",
+        "GMRES iterations to 0.05 / 1e-3",
+        "V-cycle's convergence factor",
+        "cycle / banded solve",
+        "set-up / banded LU",
+    ]
     return _table(head, rows) + "\n\n" + provenance(path)
 
 
@@ -1590,6 +1623,7 @@ TABLES: dict[str, Callable[[], str]] = {
     "contact-seeds": contact_seeds,
     "contact-onset": contact_onset,
     "preconditioner-newton": preconditioner_newton,
+    "preconditioner-amg": preconditioner_amg,
     "contact-krylov": contact_krylov,
     "bc-search": bc_search,
     "bc-dagger": bc_dagger,
