@@ -87,17 +87,18 @@ def _freezing_against_the_coils_own_spread(effects: list[str], freeze_mm: float)
 def test_freezing_changes_a_steady_coil_less_than_the_coil_varies() -> None:
     """Overdamped: beyond 100 mm (about four turns). This weakly chaotic coil's radius moves
     by up to 0.6% with the imperfection seed and 0.4% with a tenfold tolerance; freezing
-    beyond 60 mm moves it by as much (up to 0.9%), beyond 150 mm by 0.3% at most
-    (``python benchmarks/bench_freezing.py --part coil``, docs/numerics.md)."""
+    beyond 60 mm moves it by as much (0.8%), beyond 150 mm by 0.1% (the default, clamped
+    joint; ``python benchmarks/bench_freezing.py --part coil``, docs/numerics.md). R is the
+    median over the core turns, frozen ones among them (the turns at the needle: the test
+    below)."""
     _freezing_against_the_coils_own_spread(list(Simulation(COIL).scene.effects), 100.0)
 
 
 def test_freezing_with_inertia_changes_a_steady_coil_less_than_the_coil_varies() -> None:
     """With inertia (the experiments' regimes need it; the frozen tail carries its mass and
-    added mass), beyond 100 mm. Since the jet leaves the needle at its exit speed, freezing
-    beyond 60 mm shrinks R by 1.2-2.8% over four seeds, against up to 0.9% for a tenfold
-    tolerance or another seed: an inertial coil needs the tail further away
-    (docs/numerics.md)."""
+    added mass), beyond 100 mm (0.8%). Freezing beyond 60 mm shrinks R by 2.7%, against up
+    to 0.9% for a tenfold tolerance or another seed: an inertial coil needs the tail
+    further away (the default, clamped joint; docs/numerics.md)."""
     _freezing_against_the_coils_own_spread([*Simulation(COIL).scene.effects, "inertia"], 100.0)
 
 
