@@ -422,7 +422,8 @@ def test_the_clamped_joint_is_the_bending_of_the_joining_node_with_its_exact_jac
     """``numerics.freeze_joint = "clamped"``: the joint's energy is the bending energy of
     the joining node in the whole filament (the frozen segment held as it is), its forces
     on the active nodes 0 and 1 are -dE/dx (central differences of the energy, the frozen
-    node moving with node 0), and cx * the Hessian sits in the banded Jacobian."""
+    node moving with node 0) and sum to zero (the tail takes a moment only), and cx * the
+    Hessian sits in the banded Jacobian."""
     sim = Simulation(
         COIL,
         {
@@ -464,6 +465,8 @@ def test_the_clamped_joint_is_the_bending_of_the_joining_node_with_its_exact_jac
     expected = bend_energy_grad_hess(e1, e2, kbar, bend / dl, grad, hess, np.zeros(128), False)
     assert energy > 0.0
     assert energy == pytest.approx(expected, rel=1e-12)
+    # no net force: the tail takes only a moment (forces +g and -g on nodes 0 and 1)
+    np.testing.assert_allclose(f[:3] + f[3:6], 0.0, atol=1e-12 * np.abs(f).max())
     h = 1e-9
     fd_force = np.zeros(6)
     for i in range(6):
