@@ -207,6 +207,20 @@ def test_a_coil_collapsing_onto_itself_never_interpenetrates_and_loses_energy() 
     assert gap_ratio(free.centerline(), 0.5 * MM, 0.5 * MM) < 0.5
 
 
+def _pair_alone(sim: Simulation, i: int, j: int):
+    """The contact records with the pair (i, j) alone, near, evaluated whatever its
+    allowance."""
+    mem = sim.ws.contact.memory.copy()
+    mem[0]["n_near"] = 1
+    return sim.ws.contact._replace(
+        pairs=np.array([[i, j]]),
+        count=np.array([1]),
+        near=np.array([0]),
+        allowance=np.zeros(1),
+        memory=mem,
+    )
+
+
 def test_contact_forces_balance_pairwise() -> None:
     sim = _collapsing_coil(True)
     sim.advance(0.6)
@@ -215,11 +229,7 @@ def test_contact_forces_balance_pairwise() -> None:
     total = np.zeros(3)
     touching = 0
     for i, j in pairs:  # each pair on its own: what A gets, B gets with the opposite sign
-        mem = sim.ws.contact.memory.copy()
-        mem[0]["n_near"] = 1
-        one = sim.ws.contact._replace(
-            pairs=np.array([[i, j]]), count=np.array([1]), near=np.array([0]), memory=mem
-        )
+        one = _pair_alone(sim, i, j)
         o = out._replace(force=np.zeros_like(out.force), contact=one)
         contact.accumulate(model, rod, Stage(sim.t, 0.0, 0.0, 0.0, False), o)
         f = o.force.reshape(-1, 3)
@@ -246,11 +256,7 @@ def test_friction_between_touching_turns_balances_pairwise_and_dissipates() -> N
     assert params[0]["contact_friction"] == pytest.approx(0.5)
     sliding, powers = 0, []
     for i, j in pairs:
-        mem = sim.ws.contact.memory.copy()
-        mem[0]["n_near"] = 1
-        one = sim.ws.contact._replace(
-            pairs=np.array([[i, j]]), count=np.array([1]), near=np.array([0]), memory=mem
-        )
+        one = _pair_alone(sim, i, j)
         forces = {}
         for mu in (0.5, 0.0):
             params[0]["contact_friction"] = mu
@@ -274,16 +280,42 @@ def test_friction_between_touching_turns_balances_pairwise_and_dissipates() -> N
 
 
 # ------------------------------------------------------------------ the Jacobian
+def _squeezed_coil(n: int) -> np.ndarray:
+    """Three turns of radius 3 mm squeezed to a pitch of 0.85 mm (0.85 delta for r = 0.5 mm):
+    many pairs touch, every one nearly parallel (contact at the middle of the overlap)."""
+    phi = np.linspace(0.0, 2 * math.pi * 3, n)
+    return np.column_stack([3 * MM * np.cos(phi), 3 * MM * np.sin(phi), 0.85 * MM * phi / 6.283])
+
+
+def _crossing_figure_eight(n: int) -> np.ndarray:
+    """A figure eight (lemniscate of Gerono, 6 mm) whose branches cross at right angles
+    0.85 mm apart (0.85 delta for r = 0.5 mm): the pairs at the crossing touch, at angles far
+    above SLIDING_ANGLE_DEG (contact at the closest points)."""
+    t = np.linspace(0.1, 2 * math.pi - 0.1, n)
+    a = 6 * MM
+    return np.column_stack([a * np.cos(t), a * np.sin(t) * np.cos(t), 0.425 * MM * np.sin(t)])
+
+
+# what the Jacobian leaves out: nothing at the closest points; for nearly parallel pairs the
+# motion of the contact point (the middle of the overlap) with the nodes, whose share of the
+# largest entry the squeezed coil measures at 2.8% (its force is that of the held point)
+_JACOBIAN_ERROR = {"crossing": 2e-5, "squeezed_coil": 5e-2}
+
+
+@pytest.mark.parametrize("shape", ["crossing", "squeezed_coil"])
 @pytest.mark.parametrize("friction", [0.0, 0.5])
-def test_contact_jacobian_with_its_off_band_blocks_matches_finite_differences(friction) -> None:
-    """A coil squeezed below the contact distance (pitch 0.85 delta): many pairs touch. The
-    assembled Newton matrix (band and off-band blocks) against central differences of the
-    force: in positions without friction, in velocities with it (friction's Jacobian holds
-    the geometry, as the floor's does: exact in the velocities only)."""
+def test_contact_jacobian_with_its_off_band_blocks_matches_finite_differences(
+    friction: float, shape: str
+) -> None:
+    """A figure eight crossing itself and a coil squeezed below the contact distance (many
+    pairs touch): the assembled Newton matrix (band and off-band blocks) against central
+    differences of the force, in positions without friction, in velocities with it
+    (friction's Jacobian holds the geometry, as the floor's does: exact in the velocities
+    only). Exact where contact acts at the closest points; for the nearly parallel turns of
+    the coil the positions' Jacobian holds the contact point (``_JACOBIAN_ERROR``)."""
     r = 0.5 * MM
     n = 120
-    phi = np.linspace(0.0, 2 * math.pi * 3, n)
-    pts = np.column_stack([3 * MM * np.cos(phi), 3 * MM * np.sin(phi), 0.85 * MM * phi / 6.283])
+    pts = _crossing_figure_eight(n) if shape == "crossing" else _squeezed_coil(n)
     sim = free_filament(
         pts,
         {
@@ -337,7 +369,8 @@ def test_contact_jacobian_with_its_off_band_blocks_matches_finite_differences(fr
             fd[:, k] = -(fp - fm) / (2 * h)
         far = np.abs(np.subtract.outer(np.arange(n), np.arange(n))) > 2
         assert np.abs(fd[np.kron(far, np.ones((3, 3), bool))]).max() > 0  # truly off the band
-        np.testing.assert_allclose(dense, fd, atol=2e-5 * np.abs(fd).max(), rtol=0)
+        tol = _JACOBIAN_ERROR[shape] if which == "x" else 2e-5
+        np.testing.assert_allclose(dense, fd, atol=tol * np.abs(fd).max(), rtol=0)
 
 
 # ------------------------------------------------------------------ the solver

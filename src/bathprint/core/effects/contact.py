@@ -44,7 +44,7 @@ from bathprint.core.effects._segment_geometry import (
     _distance_derivs,
     _start_distance,
     build_candidate_pairs,
-    closest_params,
+    contact_params,
     penalty,
     segment_distance,
 )
@@ -440,7 +440,7 @@ def accumulate(model, rod, stage, out) -> float:
             mid2 += dm * dm
         if mid2 > reach * reach:
             continue
-        s, t, s_free, t_free, dist2 = closest_params(x, 0, 1, 2, 3)
+        s, t, s_free, t_free, dist2 = contact_params(x, 0, 1, 2, 3)
         if dist2 >= delta * delta:
             continue
         d = _distance_derivs(
