@@ -49,7 +49,7 @@ from bench_contact import R_FIL, coil_stack
 
 from bathprint import Simulation, simulate
 from bathprint.analysis.measure import touching_gaps
-from bathprint.core.effects._segment_geometry import closest_params
+from bathprint.core.effects._segment_geometry import PARALLEL_SIN2, SLIDING_SIN2, closest_params
 
 N_NODES = 300
 DURATION_S = 0.02
@@ -64,6 +64,12 @@ VARIANTS: dict[str, dict] = {
     "soft onset 0.005 delta": {"contact.width_fraction": 0.005},
     "stiffness 100 Pa (default 1000)": {"contact.stiffness_pa": 100.0},
     "Gauss-Newton Hessian": {"contact.hessian": "gauss_newton"},
+    "contact at the closest points (parallel angle 0 deg)": {"contact.parallel_angle_deg": 0.0},
+    "closest points, Gauss-Newton Hessian": {
+        "contact.parallel_angle_deg": 0.0,
+        "contact.hessian": "gauss_newton",
+    },
+    "parallel angle 5 deg (default 10)": {"contact.parallel_angle_deg": 5.0},
 }
 
 
@@ -133,6 +139,10 @@ def closest_point_rows() -> list[dict]:
         "both_clamped": kinds[(False, False)],
         "touching": len(touching),
         "touching_both_inside": sum(1 for v in touching if v[0] and v[1]),
+        # touching at the middle of their overlap (below PARALLEL_ANGLE_DEG) or at the blend
+        # (below SLIDING_ANGLE_DEG): the contact point held (contact_params)
+        "touching_middle": sum(1 for v in touching if v[3] < PARALLEL_SIN2),
+        "touching_held": sum(1 for v in touching if v[3] < SLIDING_SIN2),
         "class_changes_over_2_ms": sum(before[k][:2] != after[k][:2] for k in common),
         "pairs_compared": len(common),
         "median_angle_deg_touching": math.degrees(
@@ -145,7 +155,8 @@ def closest_point_rows() -> list[dict]:
         f"near pairs {row['near_pairs']}: {row['both_inside']} both inside, {row['one_inside']} "
         f"one, {row['both_clamped']} both clamped; touching {row['touching']} "
         f"({row['touching_both_inside']} both inside, median angle "
-        f"{row['median_angle_deg_touching']:.1f} deg); class changes over 2 ms: "
+        f"{row['median_angle_deg_touching']:.1f} deg; {row['touching_middle']} below 10 deg, "
+        f"{row['touching_held']} below 20 deg); class changes over 2 ms: "
         f"{row['class_changes_over_2_ms']} of {row['pairs_compared']}"
     )
     return [row]

@@ -511,6 +511,41 @@ def test_rope_coiling_on_the_floor_lays_turns_beside_turns_instead_of_through_th
     assert worst["contact"] >= 0.9
 
 
+def test_the_parallel_angle_sets_where_nearly_parallel_segments_touch() -> None:
+    """``contact.parallel_angle_deg`` reaches the kernels: on the squeezed coil's nearly
+    parallel turns the force at the default (10 degrees: the middle of the overlap) differs
+    from the one at 0 (the closest points). (On a regular helix the turns' segments are
+    chords of one circle, which cross near the middle of their overlap: the nodes are
+    displaced at random by 0.03 mm.)"""
+    rng = np.random.default_rng(2)
+    pts = _squeezed_coil(120) + rng.normal(scale=0.03 * MM, size=(120, 3))
+    forces = {}
+    for angle in (10.0, 0.0):
+        sim = free_filament(
+            pts,
+            {
+                "effects": ["elasticity", "drag", "contact"],
+                "needle.inner_diameter_mm": 1.0,
+                "contact.parallel_angle_deg": angle,
+            },
+        )
+        p = sim.model.params[0]
+        assert p["contact_parallel_sin2"] == pytest.approx(math.sin(math.radians(angle)) ** 2)
+        model, rod, _, out = sim.kernel_inputs(0.0, 0.0, 0.0, False)
+        whole = Rod(sim.pos, sim.vel, sim.vel, sim.n_nodes, sim.node_s, sim.seg_rest, sim.seg_mat)
+        while not contact.prepare(sim.model.record, whole, 0, sim.ws.contact):
+            sim._grow_off_band()
+        model, rod, _, out = sim.kernel_inputs(0.0, 0.0, 0.0, False)
+        o = out._replace(force=np.zeros_like(out.force))
+        contact.accumulate(model, rod, Stage(0.0, 0.0, 0.0, 0.0, False), o)
+        forces[angle] = o.force[: 3 * sim.n_nodes].copy()
+    scale = np.abs(forces[0.0]).max()
+    assert scale > 0.0
+    assert np.abs(forces[10.0] - forces[0.0]).max() > 3e-2 * scale
+    # the same total force on each side: only where along the segments it acts differs
+    np.testing.assert_allclose(forces[10.0].sum(), forces[0.0].sum(), atol=1e-9 * scale)
+
+
 # ------------------------------------------------------------------ bad input
 @pytest.mark.parametrize(
     "key, value",
@@ -523,6 +558,8 @@ def test_rope_coiling_on_the_floor_lays_turns_beside_turns_instead_of_through_th
         ("contact.friction_coefficient", -0.1),
         ("contact.near_gap_fraction", -0.1),
         ("contact.near_gap_fraction", 2.5),
+        ("contact.parallel_angle_deg", -1.0),
+        ("contact.parallel_angle_deg", 60.0),
     ],
 )
 def test_bad_contact_values_are_refused_by_name(key: str, value: float) -> None:

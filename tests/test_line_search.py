@@ -55,12 +55,14 @@ def test_a_bad_line_search_is_refused_by_name() -> None:
         Simulation("drag_coiling_22G", {"numerics.line_search": "wolfe"})
 
 
-def test_the_line_search_keeps_newton_from_growing_with_a_tall_pressed_stack() -> None:
-    """1000 nodes (16 turns pressed onto each other) for 20 ms: without the line search a
-    stalled solve halves its updates for good and converges linearly (294 Newton iterations
-    on the machine this was written on); with it, updates are halved only until the force
-    residual decreases (148). The bound leaves room for a CPU's rounding to move a few
-    iterations either way."""
+def test_a_tall_pressed_stack_needs_few_newton_iterations_with_or_without_the_line_search() -> None:
+    """1000 nodes (16 turns pressed onto each other) for 20 ms. With contact at the closest
+    points of nearly parallel turns, Newton wandered, and without the line search a stalled
+    solve halved its updates for good (294 Newton iterations against 148 with it). With
+    contact at the middle of their overlap (``contact_params``) neither needs it: 96 and 95
+    iterations on the machine this was written on. What holds: the line search costs no
+    more iterations or failures than the plain updates. The bound leaves room for a CPU's
+    rounding to move a few iterations either way."""
     counts = {}
     for mode in ("off", "residual"):
         sim = pressed_stack(1000, mode)
@@ -68,6 +70,7 @@ def test_the_line_search_keeps_newton_from_growing_with_a_tall_pressed_stack() -
         assert sim.t == pytest.approx(0.02)
         counts[mode] = sim.counts()
     assert counts["off"]["line_search_backtracks"] == 0
-    assert counts["residual"]["line_search_backtracks"] > 0
-    assert counts["residual"]["newton_iterations"] < 0.75 * counts["off"]["newton_iterations"]
+    assert counts["residual"]["newton_iterations"] <= 1.05 * counts["off"]["newton_iterations"]
     assert counts["residual"]["newton_failures"] <= counts["off"]["newton_failures"]
+    # 5.0 per step (7.8 with contact at the closest points)
+    assert counts["residual"]["newton_iterations"] < 6 * counts["residual"]["steps"]

@@ -1193,7 +1193,9 @@ def contact_newton() -> str:
         f"Closest points after 5 ms: {c['near_pairs']} near pairs ({c['both_inside']} with both "
         f"parameters inside their segments, {c['both_clamped']} with both at an end); "
         f"{c['touching']} touching ({c['touching_both_inside']} both inside, crossing at a median "
-        f"{_g(c['median_angle_deg_touching'], 2)} deg); {c['class_changes_over_2_ms']} of "
+        f"{_g(c['median_angle_deg_touching'], 2)} deg; {c['touching_middle']} below 10 deg and "
+        f"{c['touching_held']} below 20 deg, where contact acts at the middle of the overlap or "
+        f"the blend); {c['class_changes_over_2_ms']} of "
         f"{c['pairs_compared']} change class over the next 2 ms."
     )
     return (

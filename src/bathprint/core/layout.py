@@ -96,6 +96,8 @@ PARAMS_FIELDS: tuple[tuple[str, str, str], ...] = (
     ("contact_distance_factor", "f8", "-, contact distance / the sum of the two radii"),
     ("contact_width_fraction", "f8", "-, penetration (in contact distances) of the soft onset"),
     ("contact_near_gap", "f8", "-, pairs within this gap (contact distances) are near"),
+    ("contact_parallel_sin2", "f8", "-, sin^2 of the angle below which contact is mid-overlap"),
+    ("contact_sliding_sin2", "f8", "-, sin^2 of the angle from which it is at closest points"),
     ("contact_friction", "f8", "-, Coulomb coefficient between touching segments"),
     ("contact_friction_velocity", "f8", "m/s, regularisation of that friction"),
     ("krylov_tolerance", "f8", "-, GMRES residual relative to the right-hand side"),

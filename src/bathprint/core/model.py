@@ -324,6 +324,8 @@ def compile_model(scene: Scene) -> Model:
     p.contact_distance_factor = c.distance_factor
     p.contact_width_fraction = c.width_fraction
     p.contact_near_gap = c.near_gap_fraction
+    p.contact_parallel_sin2 = math.sin(math.radians(c.parallel_angle_deg)) ** 2
+    p.contact_sliding_sin2 = math.sin(math.radians(min(2.0 * c.parallel_angle_deg, 90.0))) ** 2
     p.contact_friction = c.friction_coefficient
     p.contact_friction_velocity = c.friction_velocity_mm_s * MM
     p.contact_exact_hessian = c.hessian == "exact"

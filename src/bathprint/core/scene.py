@@ -254,6 +254,13 @@ class Contact:
         "list's skin) are evaluated in Newton's iterations; a pair further out bounds the "
         "step by the gap it may close",
     )
+    parallel_angle_deg: float = _num(
+        10.0,
+        0.0,
+        45.0,
+        doc="segments at a smaller angle touch at the middle of their overlap, blended into "
+        "the closest points up to twice the angle (0: at the closest points)",
+    )
     hessian: str = field(
         default="exact",
         metadata={

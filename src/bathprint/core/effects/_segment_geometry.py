@@ -171,15 +171,24 @@ def closest_params(pos, i0: int, i1: int, i2: int, i3: int):
 
 
 @njit(**KERNEL)
-def contact_params(pos, i0: int, i1: int, i2: int, i3: int):
+def contact_params(
+    pos,
+    i0: int,
+    i1: int,
+    i2: int,
+    i3: int,
+    parallel_sin2: float = PARALLEL_SIN2,
+    sliding_sin2: float = SLIDING_SIN2,
+):
     """The points of segments A = (x_i0, x_i1) and B = (x_i2, x_i3) where contact acts, as
     ``(s, t, s_free, t_free, dist2)`` like :func:`closest_params`.
 
-    Segments at an angle of at least SLIDING_ANGLE_DEG, or whose projections do not
-    overlap, take the closest points. Nearly parallel overlapping segments take s at the
-    middle of the overlap of B's projection on A (below PARALLEL_ANGLE_DEG), or blended
-    smoothly (a smoothstep in sin^2 of the angle) from there to the closest point's s
-    (between the two angles), held (not free), and t the projection of that point on B. The
+    Segments at an angle whose sin^2 is at least ``sliding_sin2`` (default: that of
+    SLIDING_ANGLE_DEG), or whose projections do not overlap, take the closest points.
+    Nearly parallel overlapping segments take s at the middle of the overlap of B's
+    projection on A (below ``parallel_sin2``, PARALLEL_ANGLE_DEG's), or blended smoothly (a
+    smoothstep in sin^2 of the angle) from there to the closest point's s (between the
+    two), held (not free), and t the projection of that point on B. The
     closest points of nearly parallel segments slide along them ~1/sin(angle) as fast as the
     segments move across each other, and the Hessian of their distance grows ~1/sin^2:
     held, the force moves with the segments and its Jacobian stays of the size of the
@@ -195,7 +204,7 @@ def contact_params(pos, i0: int, i1: int, i2: int, i3: int):
     )
     if a_ok and b_ok:
         sin2 = max(aa * cc - bb * bb, 0.0) / (aa * cc)
-        if sin2 < SLIDING_SIN2:
+        if sin2 < sliding_sin2:
             # nearly parallel: the overlap of B's projection on A
             s_b0 = -da / aa
             s_b1 = (bb - da) / aa
@@ -203,11 +212,11 @@ def contact_params(pos, i0: int, i1: int, i2: int, i3: int):
             hi = min(1.0, max(s_b0, s_b1))
             if lo <= hi:
                 s = 0.5 * (lo + hi)
-                if sin2 > PARALLEL_SIN2:  # blend towards the closest point's s
+                if sin2 > parallel_sin2:  # blend towards the closest point's s
                     s_e = _exact_params(
                         rx, ry, rz, ax, ay, az, bx, by, bz, aa, bb, cc, da, db, a_ok, b_ok
                     )[0]
-                    w = (sin2 - PARALLEL_SIN2) / (SLIDING_SIN2 - PARALLEL_SIN2)
+                    w = (sin2 - parallel_sin2) / (sliding_sin2 - parallel_sin2)
                     s += w * w * (3.0 - 2.0 * w) * (s_e - s)
                 t = _clamp01((db + s * bb) / cc)
                 px = rx + s * ax - t * bx

@@ -440,7 +440,9 @@ def accumulate(model, rod, stage, out) -> float:
             mid2 += dm * dm
         if mid2 > reach * reach:
             continue
-        s, t, s_free, t_free, dist2 = contact_params(x, 0, 1, 2, 3)
+        s, t, s_free, t_free, dist2 = contact_params(
+            x, 0, 1, 2, 3, p.contact_parallel_sin2, p.contact_sliding_sin2
+        )
         if dist2 >= delta * delta:
             continue
         d = _distance_derivs(
