@@ -12,7 +12,11 @@ k = ``contact.stiffness_pa`` (force per length per penetration, like the floor's
 mean rest length of the two segments. The energy is C2 in d; its exact gradient and Hessian
 (with the closest points' dependence on the positions) go into Newton: the Hessian blocks
 between the nodes of A and B, about a coil turn apart along the rod, are couplings off the
-band (``out.cpl``, solved by GMRES in :mod:`bathprint.core.solver`).
+band (``out.cpl``, solved by GMRES in :mod:`bathprint.core.solver`). Nearly parallel
+segments (below ``contact.parallel_angle_deg``, blended up to twice it) touch at the middle
+of their overlap instead of their closest points, that point held in the derivatives
+(:func:`~bathprint.core.effects._segment_geometry.contact_params`): their closest points
+slide ~1/sin(angle) as fast as they move across each other, and Newton with them.
 
 Optional friction between touching segments (``contact.friction_coefficient`` mu > 0):
 regularised Coulomb on the tangential relative velocity u_t of the closest points,
