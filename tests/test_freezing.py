@@ -3,8 +3,8 @@
 Material further behind the needle than the set arclength leaves the solve; it moves
 rigidly with the active end and acts on it through its lumped drag and net weight. The
 checks: the tail keeps its shape and stays attached, mass balance holds, the answer of a
-steady coil changes by less than the coil varies by itself (under a tenfold tolerance or
-another imperfection seed), an inertial coil at the needle does not feel a far tail and
+steady coil changes on average (over seeds) by less than under a tenfold tolerance, an
+inertial coil at the needle does not feel a far tail and
 feels a near one less through the clamped joint, whose bending matches the filament's,
 and bad settings are refused.
 """
@@ -63,10 +63,12 @@ def test_inlet_growth_and_mass_balance_go_on_with_a_frozen_tail() -> None:
     assert sim.printed_volume() == pytest.approx(expected, rel=1e-3)
 
 
-def _freezing_against_the_coils_own_spread(effects: list[str], freeze_mm: float) -> None:
-    """Coil radius and frequency (draft preset, 3 s): freezing beyond ``freeze_mm`` changes
-    them by less than the coil varies by itself, under a tenfold tolerance or another seed
-    of the needle imperfection (the error the preset already accepts)."""
+def _freezing_against_a_tighter_tolerance(effects: list[str], freeze_mm: float) -> None:
+    """Coil radius and frequency (draft preset, 3 s), paired over four seeds of the needle
+    imperfection: on average freezing beyond ``freeze_mm`` changes them by less than a
+    tenfold tolerance at half the node spacing does (the error the preset already accepts).
+    One seed's change is of the order of the coil's own chaos (R moves by 0.4-0.5% from seed
+    to seed), so a single pair is no judge."""
     base = Simulation(COIL).scene
     draft = {"numerics.accuracy": "draft", "effects": effects}
     tighter = {
@@ -75,31 +77,33 @@ def _freezing_against_the_coils_own_spread(effects: list[str], freeze_mm: float)
         "numerics.node_spacing_mm": 2 * base.numerics.node_spacing_mm,  # draft doubles it
         "effects": effects,
     }
-    r0, om0 = coil_run(draft)
-    r_f, om_f = coil_run({**draft, "numerics.freeze_beyond_mm": freeze_mm})
-    others = [coil_run(tighter)] + [coil_run({**draft, "seed": k}) for k in (1, 2)]
-    spread_r = max(abs(r / r0 - 1) for r, _ in others)
-    spread_om = max(abs(om / om0 - 1) for _, om in others)
-    assert abs(r_f / r0 - 1) < spread_r, (r0, r_f, others)
-    assert abs(om_f / om0 - 1) < spread_om, (om0, om_f, others)
+    frozen, tight = [], []
+    for seed in range(4):
+        r0, om0 = coil_run({**draft, "seed": seed})
+        r_f, om_f = coil_run({**draft, "seed": seed, "numerics.freeze_beyond_mm": freeze_mm})
+        r_t, om_t = coil_run({**tighter, "seed": seed})
+        frozen.append((r_f / r0 - 1, om_f / om0 - 1))
+        tight.append((r_t / r0 - 1, om_t / om0 - 1))
+    mean_frozen, mean_tight = np.mean(frozen, axis=0), np.mean(tight, axis=0)
+    assert abs(mean_frozen[0]) < abs(mean_tight[0]), (frozen, tight)  # R
+    assert abs(mean_frozen[1]) < abs(mean_tight[1]), (frozen, tight)  # omega
 
 
-def test_freezing_changes_a_steady_coil_less_than_the_coil_varies() -> None:
-    """Overdamped: beyond 100 mm (about four turns). This weakly chaotic coil's radius moves
-    by up to 0.6% with the imperfection seed and 0.4% with a tenfold tolerance; freezing
-    beyond 60 mm moves it by as much (0.8%), beyond 150 mm by 0.1% (the default, clamped
-    joint; ``python benchmarks/bench_freezing.py --part coil``, docs/numerics.md). R is the
-    median over the core turns, frozen ones among them (the turns at the needle: the test
-    below)."""
-    _freezing_against_the_coils_own_spread(list(Simulation(COIL).scene.effects), 100.0)
+def test_freezing_changes_a_steady_coil_less_than_a_tighter_tolerance() -> None:
+    """Overdamped, beyond 100 mm (about four turns), paired over four seeds: R by -0.10% on
+    average against +0.54% for a tenfold tolerance, omega by -0.13% against -0.74%. R is
+    the median over the core turns, frozen ones among them (the turns at the needle: the
+    tests below; ``python benchmarks/bench_freezing.py --part coil``, docs/numerics.md)."""
+    _freezing_against_a_tighter_tolerance(list(Simulation(COIL).scene.effects), 100.0)
 
 
-def test_freezing_with_inertia_changes_a_steady_coil_less_than_the_coil_varies() -> None:
+def test_freezing_with_inertia_changes_a_steady_coil_less_than_a_tighter_tolerance() -> None:
     """With inertia (the experiments' regimes need it; the frozen tail carries its mass and
-    added mass), beyond 100 mm (0.8%). Freezing beyond 60 mm shrinks R by 2.7%, against up
-    to 0.9% for a tenfold tolerance or another seed: an inertial coil needs the tail
-    further away (the default, clamped joint; docs/numerics.md)."""
-    _freezing_against_the_coils_own_spread([*Simulation(COIL).scene.effects, "inertia"], 100.0)
+    added mass), beyond 100 mm, paired over four seeds: R by -0.51% on average against
+    +1.25% for a tenfold tolerance, omega by 0.00% against -1.42% (eight seeds: R -0.58%,
+    0.50% from seed to seed; one seed alone moved by -1.46%, beyond the 0.8% of a single
+    tighter run, which is why the comparison is paired)."""
+    _freezing_against_a_tighter_tolerance([*Simulation(COIL).scene.effects, "inertia"], 100.0)
 
 
 def _near_needle_radius(
