@@ -17,7 +17,7 @@ from numba import njit
 
 from bathprint import SceneError, Simulation, SimulationError, simulate
 from bathprint.core import layout as L
-from bathprint.core import solver
+from bathprint.core import records, solver
 from bathprint.core.assemble import assemble
 from bathprint.core.effects import contact
 from bathprint.core.effects._segment_geometry import segment_distance
@@ -374,11 +374,14 @@ def test_contact_jacobian_with_its_off_band_blocks_matches_finite_differences(
 
 
 # ------------------------------------------------------------------ the solver
-def test_gmres_solves_band_plus_off_band_blocks_like_a_dense_solve() -> None:
+@pytest.mark.parametrize("coarse", [0, 4], ids=["band", "axial_coarse"])
+def test_gmres_solves_band_plus_off_band_blocks_like_a_dense_solve(coarse: int) -> None:
+    """With the banded LU as preconditioner, and with the axial coarse correction after it
+    (``numerics.preconditioner = "axial_coarse"``): the same solution as a dense solve."""
     rng = np.random.default_rng(1)
     n_nodes = 60
     nd = 3 * n_nodes
-    ws = new_workspace(n_nodes, 1, off_band=True)
+    ws = new_workspace(n_nodes, 1, off_band=True, coarse=coarse)
     dense = np.zeros((nd, nd))
     for i in range(nd):
         for j in range(max(0, i - L.KL), min(nd, i + L.KU + 1)):
@@ -404,6 +407,29 @@ def test_gmres_solves_band_plus_off_band_blocks_like_a_dense_solve() -> None:
     exact = np.linalg.solve(dense, b)
     np.testing.assert_allclose(x[:nd], exact, rtol=0, atol=1e-8 * np.abs(exact).max())
     assert counters[L.C_KRYLOV_ITERATIONS] > 0
+    if coarse:  # the coarse matrix was built and factorised: 16 coarse nodes for 60 nodes
+        assert list(ws.krylov.coarse_info) == [16, int(ws.krylov.coarse_info[1])]
+        assert 2 <= ws.krylov.coarse_info[1] <= records.COARSE_KL
+
+
+def test_the_axial_coarse_correction_keeps_gmres_short_on_a_pressed_stack(pressed_stack) -> None:
+    """A coil stack of 3000 nodes (48 turns) pressed to 0.98 of the contact distance, 20 ms:
+    with the banded LU alone GMRES takes 13.3 iterations per Newton iteration (on the
+    machine this was written on), with the axial coarse correction 2.6; Newton's own
+    iterations stay as they were (4.7 and 4.4 per step)."""
+    counts = {}
+    for pc in ("band", "axial_coarse"):
+        sim = pressed_stack(3000, **{"numerics.preconditioner": pc})
+        sim.advance(0.02)
+        counts[pc] = sim.counts()
+    per_newton = {
+        pc: c["krylov_iterations"] / c["newton_iterations"] for pc, c in counts.items()
+    }
+    assert per_newton["band"] > 8.0
+    assert per_newton["axial_coarse"] < 0.4 * per_newton["band"]
+    for pc, c in counts.items():
+        assert c["newton_iterations"] < 6 * c["steps"], pc
+        assert c["krylov_failures"] == 0, pc
 
 
 def test_a_stalled_gmres_solve_is_reported_not_passed_on() -> None:
@@ -560,9 +586,10 @@ def test_the_parallel_angle_sets_where_nearly_parallel_segments_touch() -> None:
         ("contact.near_gap_fraction", 2.5),
         ("contact.parallel_angle_deg", -1.0),
         ("contact.parallel_angle_deg", 60.0),
+        ("numerics.preconditioner", "multigrid"),
     ],
 )
-def test_bad_contact_values_are_refused_by_name(key: str, value: float) -> None:
+def test_bad_contact_values_are_refused_by_name(key: str, value: float | str) -> None:
     with pytest.raises(SceneError, match=key.replace(".", r"\.")):
         Simulation("drag_coiling_22G", {key: value})
 

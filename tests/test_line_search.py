@@ -3,37 +3,9 @@ pressed coil stack, and that it leaves scenes without contact alone."""
 
 from __future__ import annotations
 
-import math
-
-import numpy as np
 import pytest
 
 from bathprint import SceneError, Simulation
-
-MM = 1e-3
-R_FIL = 0.205 * MM  # 22G
-
-
-def pressed_stack(n: int, line_search: str) -> Simulation:
-    """A stress-free coil stack of ``n`` nodes (radius 3 mm, 0.3 mm spacing) whose turns
-    overlap by 2% of the contact distance: every turn is pressed onto the next, a chain of
-    contacts as high as the stack (the stack of ``benchmarks/bench_contact.py``)."""
-    radius, pitch = 3 * MM, 0.98 * 2 * R_FIL
-    dphi = 0.3 * MM / math.hypot(radius, pitch / (2 * math.pi))
-    phi = dphi * np.arange(n)
-    pts = np.column_stack(
-        [radius * np.cos(phi), radius * np.sin(phi), -50 * MM + pitch * phi / (2 * math.pi)]
-    )
-    return Simulation.from_points(
-        pts,
-        "drag_coiling_22G",
-        {
-            "effects": ["elasticity", "drag", "gravity", "contact"],
-            "duration_s": 1e3,
-            "numerics.line_search": line_search,
-        },
-        relaxed=True,
-    )
 
 
 @pytest.mark.parametrize(
@@ -55,7 +27,9 @@ def test_a_bad_line_search_is_refused_by_name() -> None:
         Simulation("drag_coiling_22G", {"numerics.line_search": "wolfe"})
 
 
-def test_a_tall_pressed_stack_needs_few_newton_iterations_with_or_without_the_line_search() -> None:
+def test_a_tall_pressed_stack_needs_few_newton_iterations_with_or_without_the_line_search(
+    pressed_stack,
+) -> None:
     """1000 nodes (16 turns pressed onto each other) for 20 ms. With contact at the closest
     points of nearly parallel turns, Newton wandered, and without the line search a stalled
     solve halved its updates for good (294 Newton iterations against 148 with it). With
@@ -65,7 +39,7 @@ def test_a_tall_pressed_stack_needs_few_newton_iterations_with_or_without_the_li
     rounding to move a few iterations either way."""
     counts = {}
     for mode in ("off", "residual"):
-        sim = pressed_stack(1000, mode)
+        sim = pressed_stack(1000, **{"numerics.line_search": mode})
         sim.advance(0.02)
         assert sim.t == pytest.approx(0.02)
         counts[mode] = sim.counts()

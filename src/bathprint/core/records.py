@@ -94,6 +94,12 @@ class Krylov(NamedTuple):
     hess: np.ndarray  # (m + 1, m): the Hessenberg matrix
     small: np.ndarray  # (4, m + 1): g, Givens cosines, sines, y
     z: np.ndarray  # (3 cap,)
+    coarse: np.ndarray  # (1,) int64: the coarse spacing (nodes) of the axial correction, 0: none
+    coarse_band: np.ndarray  # (coarse cap, 3 COARSE_KL + 1): its matrix, band LU in place
+    coarse_piv: np.ndarray  # (coarse cap,) int64
+    coarse_x: np.ndarray  # (coarse cap,)
+    coarse_info: np.ndarray  # (2,) int64: coarse unknowns and half-bandwidth of its LU (0: none)
+    e: np.ndarray  # (2, 3 cap): the coarse correction, and its product with the Newton matrix
 
 
 class Contact(NamedTuple):
@@ -264,9 +270,17 @@ def new_couplings(capacity: int) -> Couplings:
     )
 
 
-def new_krylov(n_dof: int, restart: int) -> Krylov:
+COARSE_SPACING = 4  # nodes between the axial coarse nodes of preconditioner "axial_coarse"
+COARSE_KL = 24  # couplings further apart (in coarse nodes) are left out of its matrix
+
+
+def new_krylov(n_dof: int, restart: int, coarse: int = 0) -> Krylov:
+    """GMRES workspace for ``n_dof`` unknowns; ``coarse``: the spacing (nodes) of the axial
+    coarse correction, 0 for none."""
     from bathprint.core.layout import BAND_WIDTH
 
+    n_coarse = n_dof // (3 * coarse) + 2 if coarse > 0 else 0
+    n_fine = n_dof if coarse > 0 else 0
     return Krylov(
         band_a=np.zeros((n_dof, BAND_WIDTH)),
         basis=np.zeros((restart + 1, n_dof)),
@@ -274,6 +288,12 @@ def new_krylov(n_dof: int, restart: int) -> Krylov:
         hess=np.zeros((restart + 1, max(restart, 1))),
         small=np.zeros((4, restart + 1)),
         z=np.zeros(n_dof),
+        coarse=np.array([coarse], dtype=np.int64),
+        coarse_band=np.zeros((n_coarse, 3 * COARSE_KL + 1)),
+        coarse_piv=np.zeros(n_coarse, dtype=np.int64),
+        coarse_x=np.zeros(n_coarse),
+        coarse_info=np.zeros(2, dtype=np.int64),
+        e=np.zeros((2, n_fine)),
     )
 
 
@@ -305,11 +325,12 @@ KRYLOV_RESTART = 30
 
 
 def new_workspace(
-    capacity: int, n_vecs: int, off_band: bool = False, hydro: bool = False
+    capacity: int, n_vecs: int, off_band: bool = False, hydro: bool = False, coarse: int = 0
 ) -> Workspace:
     """Scratch for a state of ``capacity`` nodes; ``off_band``: room for couplings off the
     band (contact), their GMRES workspace and the contact pairs (else zero-size arrays);
-    ``hydro``: the hydrodynamics effect's arrays (else zero-size)."""
+    ``hydro``: the hydrodynamics effect's arrays (else zero-size); ``coarse``: the spacing of
+    GMRES's axial coarse correction (0: none)."""
     from bathprint.core.layout import BAND_WIDTH, SOLVER_DTYPE, TAIL_DTYPE
 
     n_dof = 3 * capacity
@@ -323,7 +344,7 @@ def new_workspace(
         scratch=new_scratch(),
         cpl=new_couplings(16 * capacity if off_band else 0),
         cpl_drop=new_couplings(0),
-        krylov=new_krylov(n_dof, KRYLOV_RESTART) if off_band else new_krylov(0, 0),
+        krylov=new_krylov(n_dof, KRYLOV_RESTART, coarse) if off_band else new_krylov(0, 0),
         contact=new_contact(capacity, 8 * capacity) if off_band else new_contact(0, 0),
         hydro=new_hydro(capacity if hydro else 0),
     )

@@ -418,6 +418,15 @@ class Numerics:
         "(contact, implicit hydrodynamics): the forcing term of inexact Newton, whose own "
         "iteration corrects the rest",
     )
+    preconditioner: str = field(
+        default="band",
+        metadata={
+            "choices": ("band", "axial_coarse"),
+            "doc": "GMRES's preconditioner with couplings off the band: the banded LU of the "
+            "local part, or that followed by a coarse correction of the displacements along "
+            "z on every fourth node (piecewise linear; the stack modes of pressed coils)",
+        },
+    )
 
 
 @dataclass

@@ -140,7 +140,12 @@ class Simulation:
         self.seg_mat = np.zeros((cap, L.N_MAT))
         old = getattr(self, "ws", None)
         hydro = bool(self.model.enabled[L.E_HYDRODYNAMICS])
-        self.ws = records.new_workspace(cap, N_VECS, off_band=self._off_band(), hydro=hydro)
+        coarse = (
+            records.COARSE_SPACING if self.scene.numerics.preconditioner == "axial_coarse" else 0
+        )
+        self.ws = records.new_workspace(
+            cap, N_VECS, off_band=self._off_band(), hydro=hydro, coarse=coarse
+        )
         if old is not None:  # what the stepper remembers survives a grow, but not the LU
             self.ws.solver[:] = old.solver
             self.ws.solver[0]["lu_valid"] = False

@@ -33,6 +33,7 @@ from bathprint.core.banded import add_blocks_matvec, band_lu, band_matvec, band_
 from bathprint.core.effects.hydrodynamics import apply_nonlocal
 from bathprint.core.jit import KERNEL, kernel
 from bathprint.core.layout import C_KRYLOV_FAILURES, C_KRYLOV_ITERATIONS, KL, KU
+from bathprint.core.records import COARSE_KL
 
 KRYLOV_MAX_RESTARTS = 10  # restarts of KRYLOV_RESTART iterations each before a solve stalls
 
@@ -47,13 +48,121 @@ def off_band(ws) -> bool:
 @njit(**KERNEL)
 def factor(ws, nd: int) -> bool:
     """Factorise the assembled Newton matrix's band (``ws.band``) in place (keeping an
-    unfactored copy when couplings off the band need it for GMRES); False if singular."""
+    unfactored copy when couplings off the band need it for GMRES, and with the axial coarse
+    correction its coarse matrix, factorised); False if singular."""
+    kr = ws.krylov
     if off_band(ws):
-        a = ws.krylov.band_a
+        a = kr.band_a
         for i in range(nd):
             for k in range(ws.band.shape[1]):
                 a[i, k] = ws.band[i, k]
+        if kr.coarse[0] > 0:
+            _coarse_factor(ws, nd)
     return band_lu(ws.band, nd, KL, KU, ws.piv) == 0
+
+
+@njit(**KERNEL, inline="always")
+def _hat(i: int, spacing: int):
+    """Node i's coarse nodes and weights (c, w_c, w_c+1): piecewise linear along the node
+    index between coarse nodes every ``spacing`` nodes."""
+    c = i // spacing
+    f = (i - c * spacing) / spacing
+    return c, 1.0 - f, f
+
+
+@njit(**KERNEL)
+def _coarse_add(cb, kc: int, ci: int, wi0: float, wi1: float, cj: int, wj0: float, wj1: float,
+                value: float) -> None:  # fmt: skip
+    """Add value w_i w_j into the coarse band (row storage, kl = ku = kc) at the coarse
+    nodes of fine nodes i and j; pairs further apart than kc are left out."""
+    for a in range(2):
+        wa = wi0 if a == 0 else wi1
+        if wa == 0.0:
+            continue
+        for b in range(2):
+            wb = wj0 if b == 0 else wj1
+            if wb == 0.0:
+                continue
+            r = ci + a
+            c = cj + b
+            if abs(c - r) <= kc:
+                cb[r, c - r + kc] += wa * wb * value
+
+
+@njit(**KERNEL)
+def _coarse_factor(ws, nd: int) -> None:
+    """The axial coarse matrix A_c = P^T A P (P: the z displacements, piecewise linear
+    between every ``coarse``-th node) from the unfactored band and the off-band blocks, its
+    half-bandwidth the widest coupling up to COARSE_KL coarse nodes, factorised in place;
+    coarse_info holds its size and half-bandwidth (0 when singular: no correction)."""
+    kr = ws.krylov
+    spacing = kr.coarse[0]
+    n = nd // 3
+    nc = (n - 1) // spacing + 2
+    cpl = ws.cpl
+    n_blocks = min(cpl.count[0], cpl.row.shape[0])
+    kc = 2
+    for k in range(n_blocks):
+        d = abs(cpl.row[k] - cpl.col[k]) // spacing + 2
+        if d > kc:
+            kc = d
+    kc = min(kc, COARSE_KL)
+    cb = kr.coarse_band
+    for r in range(nc):
+        for k in range(3 * kc + 1):
+            cb[r, k] = 0.0
+    a = kr.band_a
+    for i in range(n):
+        ci, wi0, wi1 = _hat(i, spacing)
+        for j in range(max(0, i - 2), min(n, i + 3)):
+            value = a[3 * i + 2, 3 * (j - i) + KL]
+            if value != 0.0:
+                cj, wj0, wj1 = _hat(j, spacing)
+                _coarse_add(cb, kc, ci, wi0, wi1, cj, wj0, wj1, value)
+    for k in range(n_blocks):
+        i = cpl.row[k]
+        j = cpl.col[k]
+        ci, wi0, wi1 = _hat(i, spacing)
+        cj, wj0, wj1 = _hat(j, spacing)
+        _coarse_add(cb, kc, ci, wi0, wi1, cj, wj0, wj1, cpl.block[k, 2, 2])
+    # coarse nodes beyond the last fine node's hat carry nothing: keep them out
+    used = (n - 1) // spacing + (1 if (n - 1) % spacing else 0) + 1
+    ok = band_lu(cb, used, kc, kc, kr.coarse_piv) == 0
+    kr.coarse_info[0] = used if ok else 0
+    kr.coarse_info[1] = kc
+
+
+@njit(**KERNEL)
+def _coarse_correct(ws, nd: int, v: np.ndarray, z: np.ndarray, y: np.ndarray) -> None:
+    """With y = A z for z = B^-1 v: z += P A_c^-1 P^T (v - y) and y += A (that correction),
+    the axial coarse correction after the banded LU."""
+    kr = ws.krylov
+    nc = kr.coarse_info[0]
+    if nc == 0:
+        return
+    spacing = kr.coarse[0]
+    n = nd // 3
+    xc = kr.coarse_x
+    for c in range(nc):
+        xc[c] = 0.0
+    for i in range(n):  # restriction of the z residuals
+        ci, w0, w1 = _hat(i, spacing)
+        r = v[3 * i + 2] - y[3 * i + 2]
+        xc[ci] += w0 * r
+        if w1 != 0.0:
+            xc[ci + 1] += w1 * r
+    band_solve(kr.coarse_band, nc, kr.coarse_info[1], kr.coarse_info[1], kr.coarse_piv, xc)
+    e = kr.e[0]
+    ae = kr.e[1]
+    for k in range(nd):
+        e[k] = 0.0
+    for i in range(n):  # prolongation
+        ci, w0, w1 = _hat(i, spacing)
+        e[3 * i + 2] = w0 * xc[ci] + (w1 * xc[ci + 1] if w1 != 0.0 else 0.0)
+    matvec(ws, nd, e, ae)
+    for k in range(nd):
+        z[k] += e[k]
+        y[k] += ae[k]
 
 
 @njit(**KERNEL)
@@ -145,6 +254,8 @@ def _gmres(ws, nd: int, b: np.ndarray, counters: np.ndarray, rtol: float) -> boo
             band_solve(ws.band, nd, KL, KU, ws.piv, zj)
             v_new = basis[j + 1]
             _off_band_times(ws, nd, vj, zj, v_new)
+            if kr.coarse[0] > 0:  # z_j += the axial coarse correction, v_new with it
+                _coarse_correct(ws, nd, vj, zj, v_new)
             for i in range(j + 1):
                 h = _dot(v_new, basis[i], nd)
                 hess[i, j] = h
