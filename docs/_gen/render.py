@@ -1048,7 +1048,8 @@ def contact_scaling() -> str:
     path = RESULTS / "contact_scaling.csv"
     rows = [
         [
-            "apart (1.5 δ)" if float(r["pitch_over_contact_distance"]) > 1 else "pressed (0.98 δ)",
+            ("apart (1.5 δ)" if float(r["pitch_over_contact_distance"]) > 1 else "pressed (0.98 δ)")
+            + (", axial coarse" if r.get("preconditioner") == "axial_coarse" else ""),
             r["nodes"],
             _g(r["us_per_step_none"]),
             _g(r["us_per_step_contact"]),
