@@ -1058,6 +1058,7 @@ def contact_scaling() -> str:
             _g(r["newton_per_step_contact"], 2),
             _g(r["krylov_per_newton"], 2),
             _g(r["near_per_segment"], 2),
+            _g(r["warm_up_wall_s_contact"]) if r.get("warm_up_wall_s_contact") else "–",
         ]
         for r in _csv(path)
     ]
@@ -1071,6 +1072,7 @@ def contact_scaling() -> str:
         "Newton per step",
         "Krylov per Newton",
         "near pairs per segment",
+        "first 2 ms with (s)",
     ]
     return _table(head, rows) + "\n\n" + provenance(path)
 
