@@ -412,6 +412,21 @@ def test_gmres_solves_band_plus_off_band_blocks_like_a_dense_solve(coarse: int) 
         assert 2 <= ws.krylov.coarse_info[1] <= records.COARSE_KL
 
 
+def test_a_pickled_simulation_keeps_its_axial_coarse_correction(pressed_stack) -> None:
+    """The preconditioner comes from the scene when the workspace is rebuilt: a pickled
+    stack continues bit for bit, with the same GMRES iterations."""
+    import pickle
+
+    a = pressed_stack(300, **{"numerics.preconditioner": "axial_coarse"})
+    a.advance(2e-3)
+    b = pickle.loads(pickle.dumps(a))
+    assert b.ws.krylov.coarse[0] == records.COARSE_SPACING
+    a.advance(5e-3)
+    b.advance(5e-3)
+    np.testing.assert_array_equal(a.pos, b.pos)
+    assert a.counts()["krylov_iterations"] == b.counts()["krylov_iterations"] > 0
+
+
 def test_the_axial_coarse_correction_keeps_gmres_short_on_a_pressed_stack(pressed_stack) -> None:
     """A coil stack of 3000 nodes (48 turns) pressed to 0.98 of the contact distance, 20 ms:
     with the banded LU alone GMRES takes 13.3 iterations per Newton iteration (on the
@@ -422,9 +437,7 @@ def test_the_axial_coarse_correction_keeps_gmres_short_on_a_pressed_stack(presse
         sim = pressed_stack(3000, **{"numerics.preconditioner": pc})
         sim.advance(0.02)
         counts[pc] = sim.counts()
-    per_newton = {
-        pc: c["krylov_iterations"] / c["newton_iterations"] for pc, c in counts.items()
-    }
+    per_newton = {pc: c["krylov_iterations"] / c["newton_iterations"] for pc, c in counts.items()}
     assert per_newton["band"] > 8.0
     assert per_newton["axial_coarse"] < 0.4 * per_newton["band"]
     for pc, c in counts.items():
