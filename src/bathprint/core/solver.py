@@ -98,7 +98,7 @@ def _coarse_factor(ws, nd: int) -> None:
     kr = ws.krylov
     spacing = kr.coarse[0]
     n = nd // 3
-    nc = (n - 1) // spacing + 2
+    nc = (n + spacing - 2) // spacing + 1  # coarse nodes 0..ceil((n - 1) / spacing)
     cpl = ws.cpl
     n_blocks = min(cpl.count[0], cpl.row.shape[0])
     kc = 2
@@ -125,10 +125,8 @@ def _coarse_factor(ws, nd: int) -> None:
         ci, wi0, wi1 = _hat(i, spacing)
         cj, wj0, wj1 = _hat(j, spacing)
         _coarse_add(cb, kc, ci, wi0, wi1, cj, wj0, wj1, cpl.block[k, 2, 2])
-    # coarse nodes beyond the last fine node's hat carry nothing: keep them out
-    used = (n - 1) // spacing + (1 if (n - 1) % spacing else 0) + 1
-    ok = band_lu(cb, used, kc, kc, kr.coarse_piv) == 0
-    kr.coarse_info[0] = used if ok else 0
+    ok = band_lu(cb, nc, kc, kc, kr.coarse_piv) == 0
+    kr.coarse_info[0] = nc if ok else 0
     kr.coarse_info[1] = kc
 
 
@@ -152,16 +150,15 @@ def _coarse_correct(ws, nd: int, v: np.ndarray, z: np.ndarray, y: np.ndarray) ->
         if w1 != 0.0:
             xc[ci + 1] += w1 * r
     band_solve(kr.coarse_band, nc, kr.coarse_info[1], kr.coarse_info[1], kr.coarse_piv, xc)
-    e = kr.e[0]
+    e = kr.e[0]  # its x and y stay zero (from the allocation): only z is written
     ae = kr.e[1]
-    for k in range(nd):
-        e[k] = 0.0
     for i in range(n):  # prolongation
         ci, w0, w1 = _hat(i, spacing)
-        e[3 * i + 2] = w0 * xc[ci] + (w1 * xc[ci + 1] if w1 != 0.0 else 0.0)
+        ez = w0 * xc[ci] + (w1 * xc[ci + 1] if w1 != 0.0 else 0.0)
+        e[3 * i + 2] = ez
+        z[3 * i + 2] += ez
     matvec(ws, nd, e, ae)
     for k in range(nd):
-        z[k] += e[k]
         y[k] += ae[k]
 
 
