@@ -76,6 +76,20 @@ def test_readme_headline_table_is_rendered_from_the_result_files():
     )
 
 
+def test_filled_blocks_in_the_docs_match_their_result_files():
+    # a page keeps a block's rendered text only where it is read as a file (bare markers are
+    # filled at build time): that text must be what the result files give now
+    stale = []
+    for page in _our_pages():
+        text = page.read_text(encoding="utf-8")
+        for m in render.DIRECTIVE.finditer(text):
+            if m.group(0).endswith("<!-- end render -->") and (
+                render.render_markdown(m.group(0), keep_markers=True) != m.group(0)
+            ):
+                stale.append(f"{page.relative_to(ROOT)}: {m.group(1)}")
+    assert not stale, f"out of date (python docs/_gen/render.py --write FILE): {stale}"
+
+
 def test_figures_in_the_docs_are_copies_of_their_result_files():
     assert render.FIGURES and not render.stale_figures(), (
         "docs/img is out of date: python docs/_gen/render.py --write"
