@@ -8,7 +8,8 @@ distance (every turn touching the next: a chain of contacts as high as the stack
 N = 10^2 .. 10^4, with GMRES preconditioned by the banded LU and (``numerics.preconditioner
 = "axial_coarse"``) by the banded LU and an axial coarse correction. Wall time per step and
 per node-step with and without contact (the pair search included), Krylov iterations per
-Newton iteration. (At a fixed 1 ms step the
+Newton iteration; ``--part settled``: the pressed stacks, 300 to 10^4 nodes, after 20 ms
+(when they have relaxed), at steps of at most 0.25 ms, for 20 ms more. (At a fixed 1 ms step the
 pressed stack's Newton matrix is indefinite, -P' Hess d exceeding the drag term, and GMRES
 stalls: the adaptive steps are shorter there.) (2) drag_coiling_22G (4 s) and period_doubling_22G
 (0.5 s) with and without contact: wall time ratio, Krylov iterations per Newton iteration,
@@ -18,7 +19,7 @@ lists contact, for its whole duration as shipped, with the smallest distance bet
 non-adjacent segments over all its saved frames (the validation's "never closer than 0.9
 contact distances", for whole runs; tests/test_contact.py checks shortened ones).
 
-    python benchmarks/bench_contact.py [--quick] [--part scaling|scenes|whole]
+    python benchmarks/bench_contact.py [--quick] [--part scaling|settled|scenes|whole]
 """
 
 from __future__ import annotations
@@ -66,36 +67,51 @@ WARM_UP_S = 2e-3  # the stack's first relaxation, timed apart from the window
 
 
 def scaling(
-    sizes: list[int], duration: float, gap: float, preconditioner: str = "band"
+    sizes: list[int],
+    duration: float,
+    gap: float,
+    preconditioner: str = "band",
+    warm_up: float = WARM_UP_S,
+    max_step: float = 0.0,
 ) -> list[dict]:
     """The stack of N nodes at pitch ``gap`` with and without contact (with
-    ``numerics.preconditioner``), best of 3: its first WARM_UP_S (a stack drawn pressed into
-    contact everywhere relaxes: wall time and steps apart), then ``duration`` more: cost per
-    step and per node-step, Newton and Krylov iterations, pairs, over that window."""
+    ``numerics.preconditioner``, and steps of at most ``max_step`` if it is > 0), best of 3:
+    its first ``warm_up`` seconds (a stack drawn pressed into contact everywhere relaxes:
+    wall time and steps apart), then ``duration`` more: cost per step and per node-step,
+    Newton and Krylov iterations, pairs, over that window."""
     rows = []
-    extra = {"numerics.preconditioner": preconditioner}
+    extra: dict = {"numerics.preconditioner": preconditioner}
+    if max_step > 0.0:
+        extra["numerics.max_step_s"] = max_step
     for n in sizes:
-        out = {"pitch_over_contact_distance": gap, "nodes": n, "preconditioner": preconditioner}
+        out = {
+            "pitch_over_contact_distance": gap,
+            "nodes": n,
+            "preconditioner": preconditioner,
+            "warm_up_s": warm_up,
+            "window_s": duration,
+            "max_step_s": max_step,
+        }
         for contact in (False, True):
             key = "contact" if contact else "none"
             base = coil_stack(n, contact, gap, extra)
             base.advance(1e-3)  # compile
 
             warmed = [coil_stack(n, contact, gap, extra) for _ in range(3)]
-            warm_up = []
+            warm_walls = []
             for s in warmed:
                 t0 = time.perf_counter()
-                s.advance(WARM_UP_S)
-                warm_up.append(time.perf_counter() - t0)
-            out[f"warm_up_wall_s_{key}"] = min(warm_up)
+                s.advance(warm_up)
+                warm_walls.append(time.perf_counter() - t0)
+            out[f"warm_up_wall_s_{key}"] = min(warm_walls)
             out[f"warm_up_steps_{key}"] = warmed[0].counts()["steps"]
             start = {id(s): s.counts() for s in warmed}
             sims = iter(warmed)
             last = {}
 
-            def run(sims=sims, last=last) -> None:
+            def run(sims=sims, last=last, t_end=warm_up + duration) -> None:
                 s = next(sims)
-                s.advance(WARM_UP_S + duration)
+                s.advance(t_end)
                 last["sim"] = s
 
             total = best_of(run, 3)
@@ -179,10 +195,14 @@ def scenes(durations: dict[str, float]) -> list[dict]:
 def main() -> None:
     p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     p.add_argument("--quick", action="store_true", help="smaller sizes and shorter runs")
-    p.add_argument("--part", choices=("all", "scaling", "scenes", "whole"), default="all")
+    p.add_argument(
+        "--part", choices=("all", "scaling", "settled", "scenes", "whole"), default="all"
+    )
     args = p.parse_args()
     if args.part in ("all", "scaling"):
         scaling_part(args.quick)
+    if args.part in ("all", "settled"):
+        settled_part(args.quick)
     if args.part in ("all", "scenes"):
         scenes_part(args.quick)
     if args.part in ("all", "whole"):
@@ -197,6 +217,28 @@ def scaling_part(quick: bool) -> None:
     rows = scaling(apart, duration, 1.5) + scaling(touching, duration, 0.98)
     rows += scaling(touching, duration, 0.98, "axial_coarse")
     write_csv("contact_scaling", rows)
+
+
+SETTLED_WARM_UP_S = 0.02  # a pressed stack of 10^4 nodes relaxes over about 20 ms
+SETTLED_MAX_STEP_S = 2.5e-4  # the same steps at every N
+
+
+def settled_part(quick: bool) -> None:
+    """The pressed stacks after they have relaxed (SETTLED_WARM_UP_S), at steps of at most
+    SETTLED_MAX_STEP_S: the same physics and steps at every N, so the cost per node-step
+    shows how the work of a step grows with N."""
+    touching = [300, 1000] if quick else [300, 1000, 3000, 10000]
+    duration = 5e-3 if quick else 2e-2
+    print(
+        f"cost per step against N, pressed stacks after {SETTLED_WARM_UP_S * 1e3:g} ms, "
+        f"steps of at most {SETTLED_MAX_STEP_S * 1e3:g} ms:"
+    )
+    rows = []
+    for preconditioner in ("band", "axial_coarse"):
+        rows += scaling(
+            touching, duration, 0.98, preconditioner, SETTLED_WARM_UP_S, SETTLED_MAX_STEP_S
+        )
+    write_csv("contact_scaling_settled", rows)
 
 
 def scenes_part(quick: bool) -> None:

@@ -30,10 +30,12 @@ the penalty's soft onset, ``contact.width_fraction``, also starting before conta
 (``contact.distance_factor`` > 1) (``--part onset``: what holding the contact distance more
 exactly costs; the final frame's touching segments' gaps, 10th percentile and median, say
 how exactly it is held either way), and against GMRES's stopping tolerance
-(``--part krylov``: Newton's forcing term).
+(``--part krylov``: Newton's forcing term). ``--part late`` starts from the pile's state at
+0.8 s, where contact costs most, and changes one thing at a time for 60 ms more: the Newton
+policy, the linear solve, the soft onset.
 
     python benchmarks/bench_contact_newton.py
-        [--part variants|sizes|scene|near_gap|seeds|onset|krylov]
+        [--part variants|sizes|scene|near_gap|seeds|onset|krylov|late]
 """
 
 from __future__ import annotations
@@ -73,6 +75,19 @@ VARIANTS: dict[str, dict] = {
 }
 
 
+def _newton_counts(c: dict[str, int]) -> dict[str, float]:
+    """Steps and Newton's counts from a difference of ``Simulation.counts()``."""
+    newton = max(c["newton_iterations"], 1)
+    return {
+        "steps": c["steps"],
+        "rejected_steps": c["rejected_steps"],
+        "newton_failures": c["newton_failures"],
+        "newton_per_step": c["newton_iterations"] / max(c["steps"], 1),
+        "krylov_per_newton": c["krylov_iterations"] / newton,
+        "damped_share": c["damped_newton_iterations"] / newton,
+    }
+
+
 def newton_rows() -> list[dict]:
     coil_stack(N_NODES, True, 0.98).advance(1e-3)  # compile
     rows, base = [], None
@@ -86,13 +101,8 @@ def newton_rows() -> list[dict]:
         rows.append(
             {
                 "variant": label,
-                "steps": c["steps"],
-                "rejected_steps": c["rejected_steps"],
-                "newton_per_step": c["newton_iterations"] / c["steps"],
+                **_newton_counts(c),
                 "jacobians": c["jacobians"],
-                "krylov_per_newton": c["krylov_iterations"] / max(c["newton_iterations"], 1),
-                "newton_failures": c["newton_failures"],
-                "damped_share": c["damped_newton_iterations"] / max(c["newton_iterations"], 1),
                 "wall_s": wall,
                 "wall_ratio": wall / base,
             }
@@ -329,11 +339,96 @@ def seed_rows() -> list[dict]:
     return rows
 
 
+LATE_START_S = 0.8  # the pile's state the late variants start from
+LATE_WINDOW_S = 0.06  # simulated time each late variant runs from it
+#: label: fields of the compiled parameter record (``bathprint.core.layout.PARAMS_FIELDS``)
+#: changed on a copy of the state at LATE_START_S; None: the run without contact, from its
+#: own state at LATE_START_S
+LATE_VARIANTS: dict[str, dict[str, float] | None] = {
+    "without contact": None,
+    "contact (default)": {},
+    "Newton tolerance 0.03 (default 0.01)": {"newton_tolerance": 0.03},
+    "no line search": {"line_search": 0.0},
+    "full Newton": {"newton_reuse": 0.0},
+    "full Newton, GMRES to 1e-9": {"newton_reuse": 0.0, "krylov_tolerance": 1e-9},
+    "GMRES to 0.02": {"krylov_tolerance": 0.02},
+    "soft onset 0.1 delta": {"contact_width_fraction": 0.1},
+    "soft onset 0.2 delta from 1.02 (r_A + r_B)": {
+        "contact_width_fraction": 0.2,
+        "contact_distance_factor": 1.02,
+    },
+}
+
+
+def late_rows() -> list[dict]:
+    """The pile late in its run, where contact costs most: SCENE (seed 0) advanced to
+    LATE_START_S with and without contact, then LATE_WINDOW_S more from copies of that state
+    (pickled), each with the fields of LATE_VARIANTS changed in its compiled parameter
+    record (the scene keys they come from: numerics.newton_tolerance, numerics.line_search,
+    numerics.newton, numerics.krylov_tolerance, contact.width_fraction,
+    contact.distance_factor). Every contact variant starts from the same state, so the
+    counts compare Newton on the same pile; the run without contact has its own pile."""
+    import pickle
+
+    states = {}
+    for contact in (False, True):
+        sim = Simulation(SCENE, {} if contact else _without_contact())
+        sim.advance(LATE_START_S)
+        states[contact] = pickle.dumps(sim)
+    rows, base = [], None
+    for label, fields in LATE_VARIANTS.items():
+        sim = pickle.loads(states[fields is not None])
+        for field, value in (fields or {}).items():
+            sim.model.params[0][field] = value
+        start = sim.counts()
+        t0 = time.perf_counter()
+        sim.advance(LATE_START_S + LATE_WINDOW_S)
+        wall = time.perf_counter() - t0
+        end = sim.counts()
+        c = {k: end[k] - start[k] for k in end}
+        base = base or wall
+        steps = max(c["steps"], 1)
+        rows.append(
+            {
+                "scene": SCENE,
+                "start_s": LATE_START_S,
+                "window_s": LATE_WINDOW_S,
+                "variant": label,
+                "nodes": sim.n_nodes,
+                **_newton_counts(c),
+                "jacobians_per_step": c["jacobians"] / steps,
+                "backtracks_per_step": c["line_search_backtracks"] / steps,
+                "wall_s": wall,
+                "wall_ratio": wall / base,
+            }
+        )
+        r = rows[-1]
+        print(
+            f"{label:>44}: {r['steps']} steps, {r['newton_per_step']:.2f} Newton and "
+            f"{r['jacobians_per_step']:.2f} Jacobians per step, {r['krylov_per_newton']:.2f} "
+            f"Krylov per Newton, {r['backtracks_per_step']:.2f} backtracks per step, "
+            f"{r['newton_failures']} Newton failures, wall {wall:.2f} s "
+            f"(x{r['wall_ratio']:.2f} without contact)",
+            flush=True,
+        )
+    return rows
+
+
 if __name__ == "__main__":
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument(
         "--part",
-        choices=("all", "variants", "sizes", "scene", "near_gap", "seeds", "onset", "krylov"),
+        choices=(
+            "all",
+            "variants",
+            "sizes",
+            "scene",
+            "near_gap",
+            "seeds",
+            "onset",
+            "krylov",
+            "late",
+        ),
         default="all",
     )
     part = ap.parse_args().part
@@ -360,6 +455,10 @@ if __name__ == "__main__":
         "krylov": (
             f"{scene}, against numerics.krylov_tolerance:",
             [("contact_krylov_tolerance", krylov_rows)],
+        ),
+        "late": (
+            f"{SCENE} from {LATE_START_S:g} s for {LATE_WINDOW_S:g} s:",
+            [("contact_late", late_rows)],
         ),
     }
     for name, (title, outputs) in parts.items():

@@ -76,3 +76,47 @@ def test_the_whole_run_part_lists_every_contact_scene_and_measures_its_gap(bench
     for r in rows:
         assert r["frames"] >= 1 and r["steps"] > 0 and r["wall_s"] > 0.0
         assert r["min_gap_ratio"] > 0.9 and r["frames_below_0.9"] == 0
+
+
+def test_the_late_part_starts_every_contact_variant_from_the_same_pile(bench, monkeypatch):
+    """``--part late`` on a tiny budget: every field it changes exists in the compiled
+    parameter record, the copies of one state give the same counts when nothing changes,
+    and a changed field reaches the kernels."""
+    from bathprint.core.layout import PARAMS_DTYPE
+
+    mod = bench("bench_contact_newton")
+    fields = {f for v in mod.LATE_VARIANTS.values() for f in (v or {})}
+    assert fields and fields <= set(PARAMS_DTYPE.names)
+    monkeypatch.setattr(mod, "LATE_START_S", 0.15)  # the first turns touch
+    monkeypatch.setattr(mod, "LATE_WINDOW_S", 0.01)
+    monkeypatch.setattr(
+        mod,
+        "LATE_VARIANTS",
+        {
+            "without contact": None,
+            "contact": {},
+            "contact again": {},
+            "full Newton": {"newton_reuse": 0.0},
+        },
+    )
+    rows = mod.late_rows()
+    assert [r["variant"] for r in rows] == list(mod.LATE_VARIANTS)
+    assert rows[0]["wall_ratio"] == pytest.approx(1.0)
+    same = ("steps", "newton_per_step", "jacobians_per_step", "krylov_per_newton")
+    assert [rows[1][k] for k in same] == [rows[2][k] for k in same]
+    assert rows[1]["nodes"] == rows[3]["nodes"]
+    assert rows[3]["jacobians_per_step"] == pytest.approx(rows[3]["newton_per_step"])
+    assert rows[1]["jacobians_per_step"] < rows[1]["newton_per_step"]  # modified Newton
+    assert rows[0]["krylov_per_newton"] == 0.0 and rows[1]["krylov_per_newton"] > 0.5
+
+
+def test_the_settled_part_times_its_window_at_the_steps_it_names(bench):
+    """``--part settled``'s runs: the warm-up and the largest step reach the stack (the
+    window takes at least as many steps as its length over that step)."""
+    mod = bench("bench_contact")
+    rows = mod.scaling([100], 1e-3, 0.98, "band", warm_up=1e-3, max_step=2.5e-4)
+    (r,) = rows
+    assert r["warm_up_s"] == 1e-3 and r["max_step_s"] == 2.5e-4 and r["window_s"] == 1e-3
+    steps = r["wall_s_contact"] / (1e-6 * r["us_per_step_contact"])
+    assert steps >= 1e-3 / 2.5e-4 - 1e-9
+    assert r["newton_per_step_contact"] >= 1.0 and r["krylov_per_newton"] >= 1.0

@@ -1085,6 +1085,61 @@ def contact_scaling() -> str:
     return _table(head, rows) + "\n\n" + provenance(path)
 
 
+def contact_scaling_settled() -> str:
+    path = RESULTS / "contact_scaling_settled.csv"
+    rows = [
+        [
+            "axial coarse" if r["preconditioner"] == "axial_coarse" else "banded LU",
+            r["nodes"],
+            _g(r["ns_per_node_step_none"]),
+            _g(r["ns_per_node_step_contact"]),
+            f"{_g(r['ratio'], 3)}×",
+            _g(r["newton_per_step_contact"], 2),
+            _g(r["krylov_per_newton"], 2),
+            _g(
+                float(r["ns_per_node_step_contact"])
+                / (float(r["newton_per_step_contact"]) * (1.0 + float(r["krylov_per_newton"])))
+            ),
+            _g(r["warm_up_wall_s_contact"]),
+        ]
+        for r in _csv(path)
+    ]
+    head = [
+        "preconditioner",
+        "nodes",
+        "ns per node-step without",
+        "with",
+        "ratio",
+        "Newton per step",
+        "Krylov per Newton",
+        "ns per node and preconditioner solve",
+        "first 20 ms with (s)",
+    ]
+    return _table(head, rows) + "\n\n" + provenance(path)
+
+
+def contact_late() -> str:
+    path = RESULTS / "contact_late.csv"
+    rows = [
+        [
+            r["variant"],
+            r["steps"],
+            r["newton_failures"],
+            _g(r["newton_per_step"]),
+            _g(r["jacobians_per_step"]),
+            _g(r["krylov_per_newton"]),
+            _g(r["backtracks_per_step"]),
+            _g(r["wall_s"]),
+            f"{_g(r['wall_ratio'])}×",
+        ]
+        for r in _csv(path)
+    ]
+    head = ["`period_doubling_22G`, 0.80-0.86 s", "steps", "Newton failures"]
+    head += ["Newton per step", "Jacobians per step", "Krylov per Newton"]
+    head += ["backtracks per step", "wall (s)", "wall / without contact"]
+    return _table(head, rows) + "\n\n" + provenance(path)
+
+
 def contact_line_search() -> str:
     path = RESULTS / "contact_line_search.csv"
     rows = [
@@ -1634,6 +1689,8 @@ TABLES: dict[str, Callable[[], str]] = {
     "contact-line-search-scene": contact_line_search_scene,
     "contact-near-gap": contact_near_gap,
     "contact-seeds": contact_seeds,
+    "contact-late": contact_late,
+    "contact-scaling-settled": contact_scaling_settled,
     "contact-onset": contact_onset,
     "preconditioner-newton": preconditioner_newton,
     "preconditioner-amg": preconditioner_amg,
