@@ -42,6 +42,7 @@ from __future__ import annotations
 
 import argparse
 import math
+import pickle
 import time
 from collections import Counter
 
@@ -368,8 +369,6 @@ def late_rows() -> list[dict]:
     numerics.newton, numerics.krylov_tolerance, contact.width_fraction,
     contact.distance_factor). Every contact variant starts from the same state, so the
     counts compare Newton on the same pile; the run without contact has its own pile."""
-    import pickle
-
     states = {}
     for contact in (False, True):
         sim = Simulation(SCENE, {} if contact else _without_contact())

@@ -191,7 +191,7 @@ def _fd_jacobian(fvec, x: np.ndarray, h: float) -> np.ndarray:
 
 def _distance_fns(pos):
     def value(x):
-        return cm.contact_distance(x, 0, 1, 2, 3)
+        return math.sqrt(cm.contact_params(x, 0, 1, 2, 3)[4])
 
     def deriv(x):
         g = np.zeros(12)

@@ -232,12 +232,6 @@ def segment_distance(pos, i0: int, i1: int, i2: int, i3: int) -> float:
     return math.sqrt(closest_params(pos, i0, i1, i2, i3)[4])
 
 
-@njit(**KERNEL)
-def contact_distance(pos, i0: int, i1: int, i2: int, i3: int) -> float:
-    """The distance (m) between the contact points of :func:`contact_params`."""
-    return math.sqrt(contact_params(pos, i0, i1, i2, i3)[4])
-
-
 @njit(**KERNEL, inline="always")
 def _pick3(k: int, v0: float, v1: float, v2: float) -> float:
     """v_k for k in 0..2 (a select, not a tuple indexed at run time)."""
