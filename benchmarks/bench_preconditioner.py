@@ -29,7 +29,7 @@ solves are skipped). Each captured system is solved again by flexible GMRES as
 ``solver.KRYLOV_MAX_RESTARTS`` restarts, the same stopping test) to relative residuals
 0.05 and 1e-3 with:
 
-- ``band``: the simulator's preconditioner (its own ``band_lu`` / ``band_solve``); its
+- ``band``: the simulator's preconditioner (its ``band_lu`` / ``band_solve_by_columns``); its
   count at 0.05 is recorded beside the simulator's (``simulator_iterations_rtol_0.05``),
   which it reproduces;
 - ``hat_4_z``: ``band``, then a coarse correction (P^T A P solved exactly) on the axial
@@ -62,10 +62,18 @@ of an algebraic multigrid hierarchy (pyamg) of the axial problem (every node's z
 factor, and its time and set-up time against the banded solve and LU
 (results/preconditioner_amg.csv).
 
+``--part backsub``: what one application of the preconditioner costs, by the order of the
+back-substitution: ``band_solve`` (each row sums its 16 terms of U: the banded path's
+solve) against ``band_solve_by_columns`` (each solved unknown is subtracted from the rows
+above it: GMRES's), on the LU of random diagonally dominant band matrices of 3 N unknowns
+(the simulator's 8 sub- and super-diagonals), N = 10^2 to 10^4; best of 7 timings of 200
+solves each, the two alternating, and the largest difference of their solutions.
+
     python benchmarks/bench_preconditioner.py                      # both parts
     python benchmarks/bench_preconditioner.py --part newton --sizes 100,1000 --solves 1
     python benchmarks/bench_preconditioner.py --part random --out /tmp/results  # CSV dir
     python benchmarks/bench_preconditioner.py --part amg                       # pyamg
+    python benchmarks/bench_preconditioner.py --part backsub   # the two back-substitutions
 """
 
 from __future__ import annotations
@@ -92,7 +100,7 @@ import bathprint.core.integrators as integ
 from bathprint import Simulation
 from bathprint.core import layout as L
 from bathprint.core import solver
-from bathprint.core.banded import band_lu, band_solve
+from bathprint.core.banded import band_lu, band_solve, band_solve_by_columns
 from bathprint.core.records import KRYLOV_RESTART
 
 MM = 1e-3
@@ -174,7 +182,8 @@ def to_band(a: sp.spmatrix, kl: int, ku: int) -> np.ndarray:
 
 
 class BandedLU:
-    """The simulator's banded LU (partial pivoting) of a band matrix, and its solve."""
+    """The simulator's banded LU (partial pivoting) of a band matrix, and its solve (the
+    preconditioner's, by columns, for the Newton band's widths)."""
 
     def __init__(self, band: np.ndarray, n: int, kl: int, ku: int) -> None:
         self.lu = np.ascontiguousarray(band[:n], dtype=np.float64).copy()
@@ -185,7 +194,10 @@ class BandedLU:
 
     def solve(self, v: Vector) -> Vector:
         z = np.array(v, dtype=np.float64)
-        band_solve(self.lu, self.n, self.kl, self.ku, self.piv, z)
+        if (self.kl, self.ku) == (L.KL, L.KU):
+            band_solve_by_columns(self.lu, self.n, self.piv, z)
+        else:
+            band_solve(self.lu, self.n, self.kl, self.ku, self.piv, z)
         return z
 
 
@@ -785,9 +797,68 @@ def amg_part(sizes: Sequence[int], n_solves: int, out_dir: Path) -> Path:
     return path
 
 
+BACKSUB_SIZES = (100, 300, 1000, 3000, 10000)  # nodes (3 unknowns each)
+
+
+@njit
+def _solve_loop(by_columns: bool, reps: int, lu: np.ndarray, n: int, piv: np.ndarray,
+                b0: np.ndarray, b: np.ndarray) -> None:  # fmt: skip
+    """Restore b from b0 and solve with the factors, ``reps`` times, in either order."""
+    for _ in range(reps):
+        b[:n] = b0[:n]
+        if by_columns:
+            band_solve_by_columns(lu, n, piv, b)
+        else:
+            band_solve(lu, n, L.KL, L.KU, piv, b)
+
+
+def backsub_part(out_dir: Path, sizes: Sequence[int] = BACKSUB_SIZES) -> Path:
+    """Time the two orders of the banded back-substitution (rows, columns) on the same LU."""
+    rng = np.random.default_rng(0)
+    rows = []
+    for nodes in sizes:
+        n = 3 * nodes
+        lu = np.zeros((n, L.BAND_WIDTH))
+        lu[:, : L.KL + L.KU + 1] = rng.standard_normal((n, L.KL + L.KU + 1))
+        lu[:, L.KL] += 2.0 * (L.KL + L.KU)
+        piv = np.zeros(n, dtype=np.int64)
+        if band_lu(lu, n, L.KL, L.KU, piv) != 0:
+            raise RuntimeError("the random band matrix came out singular")
+        b0 = rng.standard_normal(n)
+        x_rows, x_cols = b0.copy(), b0.copy()
+        _solve_loop(False, 1, lu, n, piv, b0, x_rows)
+        _solve_loop(True, 1, lu, n, piv, b0, x_cols)
+        best = {False: np.inf, True: np.inf}
+        work = b0.copy()
+        for _ in range(7):
+            for by_columns in (False, True):
+                t0 = time.perf_counter()
+                _solve_loop(by_columns, 200, lu, n, piv, b0, work)
+                best[by_columns] = min(best[by_columns], (time.perf_counter() - t0) / 200)
+        diff = float(np.max(np.abs(x_cols - x_rows)) / np.max(np.abs(x_rows)))
+        rows.append(
+            {
+                "nodes": nodes,
+                "unknowns": n,
+                "rows_us": 1e6 * best[False],
+                "columns_us": 1e6 * best[True],
+                "speed_up": best[False] / best[True],
+                "max_rel_difference": diff,
+            }
+        )
+        print(
+            f"{nodes:>6} nodes: rows {rows[-1]['rows_us']:8.1f} us, columns "
+            f"{rows[-1]['columns_us']:8.1f} us ({rows[-1]['speed_up']:.2f}x), "
+            f"difference {diff:.1e}"
+        )
+    path = write_csv(out_dir / "backsub.csv", rows)
+    print("wrote", path)
+    return path
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    ap.add_argument("--part", choices=("all", "random", "newton", "amg"), default="all")
+    ap.add_argument("--part", choices=("all", "random", "newton", "amg", "backsub"), default="all")
     ap.add_argument(
         "--sizes",
         type=lambda s: [int(x) for x in s.split(",")],
@@ -801,6 +872,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         random_part(args.out)
     if args.part in ("all", "newton"):
         newton_part(args.sizes, args.solves, args.out)
+    if args.part in ("all", "backsub"):
+        backsub_part(args.out)
     if args.part == "amg":
         sizes = args.sizes if args.sizes != list(NEWTON_SIZES) else list(AMG_SIZES)
         amg_part(sizes, args.solves, args.out)

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from bathprint.core.banded import band_lu, band_matvec, band_solve
+from bathprint.core.banded import band_lu, band_matvec, band_solve, band_solve_by_columns
 from bathprint.core.layout import BAND_WIDTH, KL, KU
 
 
@@ -34,6 +34,9 @@ def test_band_solve_matches_dense(n: int, shift: float) -> None:
     x = b.copy()
     band_solve(band, n, KL, KU, piv, x)
     np.testing.assert_allclose(x, np.linalg.solve(dense, b), rtol=1e-8, atol=1e-10)
+    x_col = b.copy()
+    band_solve_by_columns(band, n, piv, x_col)
+    np.testing.assert_allclose(x_col, x, rtol=1e-12, atol=1e-12 * np.max(np.abs(x)))
 
 
 def test_singular_matrix_is_reported() -> None:

@@ -56,3 +56,17 @@ def test_newton_part_reproduces_the_simulators_count(tmp_path, monkeypatch, load
     assert int(rows["hat_4_z"]["coarse_unknowns"]) == 26  # nodes 0, 4, ..., 100 of 0..99
     assert float(axial["coarse_lu_over_band_lu"]) > 0.0
     assert (tmp_path / "preconditioner_newton.meta.json").exists()
+
+
+def test_backsub_part_times_two_orders_of_the_same_solve(tmp_path, monkeypatch, load_script):
+    """The back-substitution by columns (GMRES's preconditioner) solves the same system as
+    the row-oriented one to round-off, on both sides of the switch to the bounded loops."""
+    monkeypatch.syspath_prepend(str(BENCH))
+    mod = load_script(BENCH / "bench_preconditioner.py")
+    path = mod.backsub_part(tmp_path, sizes=(3, 40))
+    with path.open() as f:
+        rows = list(csv.DictReader(f))
+    assert [int(r["unknowns"]) for r in rows] == [9, 120]
+    for r in rows:
+        assert float(r["max_rel_difference"]) < 1e-13
+        assert float(r["rows_us"]) > 0.0 and float(r["columns_us"]) > 0.0

@@ -11,6 +11,7 @@ import numpy as np
 from numba import njit
 
 from bathprint.core.jit import KERNEL, kernel
+from bathprint.core.layout import KL, KU
 
 
 @njit(**KERNEL)
@@ -69,13 +70,9 @@ def band_lu(band: np.ndarray, n: int, kl: int, ku: int, piv: np.ndarray) -> int:
     return 0
 
 
-@njit(**KERNEL)
-def band_solve(band: np.ndarray, n: int, kl: int, ku: int, piv: np.ndarray, b: np.ndarray) -> None:
-    """Solve A x = b in place (b overwritten by x) with the factors from :func:`band_lu`.
-
-    As there, loops of fixed length away from the end, in the same order of operations."""
-    ku2 = ku + kl
-    # forward: apply the row swaps and L in the order they were made
+@njit(**KERNEL, inline="always")
+def _forward(band: np.ndarray, n: int, kl: int, piv: np.ndarray, b: np.ndarray) -> None:
+    """The forward half of a solve: the row swaps and L, in the order they were made."""
     for k in range(n):
         p = piv[k]
         if p != k:
@@ -89,6 +86,15 @@ def band_solve(band: np.ndarray, n: int, kl: int, ku: int, piv: np.ndarray, b: n
         else:
             for m in range(1, n - k):
                 b[k + m] -= band[k + m, kl - m] * bk
+
+
+@njit(**KERNEL)
+def band_solve(band: np.ndarray, n: int, kl: int, ku: int, piv: np.ndarray, b: np.ndarray) -> None:
+    """Solve A x = b in place (b overwritten by x) with the factors from :func:`band_lu`.
+
+    As there, loops of fixed length away from the end, in the same order of operations."""
+    ku2 = ku + kl
+    _forward(band, n, kl, piv, b)
     # backward: U has ku + kl super-diagonals
     for i in range(n - 1, -1, -1):
         s = b[i]
@@ -99,6 +105,29 @@ def band_solve(band: np.ndarray, n: int, kl: int, ku: int, piv: np.ndarray, b: n
             for q in range(1, n - i):
                 s -= band[i, kl + q] * b[i + q]
         b[i] = s / band[i, kl]
+
+
+@njit(**KERNEL)
+def band_solve_by_columns(band: np.ndarray, n: int, piv: np.ndarray, b: np.ndarray) -> None:
+    """:func:`band_solve` for the simulator's Newton band (``layout.KL``, ``layout.KU``), with
+    the backward substitution by columns: each x_i, once known, is subtracted from the
+    KL + KU rows above it (independent updates) instead of each row summing its KL + KU
+    terms (a chain of dependent subtractions, bound by the adder's latency). The widths are
+    compile-time constants, so the loops unroll wherever it is called from. The same solve
+    to round-off, in another order of operations: 2.1-2.3x faster than :func:`band_solve`
+    from 300 to 9000 unknowns, 1.7x at 30000 (``python benchmarks/bench_preconditioner.py
+    --part backsub``). GMRES's preconditioner, whose round-off nothing needs to match, uses
+    it."""
+    _forward(band, n, KL, piv, b)
+    for i in range(n - 1, -1, -1):
+        xi = b[i] / band[i, KL]
+        b[i] = xi
+        if i >= KL + KU:
+            for q in range(1, KL + KU + 1):
+                b[i - q] -= band[i - q, KL + q] * xi
+        else:
+            for q in range(1, i + 1):
+                b[i - q] -= band[i - q, KL + q] * xi
 
 
 @njit(**KERNEL)

@@ -29,7 +29,13 @@ import math
 import numpy as np
 from numba import njit
 
-from bathprint.core.banded import add_blocks_matvec, band_lu, band_matvec, band_solve
+from bathprint.core.banded import (
+    add_blocks_matvec,
+    band_lu,
+    band_matvec,
+    band_solve,
+    band_solve_by_columns,
+)
 from bathprint.core.effects.hydrodynamics import apply_nonlocal
 from bathprint.core.jit import KERNEL, kernel
 from bathprint.core.layout import C_KRYLOV_FAILURES, C_KRYLOV_ITERATIONS, KL, KU
@@ -212,9 +218,10 @@ def _dot(a: np.ndarray, b: np.ndarray, nd: int) -> float:
 @kernel
 def _gmres(ws, nd: int, b: np.ndarray, counters: np.ndarray, rtol: float) -> bool:
     """Restarted GMRES for A x = b, right-preconditioned by the banded LU (in ``ws.band``):
-    minimise |b - A M^-1 u| over the Krylov space, x = M^-1 u. The preconditioned vectors
-    z_j = M^-1 v_j are kept (as flexible GMRES keeps them, Saad 1993), so that x = sum y_j z_j
-    costs no further back-substitution. ``b`` is overwritten by x."""
+        minimise |b - A M^-1 u| over the Krylov space, x = M^-1 u. The preconditioned vectors
+        z_j = M^-1 v_j are kept (as flexible GMRES keeps them, Saad 1993), so that x = sum y_j z_j
+        costs no further back-substitution. ``b`` is overwritten by x. The back-substitutions go
+    by columns (:func:`~bathprint.core.banded.band_solve_by_columns`, the faster order)."""
     kr = ws.krylov
     basis = kr.basis
     zbasis = kr.zbasis
@@ -248,7 +255,7 @@ def _gmres(ws, nd: int, b: np.ndarray, counters: np.ndarray, rtol: float) -> boo
             zj = zbasis[j]
             for k in range(nd):
                 zj[k] = vj[k]
-            band_solve(ws.band, nd, KL, KU, ws.piv, zj)
+            band_solve_by_columns(ws.band, nd, ws.piv, zj)
             v_new = basis[j + 1]
             _off_band_times(ws, nd, vj, zj, v_new)
             if kr.coarse[0] > 0:  # z_j += the axial coarse correction, v_new with it
