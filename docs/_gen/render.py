@@ -1140,6 +1140,24 @@ def contact_late() -> str:
     return _table(head, rows) + "\n\n" + provenance(path)
 
 
+def backsub() -> str:
+    path = RESULTS / "backsub.csv"
+    rows = [
+        [
+            r["nodes"],
+            r["unknowns"],
+            _g(r["rows_us"]),
+            _g(r["columns_us"]),
+            f"{_g(r['speed_up'])}×",
+            _g(r["max_rel_difference"], 2),
+        ]
+        for r in _csv(path)
+    ]
+    head = ["nodes", "unknowns", "by rows (µs)", "by columns (µs)", "speed-up"]
+    head += ["largest relative difference"]
+    return _table(head, rows) + "\n\n" + provenance(path)
+
+
 def contact_line_search() -> str:
     path = RESULTS / "contact_line_search.csv"
     rows = [
@@ -1690,6 +1708,7 @@ TABLES: dict[str, Callable[[], str]] = {
     "contact-near-gap": contact_near_gap,
     "contact-seeds": contact_seeds,
     "contact-late": contact_late,
+    "backsub": backsub,
     "contact-scaling-settled": contact_scaling_settled,
     "contact-onset": contact_onset,
     "preconditioner-newton": preconditioner_newton,
