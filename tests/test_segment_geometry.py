@@ -18,10 +18,13 @@ L = 1e-3  # segment length scale (m): a 1 mm rod discretisation
 K_C = 50.0  # pair stiffness (N/m)
 
 
-def candidate_pairs(pos, n_nodes, seg_first, seg_last, search_dist, min_sep, capacity=None):
+def candidate_pairs(
+    pos, n_nodes, seg_first, seg_last, search_dist, min_sep, capacity=None, buckets=None
+):
     """All candidate pairs of the hash (grown until they fit)."""
     n_seg = max(seg_last - seg_first, 1)
-    buckets = 1 << max(4, int(2 * n_seg - 1).bit_length())
+    if buckets is None:
+        buckets = 1 << max(4, int(2 * n_seg - 1).bit_length())
     cap = 8 * n_seg if capacity is None else capacity
     while True:
         cell_start = np.zeros(buckets + 1, np.int64)
@@ -29,9 +32,8 @@ def candidate_pairs(pos, n_nodes, seg_first, seg_last, search_dist, min_sep, cap
         seg_cell = np.zeros(3 * n_seg, np.int64)
         pairs = np.zeros((cap, 2), np.int64)
         args = (pos, n_nodes, seg_first, seg_last, search_dist, min_sep)
-        n = cm.build_candidate_pairs(
-            *args, cell_start, seg_order, seg_cell, np.zeros(27, np.int64), pairs
-        )
+        work = (np.zeros(buckets, np.int64), np.zeros((2, 6 * n_seg)))
+        n = cm.build_candidate_pairs(*args, cell_start, seg_order, seg_cell, *work, pairs)
         if n <= cap:
             return pairs[:n]
         cap = n
@@ -655,6 +657,17 @@ def test_hash_pairs_equal_brute_force(name: str, seg_range: str) -> None:
     assert close <= got and len(close) > 0
 
 
+def test_hash_pairs_with_few_buckets_equal_brute_force() -> None:
+    """With 16 buckets for a 2000-node helix nearly every bucket holds many cells, and the 27
+    neighbour cells of a segment share buckets: each bucket is scanned once per segment (no
+    pair twice) and the pairs are still the brute-force set."""
+    make, delta, dl = ROD_CASES["tight_helix_2000"]
+    pos = make()
+    min_sep = min_separation_for(delta, dl)
+    got = _pair_set(candidate_pairs(pos, 2000, 0, 1999, 1.5 * delta, min_sep, buckets=16))
+    assert got == _pair_set(_brute(pos, 0, 1999, 1.5 * delta, min_sep))
+
+
 def test_hash_reports_a_too_small_output() -> None:
     pos = helix(600, 0.5 * L, 2 * L, 1.05 * L)
     small = candidate_pairs(pos, 600, 0, 599, 1.5 * L, 4, capacity=3)  # grown by the helper
@@ -671,8 +684,8 @@ def test_frozen_segments_are_partners_but_never_query() -> None:
     pairs = np.zeros((20000, 2), np.int64)
     n = cm.build_candidate_pairs(
         pos, 800, 0, n_seg, 1.5 * L, 4, np.zeros(buckets + 1, np.int64),
-        np.zeros(n_seg, np.int64), np.zeros(3 * n_seg, np.int64), np.zeros(27, np.int64),
-        pairs, first,
+        np.zeros(n_seg, np.int64), np.zeros(3 * n_seg, np.int64), np.zeros(buckets, np.int64),
+        np.zeros((2, 6 * n_seg)), pairs, first,
     )  # fmt: skip
     got = _pair_set(pairs[:n])
     want = {(i, j) for i, j in _pair_set(_brute(pos, 0, n_seg, 1.5 * L, 4)) if j >= first}

@@ -111,7 +111,8 @@ class Contact(NamedTuple):
     cell_start: np.ndarray  # (buckets + 1,) int64
     seg_order: np.ndarray  # (cap,) int64
     seg_cell: np.ndarray  # (3 cap,) int64
-    seen: np.ndarray  # (27,) int64: buckets already scanned around a segment
+    stamp: np.ndarray  # (buckets,) int64: the segment that last scanned each bucket
+    boxes: np.ndarray  # (2, 6 cap) m: segments' bounding boxes, by segment and in bucket order
     memory: np.ndarray  # (1,) CONTACT_DTYPE: search distance, skin, the last violation
     build_pos: np.ndarray  # (3 cap,) m: the whole rod's positions when the pairs were found
     allowance: np.ndarray  # (P,) m: how far each pair's nodes may move relative to each other
@@ -307,7 +308,8 @@ def new_contact(capacity: int, pairs: int) -> Contact:
         cell_start=np.zeros(buckets + 1, dtype=np.int64),
         seg_order=np.zeros(capacity, dtype=np.int64),
         seg_cell=np.zeros(3 * capacity, dtype=np.int64),
-        seen=np.zeros(27, dtype=np.int64),
+        stamp=np.zeros(buckets, dtype=np.int64),
+        boxes=np.zeros((2, 6 * capacity)),
         memory=np.zeros(1, dtype=CONTACT_DTYPE),
         build_pos=np.zeros(3 * capacity),
         allowance=np.zeros(pairs),

@@ -499,7 +499,8 @@ def build_candidate_pairs(
     cell_start,
     seg_order,
     seg_cell,
-    seen,
+    stamp,
+    boxes,
     pairs_out,
     query_first: int = 0,
 ) -> int:
@@ -510,16 +511,20 @@ def build_candidate_pairs(
     ``query_first``, a frozen tail, are not wanted), whose bounding boxes are within
     ``search_dist`` (m) of each other
     on every axis (so every pair at distance <= search_dist is included). Work arrays
-    (int64, reused between calls, :class:`bathprint.core.records.Contact`): cell_start
-    (n_buckets + 1), seg_order (>= n_seg), seg_cell (>= 3 n_seg), seen (27); pairs_out
-    (capacity, 2) receives the pairs, ordered by i. If the return value exceeds the
-    capacity, only that many pairs were written: grow pairs_out and call again.
+    (reused between calls, :class:`bathprint.core.records.Contact`): cell_start (int64,
+    n_buckets + 1), seg_order (int64, >= n_seg), seg_cell (int64, >= 3 n_seg), stamp (int64,
+    n_buckets), boxes (float, (2, >= 6 n_seg)); pairs_out (capacity, 2) receives the pairs,
+    ordered by i. If the return value exceeds the capacity, only that many pairs were
+    written: grow pairs_out and call again.
 
     Grid: cell size h = search_dist + the largest per-axis extent of any segment; each
     segment sits in the cell of its midpoint, and two candidates' midpoints differ by at most
     h per axis, so their cells are neighbours. Cells hash into n_buckets buckets (collisions
     only cost extra box tests); a counting sort groups segments by bucket; each segment scans
-    the distinct buckets of its 27 neighbour cells for partners j > i. O(N + n_buckets).
+    the distinct buckets of its 27 neighbour cells (``stamp`` marks a bucket scanned) for
+    partners j > i, whose bounding boxes (``boxes[0]`` by segment, lows then highs) are
+    copied in bucket order (``boxes[1]``) so that the scan reads them in sequence.
+    O(N + n_buckets).
     """
     if seg_first < 0 or seg_last > n_nodes - 1:
         raise ValueError("segment range must lie in [0, n_nodes - 1)")
@@ -528,6 +533,8 @@ def build_candidate_pairs(
         return 0
     n_buckets = cell_start.shape[0] - 1
     capacity = pairs_out.shape[0]
+    box = boxes[0]
+    sbox = boxes[1]
     lo0 = np.inf
     lo1 = np.inf
     lo2 = np.inf
@@ -536,9 +543,14 @@ def build_candidate_pairs(
         lo0 = min(lo0, pos[3 * i])
         lo1 = min(lo1, pos[3 * i + 1])
         lo2 = min(lo2, pos[3 * i + 2])
-    for i in range(seg_first, seg_last):
+    for k in range(n_seg):
+        i = seg_first + k
         for c in range(3):
-            extent = max(extent, abs(pos[3 * i + 3 + c] - pos[3 * i + c]))
+            a = pos[3 * i + c]
+            b = pos[3 * i + 3 + c]
+            box[6 * k + c] = min(a, b)
+            box[6 * k + 3 + c] = max(a, b)
+            extent = max(extent, abs(b - a))
     h = (search_dist + extent) * (1.0 + 1e-9)  # margin against rounding in the cell index
     if not h > 0.0:
         h = 1.0
@@ -560,13 +572,18 @@ def build_candidate_pairs(
         cell_start[b] -= 1
         seg_order[cell_start[b]] = k
     cell_start[n_buckets] = n_seg
+    for idx in range(n_seg):
+        k = seg_order[idx]
+        for q in range(6):
+            sbox[6 * idx + q] = box[6 * k + q]
+    for b in range(n_buckets):
+        stamp[b] = -1
     # scan neighbours
     n_pairs = 0
     for k in range(n_seg):
         i = seg_first + k
         if i < query_first:
             continue
-        n_seen = 0
         for dx in range(-1, 2):
             for dy in range(-1, 2):
                 for dz in range(-1, 2):
@@ -576,15 +593,9 @@ def build_candidate_pairs(
                         seg_cell[3 * k + 2] + dz,
                         n_buckets,
                     )
-                    dup = False
-                    for q in range(n_seen):
-                        if seen[q] == b:
-                            dup = True
-                            break
-                    if dup:
+                    if stamp[b] == k:  # scanned already (two cells hash to it)
                         continue
-                    seen[n_seen] = b
-                    n_seen += 1
+                    stamp[b] = k
                     for idx in range(cell_start[b], cell_start[b + 1]):
                         j = seg_first + seg_order[idx]
                         if j >= query_first:  # both query segments: each pair once, i < j
@@ -595,12 +606,24 @@ def build_candidate_pairs(
                             if i - j <= min_separation:
                                 continue
                             first, second = j, i
-                        if _boxes_near(pos, i, j, search_dist):
+                        if _sorted_boxes_near(box, k, sbox, idx, search_dist):
                             if n_pairs < capacity:
                                 pairs_out[n_pairs, 0] = first
                                 pairs_out[n_pairs, 1] = second
                             n_pairs += 1
     return n_pairs
+
+
+@njit(**KERNEL, inline="always")
+def _sorted_boxes_near(box, k: int, sbox, idx: int, gap: float) -> bool:
+    """:func:`_boxes_near` on precomputed boxes (lows then highs, 6 per segment): segment k
+    of ``box`` and entry idx of ``sbox``, with the same comparisons."""
+    for c in range(3):
+        if sbox[6 * idx + c] - box[6 * k + 3 + c] > gap:
+            return False
+        if box[6 * k + c] - sbox[6 * idx + 3 + c] > gap:
+            return False
+    return True
 
 
 @njit(**KERNEL)

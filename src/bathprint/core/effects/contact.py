@@ -156,7 +156,8 @@ def prepare(model, whole, frozen: int, contact) -> bool:
             contact.cell_start,
             contact.seg_order,
             contact.seg_cell,
-            contact.seen,
+            contact.stamp,
+            contact.boxes,
             contact.pairs,
             frozen,
         )
