@@ -5,7 +5,14 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from bathprint.core.banded import band_lu, band_matvec, band_solve, band_solve_by_columns
+from bathprint.core.banded import (
+    band_lu,
+    band_lu_diagonal,
+    band_matvec,
+    band_solve,
+    band_solve_by_columns,
+    band_solve_diagonal,
+)
 from bathprint.core.layout import BAND_WIDTH, KL, KU
 
 
@@ -37,6 +44,42 @@ def test_band_solve_matches_dense(n: int, shift: float) -> None:
     x_col = b.copy()
     band_solve_by_columns(band, n, piv, x_col)
     np.testing.assert_allclose(x_col, x, rtol=1e-12, atol=1e-12 * np.max(np.abs(x)))
+
+
+@pytest.mark.parametrize("n", [1, 5, 17, 30, 300])
+def test_band_lu_without_row_swaps_solves_a_diagonally_dominant_band(n: int) -> None:
+    """Diagonal pivots (GMRES's preconditioner): the same solution as partial pivoting, with
+    the identity in ``piv`` and U within KU super-diagonals (the fill slots untouched)."""
+    dense, band = _random_band(n, seed=n, diag_shift=10.0)
+    piv = np.full(n, -7, dtype=np.int64)
+    inv_diag = np.zeros(n)
+    assert band_lu_diagonal(band, n, piv, inv_diag, 0.1) == 0
+    np.testing.assert_allclose(inv_diag * band[:n, KL], 1.0, rtol=1e-15)
+    assert np.array_equal(piv, np.arange(n))
+    assert not np.any(band[:n, KL + KU + 1 :])
+    b = np.random.default_rng(3).normal(size=n)
+    x = b.copy()
+    band_solve(band, n, KL, KU, piv, x)
+    np.testing.assert_allclose(x, np.linalg.solve(dense, b), rtol=1e-10, atol=1e-12)
+    for solve in (
+        lambda v: band_solve_by_columns(band, n, piv, v),
+        lambda v: band_solve_diagonal(band, n, inv_diag, v),
+    ):
+        x_other = b.copy()
+        solve(x_other)
+        np.testing.assert_allclose(x_other, x, rtol=1e-12, atol=1e-12 * np.max(np.abs(x)))
+
+
+def test_band_lu_without_row_swaps_stops_where_a_swap_is_due() -> None:
+    """A diagonal below the threshold times the column under it returns -1 (the caller
+    starts again with partial pivoting); a zero column returns its number + 1, as band_lu."""
+    n = 40
+    _, band = _random_band(n, seed=1, diag_shift=10.0)
+    below = max(abs(band[m, KL - m]) for m in range(1, KL + 1))
+    band[0, KL] = 1e-3 * below  # the first column's diagonal, tiny against the entries under it
+    work = (np.zeros(n, np.int64), np.zeros(n))
+    assert band_lu_diagonal(band.copy(), n, *work, 0.1) == -1
+    assert band_lu_diagonal(np.zeros((n, BAND_WIDTH)), n, *work, 0.1) == 1
 
 
 def test_singular_matrix_is_reported() -> None:

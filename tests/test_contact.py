@@ -374,10 +374,15 @@ def test_contact_jacobian_with_its_off_band_blocks_matches_finite_differences(
 
 
 # ------------------------------------------------------------------ the solver
+@pytest.mark.parametrize("shift", [12.0, 0.0], ids=["diagonal_pivots", "row_swaps"])
 @pytest.mark.parametrize("coarse", [0, 4], ids=["band", "axial_coarse"])
-def test_gmres_solves_band_plus_off_band_blocks_like_a_dense_solve(coarse: int) -> None:
+def test_gmres_solves_band_plus_off_band_blocks_like_a_dense_solve(
+    coarse: int, shift: float
+) -> None:
     """With the banded LU as preconditioner, and with the axial coarse correction after it
-    (``numerics.preconditioner = "axial_coarse"``): the same solution as a dense solve."""
+    (``numerics.preconditioner = "axial_coarse"``): the same solution as a dense solve. The
+    LU takes its diagonal pivots (no row swaps) where they pass the threshold, and starts
+    again with partial pivoting where they do not (a band with no diagonal shift)."""
     rng = np.random.default_rng(1)
     n_nodes = 60
     nd = 3 * n_nodes
@@ -385,7 +390,7 @@ def test_gmres_solves_band_plus_off_band_blocks_like_a_dense_solve(coarse: int) 
     dense = np.zeros((nd, nd))
     for i in range(nd):
         for j in range(max(0, i - L.KL), min(nd, i + L.KU + 1)):
-            v = rng.normal() + (12.0 if i == j else 0.0)
+            v = rng.normal() + (shift if i == j else 0.0)
             ws.band[i, j - i + L.KL] = v
             dense[i, j] = v
     k = 0
@@ -403,6 +408,8 @@ def test_gmres_solves_band_plus_off_band_blocks_like_a_dense_solve(coarse: int) 
     x[:nd] = b
     counters = np.zeros(L.N_COUNTERS, np.int64)
     assert solver.factor(ws, nd)
+    swapped = np.any(ws.piv[:nd] != np.arange(nd))
+    assert swapped == (shift == 0.0) == (ws.krylov.diagonal[0] == 0)
     assert solver.solve(ws, nd, x, counters, 1e-10)
     exact = np.linalg.solve(dense, b)
     np.testing.assert_allclose(x[:nd], exact, rtol=0, atol=1e-8 * np.abs(exact).max())

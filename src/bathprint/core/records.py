@@ -100,6 +100,8 @@ class Krylov(NamedTuple):
     coarse_x: np.ndarray  # (coarse cap,)
     coarse_info: np.ndarray  # (2,) int64: coarse unknowns and half-bandwidth of its LU (0: none)
     e: np.ndarray  # (2, 3 cap): the coarse correction, and its product with the Newton matrix
+    inv_diag: np.ndarray  # (3 cap,): reciprocals of the LU's pivots when it took no row swaps
+    diagonal: np.ndarray  # (1,) int64: 1 when the LU in ``band`` took no row swaps
 
 
 class Contact(NamedTuple):
@@ -295,6 +297,8 @@ def new_krylov(n_dof: int, restart: int, coarse: int = 0) -> Krylov:
         coarse_x=np.zeros(n_coarse),
         coarse_info=np.zeros(2, dtype=np.int64),
         e=np.zeros((2, n_fine)),
+        inv_diag=np.zeros(n_dof),
+        diagonal=np.zeros(1, dtype=np.int64),
     )
 
 

@@ -32,9 +32,11 @@ from numba import njit
 from bathprint.core.banded import (
     add_blocks_matvec,
     band_lu,
+    band_lu_diagonal,
     band_matvec,
     band_solve,
     band_solve_by_columns,
+    band_solve_diagonal,
 )
 from bathprint.core.effects.hydrodynamics import apply_nonlocal
 from bathprint.core.jit import KERNEL, kernel
@@ -42,6 +44,7 @@ from bathprint.core.layout import C_KRYLOV_FAILURES, C_KRYLOV_ITERATIONS, KL, KU
 from bathprint.core.records import COARSE_KL
 
 KRYLOV_MAX_RESTARTS = 10  # restarts of KRYLOV_RESTART iterations each before a solve stalls
+PIVOT_THRESHOLD = 0.1  # GMRES's LU swaps rows only where a diagonal pivot is this much smaller
 
 
 @njit(**KERNEL, inline="always")
@@ -53,17 +56,31 @@ def off_band(ws) -> bool:
 
 @njit(**KERNEL)
 def factor(ws, nd: int) -> bool:
-    """Factorise the assembled Newton matrix's band (``ws.band``) in place (keeping an
-    unfactored copy when couplings off the band need it for GMRES, and with the axial coarse
-    correction its coarse matrix, factorised); False if singular."""
+    """Factorise the assembled Newton matrix's band (``ws.band``) in place; False if
+    singular.
+
+    With couplings off the band the LU only preconditions GMRES, and it is taken without
+    row swaps (:func:`~bathprint.core.banded.band_lu_diagonal`, half the work) unless a
+    diagonal pivot falls below PIVOT_THRESHOLD of its column, when partial pivoting starts
+    again from the unfactored copy that GMRES keeps anyway (with the axial coarse correction,
+    its coarse matrix is factorised too). Without them the LU solves Newton's equations
+    directly, with partial pivoting as always."""
     kr = ws.krylov
     if off_band(ws):
-        a = kr.band_a
+        a = kr.band_a  # the assembled entries only: the slots partial pivoting fills stay 0
         for i in range(nd):
-            for k in range(ws.band.shape[1]):
+            for k in range(KL + KU + 1):
                 a[i, k] = ws.band[i, k]
         if kr.coarse[0] > 0:
             _coarse_factor(ws, nd)
+        status = band_lu_diagonal(ws.band, nd, ws.piv, kr.inv_diag, PIVOT_THRESHOLD)
+        kr.diagonal[0] = 1 if status == 0 else 0
+        if status >= 0:
+            return status == 0
+        for i in range(nd):  # a row swap is due: partial pivoting, from the copy
+            for k in range(ws.band.shape[1]):
+                ws.band[i, k] = a[i, k]
+    kr.diagonal[0] = 0
     return band_lu(ws.band, nd, KL, KU, ws.piv) == 0
 
 
@@ -255,7 +272,10 @@ def _gmres(ws, nd: int, b: np.ndarray, counters: np.ndarray, rtol: float) -> boo
             zj = zbasis[j]
             for k in range(nd):
                 zj[k] = vj[k]
-            band_solve_by_columns(ws.band, nd, ws.piv, zj)
+            if kr.diagonal[0]:  # the LU took no row swaps
+                band_solve_diagonal(ws.band, nd, kr.inv_diag, zj)
+            else:
+                band_solve_by_columns(ws.band, nd, ws.piv, zj)
             v_new = basis[j + 1]
             _off_band_times(ws, nd, vj, zj, v_new)
             if kr.coarse[0] > 0:  # z_j += the axial coarse correction, v_new with it
