@@ -69,11 +69,18 @@ above it: GMRES's), on the LU of random diagonally dominant band matrices of 3 N
 (the simulator's 8 sub- and super-diagonals), N = 10^2 to 10^4; best of 7 timings of 200
 solves each, the two alternating, and the largest difference of their solutions.
 
+``--part diagonal``: GMRES's LU, with partial pivoting (``band_lu``, its solve by columns)
+against diagonal pivots (``band_lu_diagonal``, its solve through U's 8 super-diagonals
+only), on the same random diagonally dominant band matrices, N = 10^2 to 10^4; best of 7
+timings of 20 LUs and of 200 solves each, alternating, and the largest difference of the
+solutions (results/lu_diagonal.csv).
+
     python benchmarks/bench_preconditioner.py                      # both parts
     python benchmarks/bench_preconditioner.py --part newton --sizes 100,1000 --solves 1
     python benchmarks/bench_preconditioner.py --part random --out /tmp/results  # CSV dir
     python benchmarks/bench_preconditioner.py --part amg                       # pyamg
     python benchmarks/bench_preconditioner.py --part backsub   # the two back-substitutions
+    python benchmarks/bench_preconditioner.py --part diagonal  # LU without row swaps
 """
 
 from __future__ import annotations
@@ -100,7 +107,13 @@ import bathprint.core.integrators as integ
 from bathprint import Simulation
 from bathprint.core import layout as L
 from bathprint.core import solver
-from bathprint.core.banded import band_lu, band_solve, band_solve_by_columns
+from bathprint.core.banded import (
+    band_lu,
+    band_lu_diagonal,
+    band_solve,
+    band_solve_by_columns,
+    band_solve_diagonal,
+)
 from bathprint.core.records import KRYLOV_RESTART
 
 MM = 1e-3
@@ -812,15 +825,21 @@ def _solve_loop(by_columns: bool, reps: int, lu: np.ndarray, n: int, piv: np.nda
             band_solve(lu, n, L.KL, L.KU, piv, b)
 
 
+def _dominant_band(rng: np.random.Generator, n: int) -> np.ndarray:
+    """A random band matrix of n unknowns (the simulator's widths), diagonally dominant."""
+    band = np.zeros((n, L.BAND_WIDTH))
+    band[:, : L.KL + L.KU + 1] = rng.standard_normal((n, L.KL + L.KU + 1))
+    band[:, L.KL] += 2.0 * (L.KL + L.KU)
+    return band
+
+
 def backsub_part(out_dir: Path, sizes: Sequence[int] = BACKSUB_SIZES) -> Path:
     """Time the two orders of the banded back-substitution (rows, columns) on the same LU."""
     rng = np.random.default_rng(0)
     rows = []
     for nodes in sizes:
         n = 3 * nodes
-        lu = np.zeros((n, L.BAND_WIDTH))
-        lu[:, : L.KL + L.KU + 1] = rng.standard_normal((n, L.KL + L.KU + 1))
-        lu[:, L.KL] += 2.0 * (L.KL + L.KU)
+        lu = _dominant_band(rng, n)
         piv = np.zeros(n, dtype=np.int64)
         if band_lu(lu, n, L.KL, L.KU, piv) != 0:
             raise RuntimeError("the random band matrix came out singular")
@@ -856,9 +875,79 @@ def backsub_part(out_dir: Path, sizes: Sequence[int] = BACKSUB_SIZES) -> Path:
     return path
 
 
+@njit
+def _diagonal_loops(diagonal: bool, reps: int, solves: int, saved: np.ndarray, work: np.ndarray,
+                    n: int, piv: np.ndarray, inv: np.ndarray, b0: np.ndarray,
+                    b: np.ndarray) -> None:  # fmt: skip
+    """``reps`` LUs of ``saved`` (restored into ``work`` first) or, with reps = 0, ``solves``
+    solves of b0 with the factors in ``work``, with partial or diagonal pivots."""
+    for _ in range(reps):
+        work[:n] = saved[:n]
+        if diagonal:
+            band_lu_diagonal(work, n, piv, inv, 0.1)
+        else:
+            band_lu(work, n, L.KL, L.KU, piv)
+    for _ in range(solves):
+        b[:n] = b0[:n]
+        if diagonal:
+            band_solve_diagonal(work, n, inv, b)
+        else:
+            band_solve_by_columns(work, n, piv, b)
+
+
+def diagonal_part(out_dir: Path, sizes: Sequence[int] = BACKSUB_SIZES) -> Path:
+    """Time GMRES's LU and solve with partial pivoting against diagonal pivots."""
+    rng = np.random.default_rng(0)
+    rows = []
+    for nodes in sizes:
+        n = 3 * nodes
+        saved = _dominant_band(rng, n)
+        b0 = rng.standard_normal(n)
+        work = {d: saved.copy() for d in (False, True)}
+        piv = {d: np.zeros(n, dtype=np.int64) for d in (False, True)}
+        inv = np.zeros(n)
+        x = {d: b0.copy() for d in (False, True)}
+        for d in (False, True):
+            _diagonal_loops(d, 1, 1, saved, work[d], n, piv[d], inv, b0, x[d])
+        best = {(d, what): np.inf for d in (False, True) for what in ("lu", "solve")}
+        scratch = b0.copy()
+        for _ in range(7):
+            for d in (False, True):
+                for what, reps, solves in (("lu", 20, 0), ("solve", 0, 200)):
+                    t0 = time.perf_counter()
+                    _diagonal_loops(d, reps, solves, saved, work[d], n, piv[d], inv, b0, scratch)
+                    per = (time.perf_counter() - t0) / (reps or solves)
+                    best[d, what] = min(best[d, what], per)
+        diff = float(np.max(np.abs(x[True] - x[False])) / np.max(np.abs(x[False])))
+        rows.append(
+            {
+                "nodes": nodes,
+                "unknowns": n,
+                "lu_partial_us": 1e6 * best[False, "lu"],
+                "lu_diagonal_us": 1e6 * best[True, "lu"],
+                "lu_speed_up": best[False, "lu"] / best[True, "lu"],
+                "solve_partial_us": 1e6 * best[False, "solve"],
+                "solve_diagonal_us": 1e6 * best[True, "solve"],
+                "solve_speed_up": best[False, "solve"] / best[True, "solve"],
+                "max_rel_difference": diff,
+            }
+        )
+        r = rows[-1]
+        print(
+            f"{nodes:>6} nodes: LU {r['lu_partial_us']:8.1f} -> {r['lu_diagonal_us']:8.1f} us "
+            f"({r['lu_speed_up']:.2f}x), solve {r['solve_partial_us']:7.1f} -> "
+            f"{r['solve_diagonal_us']:7.1f} us ({r['solve_speed_up']:.2f}x), difference {diff:.1e}"
+        )
+    path = write_csv(out_dir / "lu_diagonal.csv", rows)
+    print("wrote", path)
+    return path
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    ap.add_argument("--part", choices=("all", "random", "newton", "amg", "backsub"), default="all")
+    ap.add_argument(
+        "--part", choices=("all", "random", "newton", "amg", "backsub", "diagonal"), default="all"
+    )
     ap.add_argument(
         "--sizes",
         type=lambda s: [int(x) for x in s.split(",")],
@@ -874,6 +963,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         newton_part(args.sizes, args.solves, args.out)
     if args.part in ("all", "backsub"):
         backsub_part(args.out)
+    if args.part in ("all", "diagonal"):
+        diagonal_part(args.out)
     if args.part == "amg":
         sizes = args.sizes if args.sizes != list(NEWTON_SIZES) else list(AMG_SIZES)
         amg_part(sizes, args.solves, args.out)

@@ -70,3 +70,18 @@ def test_backsub_part_times_two_orders_of_the_same_solve(tmp_path, monkeypatch, 
     for r in rows:
         assert float(r["max_rel_difference"]) < 1e-13
         assert float(r["rows_us"]) > 0.0 and float(r["columns_us"]) > 0.0
+
+
+def test_diagonal_part_times_both_lus_of_the_same_system(tmp_path, monkeypatch, load_script):
+    """GMRES's LU with diagonal pivots solves the same system as with partial pivoting, to
+    round-off, small (bounded loops only) and larger."""
+    monkeypatch.syspath_prepend(str(BENCH))
+    mod = load_script(BENCH / "bench_preconditioner.py")
+    path = mod.diagonal_part(tmp_path, sizes=(3, 40))
+    with path.open() as f:
+        rows = list(csv.DictReader(f))
+    assert [int(r["unknowns"]) for r in rows] == [9, 120]
+    for r in rows:
+        assert float(r["max_rel_difference"]) < 1e-13
+        for key in ("lu_partial_us", "lu_diagonal_us", "solve_partial_us", "solve_diagonal_us"):
+            assert float(r[key]) > 0.0

@@ -1158,6 +1158,53 @@ def backsub() -> str:
     return _table(head, rows) + "\n\n" + provenance(path)
 
 
+def lu_diagonal() -> str:
+    path = RESULTS / "lu_diagonal.csv"
+    rows = [
+        [
+            r["nodes"],
+            r["unknowns"],
+            _g(r["lu_partial_us"]),
+            _g(r["lu_diagonal_us"]),
+            f"{_g(r['lu_speed_up'])}×",
+            _g(r["solve_partial_us"]),
+            _g(r["solve_diagonal_us"]),
+            f"{_g(r['solve_speed_up'])}×",
+            _g(r["max_rel_difference"], 2),
+        ]
+        for r in _csv(path)
+    ]
+    head = ["nodes", "unknowns", "LU, partial pivoting (µs)", "LU, diagonal pivots (µs)"]
+    head += ["speed-up", "solve, partial (µs)", "solve, diagonal (µs)", "speed-up"]
+    head += ["largest relative difference"]
+    return _table(head, rows) + "\n\n" + provenance(path)
+
+
+def sampled_profile() -> str:
+    """Share of the sampled window per kernel, one column per case; kernels under 1% in
+    every case are summed into one row."""
+    path = RESULTS / "sampled_profile.csv"
+    data = _csv(path)
+    cases = list(dict.fromkeys(r["case"] for r in data))
+    share = {(r["case"], r["function"]): float(r["pct_of_window"]) for r in data}
+    rest = "Python and the rest"
+    names = [n for n in dict.fromkeys(r["function"] for r in data) if n != rest]
+    names.sort(key=lambda n: -max(share.get((c, n), 0.0) for c in cases))
+    shown = [n for n in names if max(share.get((c, n), 0.0) for c in cases) >= 1.0]
+    small = [n for n in names if n not in shown]
+    rows = [
+        [f"`{n}`"] + [f"{_g(share[(c, n)], 2)}%" if (c, n) in share else "–" for c in cases]
+        for n in shown
+    ]
+    if small:
+        rows.append(
+            [f"{len(small)} more kernels, under 1% each"]
+            + [f"{_g(sum(share.get((c, n), 0.0) for n in small), 2)}%" for c in cases]
+        )
+    rows.append([rest] + [f"{_g(share.get((c, rest), 0.0), 2)}%" for c in cases])
+    return _table(["kernel (self time)"] + cases, rows) + "\n\n" + provenance(path)
+
+
 def contact_line_search() -> str:
     path = RESULTS / "contact_line_search.csv"
     rows = [
@@ -1709,6 +1756,8 @@ TABLES: dict[str, Callable[[], str]] = {
     "contact-seeds": contact_seeds,
     "contact-late": contact_late,
     "backsub": backsub,
+    "lu-diagonal": lu_diagonal,
+    "sampled-profile": sampled_profile,
     "contact-scaling-settled": contact_scaling_settled,
     "contact-onset": contact_onset,
     "preconditioner-newton": preconditioner_newton,

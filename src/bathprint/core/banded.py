@@ -84,9 +84,9 @@ def band_lu_diagonal(
     updates all of them), so the elimination does half the work: 2.2-2.6x faster on a
     pile's Newton matrix of 4929 unknowns. It fills ``piv`` with the identity, so the
     solves of :func:`band_solve` and :func:`band_solve_by_columns` apply too (the slots
-    beyond KU stay as assembled, zero). The threshold test is threshold partial pivoting's
-    (Duff, Erisman & Reid 1986, sec. 5.4): with 0.1, the elimination's growth stays within
-    a factor 11 per column."""
+    beyond KU stay as assembled, zero). The threshold test is that of threshold partial
+    pivoting (Duff, Erisman & Reid, Direct Methods for Sparse Matrices, 1986): with 0.1 no
+    multiplier exceeds 10, so an entry grows at most 11-fold per column eliminated."""
     for k in range(n):
         piv[k] = k
         pivot = band[k, KL]
