@@ -168,7 +168,7 @@ def band_solve_by_columns(band: np.ndarray, n: int, piv: np.ndarray, b: np.ndarr
     to round-off, in another order of operations: 2.1-2.3x faster than :func:`band_solve`
     from 300 to 9000 unknowns, 1.7x at 30000 (``python benchmarks/bench_preconditioner.py
     --part backsub``). GMRES's preconditioner, whose round-off nothing needs to match, uses
-    it."""
+    it where its LU took row swaps (else :func:`band_solve_diagonal`)."""
     _forward(band, n, KL, piv, b)
     for i in range(n - 1, -1, -1):
         xi = b[i] / band[i, KL]

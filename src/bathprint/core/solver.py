@@ -238,7 +238,9 @@ def _gmres(ws, nd: int, b: np.ndarray, counters: np.ndarray, rtol: float) -> boo
         minimise |b - A M^-1 u| over the Krylov space, x = M^-1 u. The preconditioned vectors
         z_j = M^-1 v_j are kept (as flexible GMRES keeps them, Saad 1993), so that x = sum y_j z_j
         costs no further back-substitution. ``b`` is overwritten by x. The back-substitutions go
-    by columns (:func:`~bathprint.core.banded.band_solve_by_columns`, the faster order)."""
+    by columns, through U's KU super-diagonals where the LU took no row swaps
+    (:func:`~bathprint.core.banded.band_solve_diagonal`), else through its KL + KU
+    (:func:`~bathprint.core.banded.band_solve_by_columns`)."""
     kr = ws.krylov
     basis = kr.basis
     zbasis = kr.zbasis
