@@ -71,9 +71,11 @@ solves each, the two alternating, and the largest difference of their solutions.
 
 ``--part diagonal``: GMRES's LU, with partial pivoting (``band_lu``, its solve by columns)
 against diagonal pivots (``band_lu_diagonal``, its solve through U's 8 super-diagonals
-only), on the same random diagonally dominant band matrices, N = 10^2 to 10^4; best of 7
-timings of 20 LUs and of 200 solves each, alternating, and the largest difference of the
-solutions (results/lu_diagonal.csv).
+only), on the same random diagonally dominant band matrices, N = 10^2 to 10^4, and on the
+band of the pile's Newton matrix (``period_doubling_22G`` at 0.8 s); best of 7 timings of
+20 LUs and of 200 solves each, alternating, the largest difference of the solutions, the
+rows partial pivoting swaps and whether every diagonal pivot passes the threshold
+(results/lu_diagonal.csv).
 
     python benchmarks/bench_preconditioner.py                      # both parts
     python benchmarks/bench_preconditioner.py --part newton --sizes 100,1000 --solves 1
@@ -895,49 +897,70 @@ def _diagonal_loops(diagonal: bool, reps: int, solves: int, saved: np.ndarray, w
             band_solve_by_columns(work, n, piv, b)
 
 
-def diagonal_part(out_dir: Path, sizes: Sequence[int] = BACKSUB_SIZES) -> Path:
-    """Time GMRES's LU and solve with partial pivoting against diagonal pivots."""
+def _diagonal_row(label: str, nodes: int, saved: np.ndarray, b0: np.ndarray) -> dict:
+    """Both LUs of the band ``saved`` (n = len(b0) unknowns) and their solves of b0 timed,
+    alternating (best of 7 of 20 LUs and of 200 solves), with the rows partial pivoting
+    swaps and whether every diagonal pivot passes the threshold."""
+    n = b0.shape[0]
+    work = {d: saved.copy() for d in (False, True)}
+    piv = {d: np.zeros(n, dtype=np.int64) for d in (False, True)}
+    inv = np.zeros(n)
+    x = {d: b0.copy() for d in (False, True)}
+    passes = band_lu_diagonal(saved.copy(), n, np.zeros(n, dtype=np.int64), inv, 0.1) == 0
+    for d in (False, True):
+        _diagonal_loops(d, 1, 1, saved, work[d], n, piv[d], inv, b0, x[d])
+    best = {(d, what): np.inf for d in (False, True) for what in ("lu", "solve")}
+    scratch = b0.copy()
+    for _ in range(7):
+        for d in (False, True):
+            for what, reps, solves in (("lu", 20, 0), ("solve", 0, 200)):
+                t0 = time.perf_counter()
+                _diagonal_loops(d, reps, solves, saved, work[d], n, piv[d], inv, b0, scratch)
+                per = (time.perf_counter() - t0) / (reps or solves)
+                best[d, what] = min(best[d, what], per)
+    diff = float(np.max(np.abs(x[True] - x[False])) / np.max(np.abs(x[False])))
+    row = {
+        "matrix": label,
+        "nodes": nodes,
+        "unknowns": n,
+        "rows_swapped_by_partial_pivoting": int(np.count_nonzero(piv[False] != np.arange(n))),
+        "diagonal_pivots_pass": bool(passes),
+        "lu_partial_us": 1e6 * best[False, "lu"],
+        "lu_diagonal_us": 1e6 * best[True, "lu"],
+        "lu_speed_up": best[False, "lu"] / best[True, "lu"],
+        "solve_partial_us": 1e6 * best[False, "solve"],
+        "solve_diagonal_us": 1e6 * best[True, "solve"],
+        "solve_speed_up": best[False, "solve"] / best[True, "solve"],
+        "max_rel_difference": diff,
+    }
+    print(
+        f"{label:>8} {nodes:>6} nodes: LU {row['lu_partial_us']:8.1f} -> "
+        f"{row['lu_diagonal_us']:8.1f} us ({row['lu_speed_up']:.2f}x), solve "
+        f"{row['solve_partial_us']:7.1f} -> {row['solve_diagonal_us']:7.1f} us "
+        f"({row['solve_speed_up']:.2f}x), difference {diff:.1e}, "
+        f"{row['rows_swapped_by_partial_pivoting']} rows swapped"
+    )
+    return row
+
+
+PILE_T_S = 0.8  # the pile of period_doubling_22G (seed 0) whose Newton matrix part diagonal times
+
+
+def diagonal_part(out_dir: Path, sizes: Sequence[int] = BACKSUB_SIZES, pile: bool = True) -> Path:
+    """Time GMRES's LU and solve with partial pivoting against diagonal pivots: on random
+    diagonally dominant bands, and (``pile``) on the band of the last Newton matrix GMRES
+    factorised in ``period_doubling_22G`` at PILE_T_S (its unfactored copy)."""
     rng = np.random.default_rng(0)
     rows = []
     for nodes in sizes:
         n = 3 * nodes
-        saved = _dominant_band(rng, n)
-        b0 = rng.standard_normal(n)
-        work = {d: saved.copy() for d in (False, True)}
-        piv = {d: np.zeros(n, dtype=np.int64) for d in (False, True)}
-        inv = np.zeros(n)
-        x = {d: b0.copy() for d in (False, True)}
-        for d in (False, True):
-            _diagonal_loops(d, 1, 1, saved, work[d], n, piv[d], inv, b0, x[d])
-        best = {(d, what): np.inf for d in (False, True) for what in ("lu", "solve")}
-        scratch = b0.copy()
-        for _ in range(7):
-            for d in (False, True):
-                for what, reps, solves in (("lu", 20, 0), ("solve", 0, 200)):
-                    t0 = time.perf_counter()
-                    _diagonal_loops(d, reps, solves, saved, work[d], n, piv[d], inv, b0, scratch)
-                    per = (time.perf_counter() - t0) / (reps or solves)
-                    best[d, what] = min(best[d, what], per)
-        diff = float(np.max(np.abs(x[True] - x[False])) / np.max(np.abs(x[False])))
-        rows.append(
-            {
-                "nodes": nodes,
-                "unknowns": n,
-                "lu_partial_us": 1e6 * best[False, "lu"],
-                "lu_diagonal_us": 1e6 * best[True, "lu"],
-                "lu_speed_up": best[False, "lu"] / best[True, "lu"],
-                "solve_partial_us": 1e6 * best[False, "solve"],
-                "solve_diagonal_us": 1e6 * best[True, "solve"],
-                "solve_speed_up": best[False, "solve"] / best[True, "solve"],
-                "max_rel_difference": diff,
-            }
-        )
-        r = rows[-1]
-        print(
-            f"{nodes:>6} nodes: LU {r['lu_partial_us']:8.1f} -> {r['lu_diagonal_us']:8.1f} us "
-            f"({r['lu_speed_up']:.2f}x), solve {r['solve_partial_us']:7.1f} -> "
-            f"{r['solve_diagonal_us']:7.1f} us ({r['solve_speed_up']:.2f}x), difference {diff:.1e}"
-        )
+        rows.append(_diagonal_row("random", nodes, _dominant_band(rng, n), rng.standard_normal(n)))
+    if pile:
+        sim = Simulation("period_doubling_22G", {"seed": 0, "outputs.plot": False})
+        sim.advance(PILE_T_S)
+        nd = int(sim.ws.solver[0]["lu_nd"])
+        band = np.ascontiguousarray(sim.ws.krylov.band_a[:nd])
+        rows.append(_diagonal_row("pile", nd // 3, band, rng.standard_normal(nd)))
     path = write_csv(out_dir / "lu_diagonal.csv", rows)
     print("wrote", path)
     return path

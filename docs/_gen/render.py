@@ -1162,8 +1162,11 @@ def lu_diagonal() -> str:
     path = RESULTS / "lu_diagonal.csv"
     rows = [
         [
+            r["matrix"],
             r["nodes"],
             r["unknowns"],
+            r["rows_swapped_by_partial_pivoting"],
+            "yes" if r["diagonal_pivots_pass"] == "True" else "no",
             _g(r["lu_partial_us"]),
             _g(r["lu_diagonal_us"]),
             f"{_g(r['lu_speed_up'])}×",
@@ -1174,7 +1177,8 @@ def lu_diagonal() -> str:
         ]
         for r in _csv(path)
     ]
-    head = ["nodes", "unknowns", "LU, partial pivoting (µs)", "LU, diagonal pivots (µs)"]
+    head = ["matrix", "nodes", "unknowns", "rows swapped by partial pivoting"]
+    head += ["diagonal pivots pass", "LU, partial pivoting (µs)", "LU, diagonal pivots (µs)"]
     head += ["speed-up", "solve, partial (µs)", "solve, diagonal (µs)", "speed-up"]
     head += ["largest relative difference"]
     return _table(head, rows) + "\n\n" + provenance(path)

@@ -81,8 +81,9 @@ def band_lu_diagonal(
     is below ``threshold`` times the largest entry under it, where a row swap is due.
 
     Without swaps U keeps KU super-diagonals (partial pivoting may widen it to KL + KU and
-    updates all of them), so the elimination does half the work: 2.2-2.6x faster on a
-    pile's Newton matrix of 4929 unknowns. It fills ``piv`` with the identity, so the
+    updates all of them), so the elimination does half the work: 3.1x faster on the band
+    of a coil pile's Newton matrix (``python benchmarks/bench_preconditioner.py --part
+    diagonal``). It fills ``piv`` with the identity, so the
     solves of :func:`band_solve` and :func:`band_solve_by_columns` apply too (the slots
     beyond KU stay as assembled, zero). The threshold test is that of threshold partial
     pivoting (Duff, Erisman & Reid, Direct Methods for Sparse Matrices, 1986): with 0.1 no
@@ -187,7 +188,7 @@ def band_solve_diagonal(band: np.ndarray, n: int, inv_diag: np.ndarray, b: np.nd
     forward through L's KL sub-diagonals, backward by columns (as
     :func:`band_solve_by_columns`) through U's KU super-diagonals only, multiplying by the
     pivots' reciprocals. The same solve to round-off; 1.4x faster than
-    :func:`band_solve_by_columns` on the same factors (4929 unknowns), whose backward loop
+    :func:`band_solve_by_columns` on the factors of a coil pile's band, whose backward loop
     also runs over the KL slots that swaps would have filled."""
     for k in range(n):
         _l_column(band, n, KL, k, b)
