@@ -81,7 +81,7 @@ def band_lu_diagonal(
     is below ``threshold`` times the largest entry under it, where a row swap is due.
 
     Without swaps U keeps KU super-diagonals (partial pivoting may widen it to KL + KU and
-    updates all of them), so the elimination does half the work: 3.1x faster on the band
+    updates all of them), so the elimination does half the work: 2.8-3.2x faster on the band
     of a coil pile's Newton matrix (``python benchmarks/bench_preconditioner.py --part
     diagonal``). It fills ``piv`` with the identity, so the
     solves of :func:`band_solve` and :func:`band_solve_by_columns` apply too (the slots
