@@ -17,16 +17,23 @@ steps, and the smallest distance between non-adjacent segments over the saved fr
 Every ratio is measured within the same run. (3) ``--part whole``: every built-in scene that
 lists contact, for its whole duration as shipped, with the smallest distance between
 non-adjacent segments over all its saved frames (the validation's "never closer than 0.9
-contact distances", for whole runs; tests/test_contact.py checks shortened ones).
+contact distances", for whole runs; tests/test_contact.py checks shortened ones). (4)
+``--part saturation``: the pressed stacks from 300 to 3x10^4 nodes (5 to 477 turns), relaxed
+20 ms, then 5 ms at steps of at most 0.25 and 0.0625 ms from copies of the relaxed state:
+Krylov iterations per Newton iteration against the square root of the condition number
+that a model of the stack predicts for GMRES with the banded LU (``stack_coupling``), which
+stops growing beyond pi sqrt(k_c h / zeta_n) turns.
 
-    python benchmarks/bench_contact.py [--quick] [--part scaling|settled|scenes|whole]
+    python benchmarks/bench_contact.py [--quick] [--part scaling|settled|saturation|scenes|whole]
 """
 
 from __future__ import annotations
 
 import argparse
 import math
+import pickle
 import time
+from collections.abc import Sequence
 
 import numpy as np
 from _common import best_of, write_csv
@@ -35,6 +42,7 @@ from numba import njit
 from bathprint import Simulation, simulate
 from bathprint.core.effects._segment_geometry import segment_distance
 from bathprint.core.effects.contact import min_separation_for
+from bathprint.core.layout import DRAG_MU_S
 
 MM = 1e-3
 R_FIL = 0.205 * MM  # 22G
@@ -196,13 +204,17 @@ def main() -> None:
     p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     p.add_argument("--quick", action="store_true", help="smaller sizes and shorter runs")
     p.add_argument(
-        "--part", choices=("all", "scaling", "settled", "scenes", "whole"), default="all"
+        "--part",
+        choices=("all", "scaling", "settled", "saturation", "scenes", "whole"),
+        default="all",
     )
     args = p.parse_args()
     if args.part in ("all", "scaling"):
         scaling_part(args.quick)
     if args.part in ("all", "settled"):
         settled_part(args.quick)
+    if args.part in ("all", "saturation"):
+        saturation_part(args.quick)
     if args.part in ("all", "scenes"):
         scenes_part(args.quick)
     if args.part in ("all", "whole"):
@@ -239,6 +251,116 @@ def settled_part(quick: bool) -> None:
             touching, duration, 0.98, preconditioner, SETTLED_WARM_UP_S, SETTLED_MAX_STEP_S
         )
     write_csv("contact_scaling_settled", rows)
+
+
+SATURATION_SIZES = (300, 1000, 3000, 10000, 30000)
+SATURATION_STEPS_S = (2.5e-4, 6.25e-5)  # the window's largest step: the settled one, and 1/4
+SATURATION_WINDOW_S = 5e-3
+SATURATION_REPEATS = 2  # windows timed per variant (the best counts), from copies of one state
+COIL_RADIUS = 3 * MM  # coil_stack's
+
+
+def stack_turns(n: int, gap: float) -> float:
+    """The turns of ``coil_stack(n, _, gap)``."""
+    pitch = gap * 2 * R_FIL
+    return (n - 1) * SPACING / math.hypot(COIL_RADIUS, pitch / (2 * math.pi)) / (2 * math.pi)
+
+
+def stack_coupling(sim: Simulation, step_s: float, turns: float) -> dict[str, float]:
+    """The model of a pressed, overdamped stack's Newton matrix with the banded LU as
+    GMRES's preconditioner. Per length of turn k, its vertical displacement u_k meets the
+    drag of a step h, zeta_n / h (zeta_n = 2 mu_s, the normal coefficient of the local drag
+    law), and a contact stiffness k_c (``contact.stiffness_pa``) to the turns above and
+    below, which are off the band: B = zeta_n / h + 2 k_c on the diagonal, A = B - k_c S
+    (S the sum of the shifts up and down a turn). The eigenvalues of B^-1 A are 1 - 2 k_c
+    cos(theta_j) / (zeta_n / h + 2 k_c), theta_j = j pi / (T + 1) over T turns, so with
+    a = k_c h / zeta_n the condition number is (1 + 4 a) / (1 + 2 a (1 - cos(pi / (T + 1)))):
+    it grows with the stack's height until T passes T* = pi sqrt(a) turns, and then stays
+    at 1 + 4 a. Krylov iterations go as its square root at most: linear cost per step
+    beyond T*."""
+    p = sim.model.params[0]
+    if int(p["drag_model"]) != DRAG_MU_S:
+        raise ValueError(f"drag model {int(p['drag_model'])}: the model needs the local law")
+    zeta_n = 2.0 * float(p["mu_s"])  # Pa s: normal drag per length and speed
+    a = float(p["contact_stiffness"]) * step_s / zeta_n
+    kappa = (1.0 + 4.0 * a) / (1.0 + 2.0 * a * (1.0 - math.cos(math.pi / (turns + 1.0))))
+    return {
+        "drag_normal_pa_s": zeta_n,
+        "stiffness_over_drag": a,
+        "coupling_turns": math.pi * math.sqrt(a),
+        "kappa_model": kappa,
+    }
+
+
+def saturation_rows(
+    sizes: Sequence[int], steps: Sequence[float], warm_up: float, window: float, repeats: int
+) -> list[dict]:
+    """Pressed stacks (0.98 delta, banded LU) relaxed for ``warm_up`` at steps of at most
+    steps[0], then ``window`` more at each largest step of ``steps`` (set in the compiled
+    parameter record of pickled copies of the relaxed state; best of ``repeats``), with and
+    without contact: Krylov iterations per Newton iteration against the model's condition
+    number (:func:`stack_coupling`, with h the window's mean step), cost per node-step."""
+    rows = []
+    for n in sizes:
+        turns = stack_turns(n, 0.98)
+        states = {}
+        for contact in (False, True):
+            sim = coil_stack(n, contact, 0.98, {"numerics.max_step_s": steps[0]})
+            sim.advance(warm_up)
+            states[contact] = pickle.dumps(sim)
+        for step in steps:
+            out: dict = {"nodes": n, "turns": turns, "max_step_s": step, "window_s": window}
+            for contact in (False, True):
+                key = "contact" if contact else "none"
+                best = math.inf
+                for _ in range(repeats):
+                    sim = pickle.loads(states[contact])
+                    sim.model.params[0]["max_step"] = step
+                    t_start, start = sim.t, sim.counts()
+                    t0 = time.perf_counter()
+                    sim.advance(t_start + window)
+                    wall = time.perf_counter() - t0
+                    if wall < best:
+                        best = wall
+                        end = sim.counts()
+                        c = {k: end[k] - start[k] for k in end}
+                n_steps = max(c["steps"], 1)
+                out[f"steps_{key}"] = n_steps
+                out[f"ns_per_node_step_{key}"] = 1e9 * best / n_steps / n
+                out[f"newton_per_step_{key}"] = c["newton_iterations"] / n_steps
+                if contact:
+                    out["mean_step_s"] = window / n_steps
+                    out["krylov_per_newton"] = c["krylov_iterations"] / max(
+                        c["newton_iterations"], 1
+                    )
+                    out.update(stack_coupling(sim, out["mean_step_s"], turns))
+            out["ratio"] = out["ns_per_node_step_contact"] / out["ns_per_node_step_none"]
+            out["turns_over_coupling"] = turns / out["coupling_turns"]
+            out["krylov_over_sqrt_kappa"] = out["krylov_per_newton"] / math.sqrt(out["kappa_model"])
+            rows.append(out)
+            print(
+                f"N = {n:>6} ({turns:5.1f} turns, T/T* = {out['turns_over_coupling']:5.2f}), "
+                f"steps {1e3 * out['mean_step_s']:.4f} ms: Krylov per Newton "
+                f"{out['krylov_per_newton']:.2f} (model sqrt(kappa) "
+                f"{math.sqrt(out['kappa_model']):.1f}); {out['ns_per_node_step_none']:.0f} / "
+                f"{out['ns_per_node_step_contact']:.0f} ns per node-step without / with "
+                f"(x{out['ratio']:.2f})",
+                flush=True,
+            )
+    return rows
+
+
+def saturation_part(quick: bool) -> None:
+    """Where the Krylov iterations of a pressed stack stop growing with its height."""
+    sizes = (300, 1000) if quick else SATURATION_SIZES
+    print(
+        f"pressed stacks after {SETTLED_WARM_UP_S * 1e3:g} ms, {SATURATION_WINDOW_S * 1e3:g} ms "
+        "windows: Krylov iterations against the stack's height and step"
+    )
+    rows = saturation_rows(
+        sizes, SATURATION_STEPS_S, SETTLED_WARM_UP_S, SATURATION_WINDOW_S, SATURATION_REPEATS
+    )
+    print("wrote", write_csv("contact_saturation", rows))
 
 
 def scenes_part(quick: bool) -> None:

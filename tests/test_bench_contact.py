@@ -120,3 +120,47 @@ def test_the_settled_part_times_its_window_at_the_steps_it_names(bench):
     steps = r["wall_s_contact"] / (1e-6 * r["us_per_step_contact"])
     assert steps >= 1e-3 / 2.5e-4 - 1e-9
     assert r["newton_per_step_contact"] >= 1.0 and r["krylov_per_newton"] >= 1.0
+
+
+def test_the_stack_model_saturates_beyond_its_coupling_height(bench):
+    """``stack_coupling``: the condition number of the banded LU's preconditioned stack grows
+    with its turns T up to T* = pi sqrt(a) and then stays near 1 + 4 a; ``stack_turns``
+    counts the turns that ``coil_stack`` winds."""
+    import numpy as np
+
+    mod = bench("bench_contact")
+    sim = mod.coil_stack(300, True, 0.98)
+    centre = sim.centerline()
+    angle = np.unwrap(np.arctan2(centre[:, 1], centre[:, 0]))
+    turns = mod.stack_turns(300, 0.98)
+    assert turns == pytest.approx((angle[-1] - angle[0]) / (2 * math.pi), rel=1e-6)
+    h = 2.5e-4
+    m = mod.stack_coupling(sim, h, 1e6)
+    p = sim.model.params[0]
+    a = float(p["contact_stiffness"]) * h / (2.0 * float(p["mu_s"]))
+    assert m["stiffness_over_drag"] == pytest.approx(a, rel=1e-12)
+    assert m["coupling_turns"] == pytest.approx(math.pi * math.sqrt(a), rel=1e-12)
+    assert m["kappa_model"] == pytest.approx(1.0 + 4.0 * a, rel=1e-3)  # far beyond T*
+    short = mod.stack_coupling(sim, h, 0.2 * m["coupling_turns"])["kappa_model"]
+    at = mod.stack_coupling(sim, h, m["coupling_turns"])["kappa_model"]
+    tall = mod.stack_coupling(sim, h, 5.0 * m["coupling_turns"])["kappa_model"]
+    assert short < 0.3 * (1.0 + 4.0 * a) < at < 0.8 * (1.0 + 4.0 * a) < tall
+    finite_re = mod.coil_stack(100, True, 0.98, {"drag.model": "finite_re"})
+    with pytest.raises(ValueError, match="drag model"):
+        mod.stack_coupling(finite_re, h, 10.0)
+
+
+def test_the_saturation_part_times_each_step_from_the_same_relaxed_stack(bench):
+    """``--part saturation`` on a tiny stack: a row per step bound, each window's steps no
+    longer than its bound, the model's columns filled."""
+    mod = bench("bench_contact")
+    rows = mod.saturation_rows([100], (2.5e-4, 1e-4), 1e-3, 1e-3, 1)
+    assert [r["max_step_s"] for r in rows] == [2.5e-4, 1e-4]
+    for r in rows:
+        assert r["mean_step_s"] <= r["max_step_s"] * (1.0 + 1e-9)
+        assert r["steps_contact"] >= 1e-3 / r["max_step_s"] - 1e-9
+        assert r["krylov_per_newton"] >= 1.0 and r["newton_per_step_contact"] >= 1.0
+        assert r["turns_over_coupling"] == pytest.approx(r["turns"] / r["coupling_turns"])
+        assert r["ratio"] == pytest.approx(
+            r["ns_per_node_step_contact"] / r["ns_per_node_step_none"]
+        )

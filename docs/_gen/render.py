@@ -1085,6 +1085,40 @@ def contact_scaling() -> str:
     return _table(head, rows) + "\n\n" + provenance(path)
 
 
+def contact_saturation() -> str:
+    path = RESULTS / "contact_saturation.csv"
+    rows = [
+        [
+            r["nodes"],
+            _g(r["turns"]),
+            _g(1e3 * float(r["mean_step_s"]), 3),
+            _g(r["turns_over_coupling"], 2),
+            _g(math.sqrt(float(r["kappa_model"])), 3),
+            _g(r["krylov_per_newton"], 3),
+            _g(r["krylov_over_sqrt_kappa"], 2),
+            _g(r["newton_per_step_contact"], 2),
+            _g(r["ns_per_node_step_none"]),
+            _g(r["ns_per_node_step_contact"]),
+            f"{_g(r['ratio'], 3)}×",
+        ]
+        for r in _csv(path)
+    ]
+    head = [
+        "nodes",
+        "turns T",
+        "mean step (ms)",
+        "T / T*",
+        "model √κ",
+        "Krylov per Newton",
+        "Krylov / √κ",
+        "Newton per step",
+        "ns per node-step without",
+        "with",
+        "ratio",
+    ]
+    return _table(head, rows) + "\n\n" + provenance(path)
+
+
 def contact_scaling_settled() -> str:
     path = RESULTS / "contact_scaling_settled.csv"
     rows = [
@@ -1763,6 +1797,7 @@ TABLES: dict[str, Callable[[], str]] = {
     "lu-diagonal": lu_diagonal,
     "sampled-profile": sampled_profile,
     "contact-scaling-settled": contact_scaling_settled,
+    "contact-saturation": contact_saturation,
     "contact-onset": contact_onset,
     "preconditioner-newton": preconditioner_newton,
     "preconditioner-amg": preconditioner_amg,
