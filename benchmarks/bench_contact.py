@@ -22,9 +22,12 @@ contact distances", for whole runs; tests/test_contact.py checks shortened ones)
 20 ms, then 5 ms at steps of at most 0.25 and 0.0625 ms from copies of the relaxed state:
 Krylov iterations per Newton iteration against the square root of the condition number
 that a model of the stack predicts for GMRES with the banded LU (``stack_coupling``), which
-stops growing beyond pi sqrt(k_c h / zeta_n) turns.
+stops growing beyond pi sqrt(k_c h / zeta_n) turns. (5) ``--part hessian``: every built-in
+scene with contact, its whole run with the exact Hessian of the penalty (the default) and with
+its Gauss-Newton part (``contact.hessian``), best of two each.
 
-    python benchmarks/bench_contact.py [--quick] [--part scaling|settled|saturation|scenes|whole]
+    python benchmarks/bench_contact.py [--quick]
+        [--part scaling|settled|saturation|scenes|whole|hessian]
 """
 
 from __future__ import annotations
@@ -205,7 +208,7 @@ def main() -> None:
     p.add_argument("--quick", action="store_true", help="smaller sizes and shorter runs")
     p.add_argument(
         "--part",
-        choices=("all", "scaling", "settled", "saturation", "scenes", "whole"),
+        choices=("all", "scaling", "settled", "saturation", "scenes", "whole", "hessian"),
         default="all",
     )
     args = p.parse_args()
@@ -219,6 +222,8 @@ def main() -> None:
         scenes_part(args.quick)
     if args.part in ("all", "whole"):
         whole_part(args.quick)
+    if args.part in ("all", "hessian"):
+        hessian_part(args.quick)
 
 
 def scaling_part(quick: bool) -> None:
@@ -380,18 +385,23 @@ def contact_scenes() -> list[str]:
     return [n for n in builtin_scene_names() if "contact" in Simulation(n).scene.effects]
 
 
-def whole_runs(scenes: list[str], fraction: float = 1.0) -> list[dict]:
-    """Each scene for ``fraction`` of its own duration: wall time, steps, the smallest gap
+def whole_runs(
+    scenes: list[str], fraction: float = 1.0, overrides: dict | None = None, repeats: int = 1
+) -> list[dict]:
+    """Each scene for ``fraction`` of its own duration (with ``overrides``; the best wall
+    time of ``repeats``): wall time, steps, Newton iterations and failures, the smallest gap
     between non-adjacent segments over every saved frame (in contact distances r_i + r_j),
     Krylov iterations and contact retries."""
     rows = []
     for scene in scenes:
         duration = fraction * Simulation(scene).scene.duration_s
-        over = {"duration_s": duration, "outputs.plot": False}
+        over = {"duration_s": duration, "outputs.plot": False, **(overrides or {})}
         simulate(scene, {**over, "duration_s": 1e-3})  # compile
-        t0 = time.perf_counter()
-        res = simulate(scene, over)
-        wall = time.perf_counter() - t0
+        wall = math.inf
+        for _ in range(repeats):
+            t0 = time.perf_counter()
+            res = simulate(scene, over)
+            wall = min(wall, time.perf_counter() - t0)
         s = res.summary
         r = float(res.material[0, 2])
         sep = min_separation_for(2 * r, s["numerics"]["node_spacing_mm"] * MM)
@@ -402,6 +412,8 @@ def whole_runs(scenes: list[str], fraction: float = 1.0) -> list[dict]:
             "frames": len(gaps),
             "wall_s": wall,
             "steps": s["steps"],
+            "newton_iterations": s["newton_iterations"],
+            "newton_failures": s["newton_failures"],
             "min_gap_ratio": min(gaps),
             "frames_below_0.9": sum(g < 0.9 for g in gaps),
             "krylov_iterations": s["krylov_iterations"],
@@ -419,6 +431,28 @@ def whole_part(quick: bool) -> None:
     print("every built-in scene with contact, its whole run:")
     rows = whole_runs(contact_scenes(), 0.05 if quick else 1.0)
     print("wrote", write_csv("contact_whole_runs", rows))
+
+
+HESSIANS = ("exact", "gauss_newton")  # contact.hessian
+
+
+def hessian_rows(scenes: list[str], fraction: float, repeats: int) -> list[dict]:
+    """Every scene's run with each ``contact.hessian`` (best of ``repeats``), and its wall time
+    against the default's (the exact Hessian's), in the same process."""
+    rows = []
+    for scene in scenes:
+        base = None
+        for hessian in HESSIANS:
+            (row,) = whole_runs([scene], fraction, {"contact.hessian": hessian}, repeats)
+            base = base or row["wall_s"]
+            rows.append({"hessian": hessian, **row, "wall_ratio": row["wall_s"] / base})
+    return rows
+
+
+def hessian_part(quick: bool) -> None:
+    print("every built-in scene with contact, exact and Gauss-Newton Hessian:")
+    rows = hessian_rows(contact_scenes(), 0.05 if quick else 1.0, 1 if quick else 2)
+    print("wrote", write_csv("contact_hessian", rows))
 
 
 if __name__ == "__main__":

@@ -164,3 +164,16 @@ def test_the_saturation_part_times_each_step_from_the_same_relaxed_stack(bench):
         assert r["ratio"] == pytest.approx(
             r["ns_per_node_step_contact"] / r["ns_per_node_step_none"]
         )
+
+
+def test_the_hessian_part_runs_each_scene_with_both_hessians(bench):
+    """``--part hessian`` on a tiny fraction of one scene: a row per Hessian, the default's
+    first, the wall-time ratio against it, the scene's gaps kept."""
+    mod = bench("bench_contact")
+    rows = mod.hessian_rows(["drag_coiling_22G"], 0.02, 1)
+    assert [r["hessian"] for r in rows] == ["exact", "gauss_newton"]
+    assert rows[0]["wall_ratio"] == pytest.approx(1.0)
+    assert rows[1]["wall_ratio"] == pytest.approx(rows[1]["wall_s"] / rows[0]["wall_s"])
+    for r in rows:
+        assert r["steps"] > 0 and r["newton_iterations"] >= r["steps"]
+        assert r["min_gap_ratio"] > 0.9
