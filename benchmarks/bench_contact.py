@@ -20,11 +20,11 @@ non-adjacent segments over all its saved frames (the validation's "never closer 
 contact distances", for whole runs; tests/test_contact.py checks shortened ones). (4)
 ``--part saturation``: the pressed stacks from 300 to 3x10^4 nodes (5 to 477 turns), relaxed
 20 ms, then 5 ms at steps of at most 0.25 and 0.0625 ms from copies of the relaxed state:
-Krylov iterations per Newton iteration against the square root of the condition number
-that a model of the stack predicts for GMRES with the banded LU (``stack_coupling``), which
-stops growing beyond pi sqrt(k_c h / zeta_n) turns. (5) ``--part hessian``: every built-in
-scene with contact, its whole run with the exact Hessian of the penalty (the default) and with
-its Gauss-Newton part (``contact.hessian``), best of two each.
+Krylov iterations per Newton iteration against the bound that a model of the stack gives
+for GMRES with the banded LU (``stack_coupling``), which stops growing with the height.
+(5) ``--part hessian``: every built-in scene with contact, its whole run with the exact
+Hessian of the penalty (the default) and with its Gauss-Newton part (``contact.hessian``),
+best of two each.
 
     python benchmarks/bench_contact.py [--quick]
         [--part scaling|settled|saturation|scenes|whole|hessian]
@@ -272,28 +272,44 @@ def stack_turns(n: int, gap: float) -> float:
 
 
 def stack_coupling(sim: Simulation, step_s: float, turns: float) -> dict[str, float]:
-    """The model of a pressed, overdamped stack's Newton matrix with the banded LU as
-    GMRES's preconditioner. Per length of turn k, its vertical displacement u_k meets the
-    drag of a step h, zeta_n / h (zeta_n = 2 mu_s, the normal coefficient of the local drag
-    law), and a contact stiffness k_c (``contact.stiffness_pa``) to the turns above and
-    below, which are off the band: B = zeta_n / h + 2 k_c on the diagonal, A = B - k_c S
-    (S the sum of the shifts up and down a turn). The eigenvalues of B^-1 A are 1 - 2 k_c
-    cos(theta_j) / (zeta_n / h + 2 k_c), theta_j = j pi / (T + 1) over T turns, so with
-    a = k_c h / zeta_n the condition number is (1 + 4 a) / (1 + 2 a (1 - cos(pi / (T + 1)))):
-    it grows with the stack's height until T passes T* = pi sqrt(a) turns, and then stays
-    at 1 + 4 a. Krylov iterations go as its square root at most: linear cost per step
-    beyond T*."""
+    """A model of a pressed, overdamped, free stack's Newton matrix A with its band B (the
+    banded LU) as GMRES's preconditioner, and the bound on GMRES's iterations it gives.
+
+    Per length of turn k, its vertical displacement u_k meets the drag of a step h,
+    zeta_n / h (zeta_n = 2 mu_s, the local drag law's normal coefficient), and the
+    penalty's stiffness k_c (``contact.stiffness_pa``; its largest, reached past the soft
+    onset) towards the turns above and below, which are off the band: B holds zeta_n / h +
+    2 k_c on the diagonal (zeta_n / h + k_c at the free top and bottom turns) and A = B -
+    k_c S (S the shifts up and down a turn). The stack's translation stretches no contact,
+    so B^-1 A has an eigenvalue near 1 / (1 + 2 a), a = k_c h / zeta_n, at every height: its
+    condition number kappa (computed here for round(T) >= 2 turns) is close to 1 + 4 a
+    from a few turns on. With A and B symmetric positive definite, GMRES preconditioned by
+    B reduces the residual by eps within 1/2 sqrt(kappa) ln(2 / eps) iterations (the
+    Chebyshev bound, in B's norm), and within as many as B^-1 A has distinct eigenvalues (T
+    for these modes): ``krylov_bound`` = min(T, 1/2 sqrt(kappa) ln(2 / eps)), eps the
+    scene's ``numerics.krylov_tolerance``, which stops growing beyond ``crossover_turns``.
+    The simulator's matrix is neither symmetric nor always definite: an estimate of the
+    shape, not a guarantee."""
     p = sim.model.params[0]
     if int(p["drag_model"]) != DRAG_MU_S:
         raise ValueError(f"drag model {int(p['drag_model'])}: the model needs the local law")
     zeta_n = 2.0 * float(p["mu_s"])  # Pa s: normal drag per length and speed
     a = float(p["contact_stiffness"]) * step_s / zeta_n
-    kappa = (1.0 + 4.0 * a) / (1.0 + 2.0 * a * (1.0 - math.cos(math.pi / (turns + 1.0))))
+    n = max(2, round(turns))
+    diag = np.full(n, 1.0 + 2.0 * a)  # in units of zeta_n / h
+    diag[[0, -1]] = 1.0 + a
+    scale = 1.0 / np.sqrt(diag)
+    sym = np.diag(np.ones(n)) - a * np.outer(scale, scale) * (np.eye(n, k=1) + np.eye(n, k=-1))
+    eig = np.linalg.eigvalsh(sym)  # of B^-1/2 A B^-1/2, similar to B^-1 A
+    kappa = float(eig[-1] / eig[0])
+    reduction = math.log(2.0 / float(p["krylov_tolerance"]))
+    chebyshev = 0.5 * math.sqrt(kappa) * reduction
     return {
         "drag_normal_pa_s": zeta_n,
         "stiffness_over_drag": a,
-        "coupling_turns": math.pi * math.sqrt(a),
         "kappa_model": kappa,
+        "krylov_bound": min(float(n), chebyshev),
+        "crossover_turns": 0.5 * math.sqrt(1.0 + 4.0 * a) * reduction,
     }
 
 
@@ -304,7 +320,8 @@ def saturation_rows(
     steps[0], then ``window`` more at each largest step of ``steps`` (set in the compiled
     parameter record of pickled copies of the relaxed state; best of ``repeats``), with and
     without contact: Krylov iterations per Newton iteration against the model's condition
-    number (:func:`stack_coupling`, with h the window's mean step), cost per node-step."""
+    number and iteration bound (:func:`stack_coupling`, with h the window's mean step),
+    cost per node-step."""
     rows = []
     for n in sizes:
         turns = stack_turns(n, 0.98)
@@ -340,14 +357,12 @@ def saturation_rows(
                     )
                     out.update(stack_coupling(sim, out["mean_step_s"], turns))
             out["ratio"] = out["ns_per_node_step_contact"] / out["ns_per_node_step_none"]
-            out["turns_over_coupling"] = turns / out["coupling_turns"]
-            out["krylov_over_sqrt_kappa"] = out["krylov_per_newton"] / math.sqrt(out["kappa_model"])
+            out["krylov_over_bound"] = out["krylov_per_newton"] / out["krylov_bound"]
             rows.append(out)
             print(
-                f"N = {n:>6} ({turns:5.1f} turns, T/T* = {out['turns_over_coupling']:5.2f}), "
-                f"steps {1e3 * out['mean_step_s']:.4f} ms: Krylov per Newton "
-                f"{out['krylov_per_newton']:.2f} (model sqrt(kappa) "
-                f"{math.sqrt(out['kappa_model']):.1f}); {out['ns_per_node_step_none']:.0f} / "
+                f"N = {n:>6} ({turns:5.1f} turns), steps {1e3 * out['mean_step_s']:.4f} ms: "
+                f"Krylov per Newton {out['krylov_per_newton']:.2f} (model bound "
+                f"{out['krylov_bound']:.1f}); {out['ns_per_node_step_none']:.0f} / "
                 f"{out['ns_per_node_step_contact']:.0f} ns per node-step without / with "
                 f"(x{out['ratio']:.2f})",
                 flush=True,

@@ -122,10 +122,11 @@ def test_the_settled_part_times_its_window_at_the_steps_it_names(bench):
     assert r["newton_per_step_contact"] >= 1.0 and r["krylov_per_newton"] >= 1.0
 
 
-def test_the_stack_model_saturates_beyond_its_coupling_height(bench):
-    """``stack_coupling``: the condition number of the banded LU's preconditioned stack grows
-    with its turns T up to T* = pi sqrt(a) and then stays near 1 + 4 a; ``stack_turns``
-    counts the turns that ``coil_stack`` winds."""
+def test_the_stack_model_bounds_gmres_whatever_the_height(bench):
+    """``stack_coupling``: a free stack's translation stretches no contact, so the condition
+    number of the banded LU's preconditioned stack is near 1 + 4 a at every height; the
+    iteration bound min(T, 1/2 sqrt(kappa) ln(2 / eps)) grows with the turns T up to the
+    crossover and then stays; ``stack_turns`` counts the turns that ``coil_stack`` winds."""
     import numpy as np
 
     mod = bench("bench_contact")
@@ -135,16 +136,23 @@ def test_the_stack_model_saturates_beyond_its_coupling_height(bench):
     turns = mod.stack_turns(300, 0.98)
     assert turns == pytest.approx((angle[-1] - angle[0]) / (2 * math.pi), rel=1e-6)
     h = 2.5e-4
-    m = mod.stack_coupling(sim, h, 1e6)
     p = sim.model.params[0]
     a = float(p["contact_stiffness"]) * h / (2.0 * float(p["mu_s"]))
-    assert m["stiffness_over_drag"] == pytest.approx(a, rel=1e-12)
-    assert m["coupling_turns"] == pytest.approx(math.pi * math.sqrt(a), rel=1e-12)
-    assert m["kappa_model"] == pytest.approx(1.0 + 4.0 * a, rel=1e-3)  # far beyond T*
-    short = mod.stack_coupling(sim, h, 0.2 * m["coupling_turns"])["kappa_model"]
-    at = mod.stack_coupling(sim, h, m["coupling_turns"])["kappa_model"]
-    tall = mod.stack_coupling(sim, h, 5.0 * m["coupling_turns"])["kappa_model"]
-    assert short < 0.3 * (1.0 + 4.0 * a) < at < 0.8 * (1.0 + 4.0 * a) < tall
+    eps = float(p["krylov_tolerance"])
+    tall = mod.stack_coupling(sim, h, 1000.0)
+    assert tall["stiffness_over_drag"] == pytest.approx(a, rel=1e-12)
+    assert tall["kappa_model"] == pytest.approx(1.0 + 4.0 * a, rel=1e-3)
+    assert tall["crossover_turns"] == pytest.approx(
+        0.5 * math.sqrt(1.0 + 4.0 * a) * math.log(2.0 / eps), rel=1e-12
+    )
+    assert tall["krylov_bound"] == pytest.approx(tall["crossover_turns"], rel=1e-3)
+    for t in (2, 5, 16):  # short stacks: the translation keeps kappa near its limit
+        m = mod.stack_coupling(sim, h, t)
+        assert 0.4 * (1.0 + 4.0 * a) < m["kappa_model"] < 1.0 + 4.0 * a
+        # the translation's Rayleigh quotient bounds the smallest eigenvalue by 1 / (1 + 2a
+        # (T - 1) / T), and the eigenvalues average 1 (the model's diagonal is 1)
+        assert m["kappa_model"] >= (1.0 + 2.0 * a * (t - 1) / t) * (1.0 - 1e-9)
+        assert m["krylov_bound"] == pytest.approx(float(t))
     finite_re = mod.coil_stack(100, True, 0.98, {"drag.model": "finite_re"})
     with pytest.raises(ValueError, match="drag model"):
         mod.stack_coupling(finite_re, h, 10.0)
@@ -160,7 +168,7 @@ def test_the_saturation_part_times_each_step_from_the_same_relaxed_stack(bench):
         assert r["mean_step_s"] <= r["max_step_s"] * (1.0 + 1e-9)
         assert r["steps_contact"] >= 1e-3 / r["max_step_s"] - 1e-9
         assert r["krylov_per_newton"] >= 1.0 and r["newton_per_step_contact"] >= 1.0
-        assert r["turns_over_coupling"] == pytest.approx(r["turns"] / r["coupling_turns"])
+        assert r["krylov_over_bound"] == pytest.approx(r["krylov_per_newton"] / r["krylov_bound"])
         assert r["ratio"] == pytest.approx(
             r["ns_per_node_step_contact"] / r["ns_per_node_step_none"]
         )
