@@ -321,7 +321,8 @@ def saturation_rows(
     parameter record of pickled copies of the relaxed state; best of ``repeats``), with and
     without contact: Krylov iterations per Newton iteration against the model's condition
     number and iteration bound (:func:`stack_coupling`, with h the window's mean step),
-    cost per node-step."""
+    cost per node-step, and the candidate and near pairs per segment and blocks off the band
+    per node at the window's end."""
     rows = []
     for n in sizes:
         turns = stack_turns(n, 0.98)
@@ -351,6 +352,10 @@ def saturation_rows(
                 out[f"ns_per_node_step_{key}"] = 1e9 * best / n_steps / n
                 out[f"newton_per_step_{key}"] = c["newton_iterations"] / n_steps
                 if contact:
+                    mem = sim.ws.contact.memory[0]
+                    out["pairs_per_segment"] = int(sim.ws.contact.count[0]) / n
+                    out["near_per_segment"] = int(mem["n_near"]) / n
+                    out["off_band_blocks_per_node"] = int(sim.ws.cpl.count[0]) / n
                     out["mean_step_s"] = window / n_steps
                     out["krylov_per_newton"] = c["krylov_iterations"] / max(
                         c["newton_iterations"], 1

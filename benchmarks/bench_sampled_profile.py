@@ -19,6 +19,12 @@ the operating system). Needs ``perf`` (Debian: ``linux-perf``) and permission to
 
     python benchmarks/bench_sampled_profile.py
     python benchmarks/bench_sampled_profile.py --cases "pile, contact" --window-s 0.02
+
+The pressed stacks of ``bench_contact.py --part saturation`` (3000 and 3x10^4 nodes, relaxed
+20 ms), 50 ms each at the settled step, show where a tall stack's step goes as N grows:
+
+    python benchmarks/bench_sampled_profile.py --cases "pressed stack, 3000 nodes" \
+        "pressed stack, 30000 nodes" --out sampled_profile_stacks
 """
 
 from __future__ import annotations
@@ -37,6 +43,22 @@ from _common import write_csv
 
 CASES = ("pile, no contact", "pile, contact")
 WINDOW_S = 0.06  # simulated time sampled after the pile's state (0.8 s)
+STACK_SIZES = (3000, 30000)  # nodes of the pressed stacks (``--cases "pressed stack, N nodes"``)
+STACK_CASES = tuple(f"pressed stack, {n} nodes" for n in STACK_SIZES)
+STACK_WINDOW_S = 0.05  # 200 steps at the settled step
+
+
+def stack_state(case: str):
+    """``bench_contact.py``'s pressed stack of the case's size (pitch 0.98 contact distances),
+    relaxed for its settled part's 20 ms at steps of at most 0.25 ms."""
+    from bench_contact import SETTLED_MAX_STEP_S, SETTLED_WARM_UP_S, coil_stack
+
+    n = int(re.fullmatch(r"pressed stack, (\d+) nodes", case).group(1))
+    sim = coil_stack(n, True, 0.98, {"numerics.max_step_s": SETTLED_MAX_STEP_S})
+    sim.advance(SETTLED_WARM_UP_S)
+    return sim
+
+
 FREQUENCY_HZ = 999
 REST = "Python and the rest"
 
@@ -108,10 +130,13 @@ def write_symbol_map(pid: int) -> int:
 def child(case: str, window_s: float, ctl: str, ack: str) -> None:
     """Build the case's state, sample its window (enable and disable perf around it), then
     write the symbol map."""
-    from bench_profile import CASES as PROFILE_CASES
+    if case in STACK_CASES:
+        sim = stack_state(case)
+    else:
+        from bench_profile import CASES as PROFILE_CASES
 
-    make, _ = PROFILE_CASES[case]
-    sim = make()
+        make, _ = PROFILE_CASES[case]
+        sim = make()
     sim.advance(sim.t + 1e-3)  # every kernel of the window compiled and warm
     t_end = sim.t + window_s
     with open(ctl, "w") as c, open(ack) as a:
@@ -174,8 +199,10 @@ def rows_of(case: str, counts: dict[str, int]) -> list[dict]:
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    ap.add_argument("--cases", nargs="+", choices=CASES, default=list(CASES))
-    ap.add_argument("--window-s", type=float, default=WINDOW_S)
+    ap.add_argument("--cases", nargs="+", choices=CASES + STACK_CASES, default=list(CASES))
+    ap.add_argument(
+        "--window-s", type=float, help=f"default {WINDOW_S} (pile), {STACK_WINDOW_S} (stacks)"
+    )
     ap.add_argument("--out", default="sampled_profile")
     ap.add_argument("--child", help=argparse.SUPPRESS)
     ap.add_argument("--ctl", help=argparse.SUPPRESS)
@@ -187,7 +214,8 @@ def main() -> None:
     rows: list[dict] = []
     for case in args.cases:
         t0 = time.perf_counter()
-        case_rows = rows_of(case, sample(case, args.window_s))
+        window = args.window_s or (STACK_WINDOW_S if case in STACK_CASES else WINDOW_S)
+        case_rows = rows_of(case, sample(case, window))
         rows += case_rows
         print(f"{case} ({time.perf_counter() - t0:.0f} s):")
         for r in case_rows:

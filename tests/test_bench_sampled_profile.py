@@ -77,3 +77,17 @@ def test_the_symbol_map_covers_the_compiled_kernels(bench, tmp_path, monkeypatch
     starts = [int(line.split()[0], 16) for line in lines]
     assert starts == sorted(starts) and all(int(line.split()[1], 16) > 0 for line in lines)
     assert any("twice" in line for line in lines)
+
+
+def test_a_stack_case_is_bench_contacts_relaxed_pressed_stack(bench, monkeypatch) -> None:
+    """``--cases "pressed stack, N nodes"``: the settled part's stack of N nodes, relaxed for
+    its warm-up at its largest step (here a short one, 100 nodes)."""
+    monkeypatch.syspath_prepend(str(BENCH))  # the case comes from bench_contact
+    import bench_contact
+
+    monkeypatch.setattr(bench_contact, "SETTLED_WARM_UP_S", 1e-3)
+    assert bench.STACK_CASES == tuple(f"pressed stack, {n} nodes" for n in bench.STACK_SIZES)
+    sim = bench.stack_state("pressed stack, 100 nodes")
+    assert sim.n_nodes == 100 and sim.t == pytest.approx(1e-3)
+    assert "contact" in sim.scene.effects
+    assert sim.model.params[0]["max_step"] == pytest.approx(bench_contact.SETTLED_MAX_STEP_S)

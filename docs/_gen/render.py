@@ -1250,10 +1250,10 @@ def lu_diagonal() -> str:
     return _table(head, rows) + "\n\n" + provenance(path)
 
 
-def sampled_profile() -> str:
+def sampled_profile(name: str = "sampled_profile") -> str:
     """Share of the sampled window per kernel, one column per case; kernels under 1% in
     every case are summed into one row."""
-    path = RESULTS / "sampled_profile.csv"
+    path = RESULTS / f"{name}.csv"
     data = _csv(path)
     cases = list(dict.fromkeys(r["case"] for r in data))
     share = {(r["case"], r["function"]): float(r["pct_of_window"]) for r in data}
@@ -1828,6 +1828,7 @@ TABLES: dict[str, Callable[[], str]] = {
     "backsub": backsub,
     "lu-diagonal": lu_diagonal,
     "sampled-profile": sampled_profile,
+    "sampled-profile-stacks": lambda: sampled_profile("sampled_profile_stacks"),
     "contact-scaling-settled": contact_scaling_settled,
     "contact-saturation": contact_saturation,
     "contact-hessian": contact_hessian,
