@@ -284,12 +284,13 @@ def stack_coupling(sim: Simulation, step_s: float, turns: float) -> dict[str, fl
     so B^-1 A has an eigenvalue near 1 / (1 + 2 a), a = k_c h / zeta_n, at every height: its
     condition number kappa (computed here for round(T) >= 2 turns) is close to 1 + 4 a
     from a few turns on. With A and B symmetric positive definite, GMRES preconditioned by
-    B reduces the residual by eps within 1/2 sqrt(kappa) ln(2 / eps) iterations (the
-    Chebyshev bound, in B's norm), and within as many as B^-1 A has distinct eigenvalues (T
-    for these modes): ``krylov_bound`` = min(T, 1/2 sqrt(kappa) ln(2 / eps)), eps the
-    scene's ``numerics.krylov_tolerance``, which stops growing beyond ``crossover_turns``.
-    The simulator's matrix is neither symmetric nor always definite: an estimate of the
-    shape, not a guarantee."""
+    B reduces the residual, in B^-1's norm, by eps within 1/2 sqrt(kappa) ln(2 / eps)
+    iterations (the Chebyshev bound; the solver's 2-norm adds up to sqrt(kappa(B)) inside
+    the logarithm), and within as many as B^-1 A has distinct eigenvalues (T for these
+    modes): ``krylov_bound`` = min(T, 1/2 sqrt(kappa) ln(2 / eps)), eps the scene's
+    ``numerics.krylov_tolerance``, which stops growing beyond ``crossover_turns``. The
+    simulator's matrix is neither symmetric nor always definite: an estimate of the shape,
+    not a guarantee."""
     p = sim.model.params[0]
     if int(p["drag_model"]) != DRAG_MU_S:
         raise ValueError(f"drag model {int(p['drag_model'])}: the model needs the local law")
