@@ -106,7 +106,8 @@ def write_symbol_map(pid: int) -> int:
 
     addresses: dict[int, str] = {}
     for obj in gc.get_objects():
-        if not isinstance(obj, CPUDispatcher):
+        # the type, not isinstance: isinstance of a weak proxy whose object has died raises
+        if not issubclass(type(obj), CPUDispatcher):
             continue
         for cres in obj.overloads.values():
             lib = cres.library
@@ -121,8 +122,9 @@ def write_symbol_map(pid: int) -> int:
                 if address:
                     addresses[address] = fn.name
     starts = sorted(addresses)
+    ends = [*starts[1:], starts[-1] + 4096] if starts else []
     with open(f"/tmp/perf-{pid}.map", "w") as out:
-        for a, b in zip(starts, [*starts[1:], starts[-1] + 4096], strict=True):
+        for a, b in zip(starts, ends, strict=True):
             out.write(f"{a:x} {min(b - a, 1 << 20):x} {addresses[a]}\n")
     return len(starts)
 

@@ -91,3 +91,34 @@ def test_a_stack_case_is_bench_contacts_relaxed_pressed_stack(bench, monkeypatch
     assert sim.n_nodes == 100 and sim.t == pytest.approx(1e-3)
     assert "contact" in sim.scene.effects
     assert sim.model.params[0]["max_step"] == pytest.approx(bench_contact.SETTLED_MAX_STEP_S)
+
+
+def test_the_symbol_map_passes_over_dead_weak_proxies(bench) -> None:
+    """gc lists weak proxies too, and isinstance of one whose object has died raises
+    ReferenceError: the map is written all the same."""
+    import gc
+    import weakref
+
+    class Gone:
+        pass
+
+    from numba import njit
+
+    @njit(cache=False)
+    def thrice(x: float) -> float:
+        return 3.0 * x
+
+    assert thrice(1.0) == pytest.approx(3.0)
+    obj = Gone()
+    proxy = weakref.proxy(obj)
+    del obj
+    gc.collect()
+    assert any(o is proxy for o in gc.get_objects())
+    with pytest.raises(ReferenceError):
+        isinstance(proxy, int)
+    pid = 10**9 + os.getpid() + 1
+    try:
+        assert bench.write_symbol_map(pid) >= 1
+        assert "thrice" in Path(f"/tmp/perf-{pid}.map").read_text()
+    finally:
+        Path(f"/tmp/perf-{pid}.map").unlink(missing_ok=True)
