@@ -69,6 +69,13 @@ above it: GMRES's), on the LU of random diagonally dominant band matrices of 3 N
 (the simulator's 8 sub- and super-diagonals), N = 10^2 to 10^4; best of 7 timings of 200
 solves each, the two alternating, and the largest difference of their solutions.
 
+``--part blocks``: the two kernels that take most of a pressed stack's step, the product
+with the blocks off the band (``add_blocks_matvec``, 14 random blocks per node in a stack's
+pattern: each node with the 7 nearest nodes a turn up, both ways) and GMRES's
+back-substitution (``band_solve_diagonal``, on a random diagonally dominant band), each
+alone, N = 300 to 3x10^4: the cost per block and per node against N, best of 7
+(results/stack_kernels.csv).
+
 ``--part diagonal``: GMRES's LU, with partial pivoting (``band_lu``, its solve by columns)
 against diagonal pivots (``band_lu_diagonal``, its solve through U's 8 super-diagonals
 only), on the same random diagonally dominant band matrices, N = 10^2 to 10^4, and on the
@@ -83,6 +90,7 @@ rows partial pivoting swaps and whether every diagonal pivot passes the threshol
     python benchmarks/bench_preconditioner.py --part amg                       # pyamg
     python benchmarks/bench_preconditioner.py --part backsub   # the two back-substitutions
     python benchmarks/bench_preconditioner.py --part diagonal  # LU without row swaps
+    python benchmarks/bench_preconditioner.py --part blocks    # the stack's two kernels
 """
 
 from __future__ import annotations
@@ -110,13 +118,14 @@ from bathprint import Simulation
 from bathprint.core import layout as L
 from bathprint.core import solver
 from bathprint.core.banded import (
+    add_blocks_matvec,
     band_lu,
     band_lu_diagonal,
     band_solve,
     band_solve_by_columns,
     band_solve_diagonal,
 )
-from bathprint.core.records import KRYLOV_RESTART
+from bathprint.core.records import KRYLOV_RESTART, new_couplings
 
 MM = 1e-3
 R_FIL = 0.205 * MM  # 22G
@@ -966,10 +975,102 @@ def diagonal_part(out_dir: Path, sizes: Sequence[int] = BACKSUB_SIZES, pile: boo
     return path
 
 
+# ------------------------------------------------------------------ part blocks
+BLOCK_SIZES = (300, 1000, 3000, 10000, 30000)  # nodes
+TURN_NODES = 63  # nodes per turn of bench_contact's stacks (radius 3 mm, spacing 0.3 mm)
+TURN_OFFSETS = (-3, -2, -1, 0, 1, 2, 3)  # the nodes of the next turn a node's blocks reach
+
+
+def stack_couplings(nodes: int, rng: np.random.Generator):
+    """Random 3x3 blocks with a pressed stack's pattern: each node coupled to the 7 nearest
+    nodes one turn up, both ways (14 blocks per node, as the relaxed stacks of ``bench_contact
+    --part saturation`` hold 13-16), in the order a contact pass writes them."""
+    pairs = [
+        (i, i + TURN_NODES + d)
+        for i in range(nodes)
+        for d in TURN_OFFSETS
+        if 0 <= i + TURN_NODES + d < nodes
+    ]
+    k = 2 * len(pairs)
+    cpl = new_couplings(k)
+    for q, (i, j) in enumerate(pairs):
+        cpl.row[2 * q], cpl.col[2 * q] = i, j
+        cpl.row[2 * q + 1], cpl.col[2 * q + 1] = j, i
+    cpl.block[:] = rng.standard_normal((k, 3, 3))
+    cpl.count[0] = k
+    return cpl
+
+
+@njit
+def _product_loop(reps: int, cpl, x: np.ndarray, y: np.ndarray) -> None:
+    for _ in range(reps):
+        add_blocks_matvec(cpl, x, y)
+
+
+@njit
+def _backsub_loop(reps: int, lu: np.ndarray, n: int, inv: np.ndarray, b0, b) -> None:
+    for _ in range(reps):
+        b[:n] = b0[:n]
+        band_solve_diagonal(lu, n, inv, b)
+
+
+def blocks_part(out_dir: Path, sizes: Sequence[int] = BLOCK_SIZES) -> Path:
+    """The two kernels that take most of a pressed stack's step (the product with the blocks
+    off the band, GMRES's back-substitution), each timed alone on arrays of a stack's sizes:
+    whether their cost per block and per node grows with N when nothing else runs."""
+    rng = np.random.default_rng(0)
+    rows = []
+    for nodes in sizes:
+        n = 3 * nodes
+        cpl = stack_couplings(nodes, rng)
+        k = int(cpl.count[0])
+        x, y = rng.standard_normal(n), np.zeros(n)
+        lu = _dominant_band(rng, n)
+        inv = np.zeros(n)
+        if band_lu_diagonal(lu, n, np.zeros(n, dtype=np.int64), inv, 0.1) != 0:
+            raise RuntimeError("the random band matrix needed row swaps")
+        b0, b = rng.standard_normal(n), np.zeros(n)
+        reps = max(3, 2_000_000 // k)
+        _product_loop(1, cpl, x, y)
+        _backsub_loop(1, lu, n, inv, b0, b)
+        product = backsub = np.inf
+        for _ in range(7):
+            t0 = time.perf_counter()
+            _product_loop(reps, cpl, x, y)
+            product = min(product, (time.perf_counter() - t0) / reps)
+            t0 = time.perf_counter()
+            _backsub_loop(reps, lu, n, inv, b0, b)
+            backsub = min(backsub, (time.perf_counter() - t0) / reps)
+        rows.append(
+            {
+                "nodes": nodes,
+                "blocks": k,
+                "blocks_mb": k * (cpl.block.itemsize * 9 + 2 * cpl.row.itemsize) / 1e6,
+                "band_mb": lu.nbytes / 1e6,
+                "product_us": 1e6 * product,
+                "ns_per_block": 1e9 * product / k,
+                "backsub_us": 1e6 * backsub,
+                "ns_per_node_backsub": 1e9 * backsub / nodes,
+            }
+        )
+        r = rows[-1]
+        print(
+            f"{nodes:>6} nodes: product {r['ns_per_block']:.2f} ns per block "
+            f"({r['blocks_mb']:.1f} MB of blocks), back-substitution "
+            f"{r['ns_per_node_backsub']:.1f} ns per node ({r['band_mb']:.1f} MB of band)",
+            flush=True,
+        )
+    path = write_csv(out_dir / "stack_kernels.csv", rows)
+    print("wrote", path)
+    return path
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument(
-        "--part", choices=("all", "random", "newton", "amg", "backsub", "diagonal"), default="all"
+        "--part",
+        choices=("all", "random", "newton", "amg", "backsub", "diagonal", "blocks"),
+        default="all",
     )
     ap.add_argument(
         "--sizes",
@@ -988,6 +1089,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         backsub_part(args.out)
     if args.part in ("all", "diagonal"):
         diagonal_part(args.out)
+    if args.part in ("all", "blocks"):
+        blocks_part(args.out)
     if args.part == "amg":
         sizes = args.sizes if args.sizes != list(NEWTON_SIZES) else list(AMG_SIZES)
         amg_part(sizes, args.solves, args.out)
