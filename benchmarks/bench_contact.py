@@ -74,6 +74,16 @@ def coil_stack(n: int, contact: bool, gap: float = 1.5, extra: dict | None = Non
     )
 
 
+def pair_counts(sim: Simulation) -> dict[str, float]:
+    """The contact list of ``sim`` now: candidate and near pairs per node."""
+    contact = sim.ws.contact
+    n = sim.n_nodes
+    return {
+        "pairs_per_segment": int(contact.count[0]) / n,
+        "near_per_segment": int(contact.memory[0]["n_near"]) / n,
+    }
+
+
 WARM_UP_S = 2e-3  # the stack's first relaxation, timed apart from the window
 
 
@@ -137,8 +147,7 @@ def scaling(
             if contact:
                 mem = last["sim"].ws.contact.memory[0]
                 out["krylov_per_newton"] = c["krylov_iterations"] / max(c["newton_iterations"], 1)
-                out["pairs_per_segment"] = last["sim"].ws.contact.count[0] / n
-                out["near_per_segment"] = int(mem["n_near"]) / n
+                out.update(pair_counts(last["sim"]))
                 out["hash_builds_per_step"] = int(mem["builds"]) / max(c["steps"], 1)
         out["ratio"] = out["us_per_step_contact"] / out["us_per_step_none"]
         out["ratio_wall"] = out["wall_s_contact"] / out["wall_s_none"]
@@ -353,9 +362,7 @@ def saturation_rows(
                 out[f"ns_per_node_step_{key}"] = 1e9 * best / n_steps / n
                 out[f"newton_per_step_{key}"] = c["newton_iterations"] / n_steps
                 if contact:
-                    mem = sim.ws.contact.memory[0]
-                    out["pairs_per_segment"] = int(sim.ws.contact.count[0]) / n
-                    out["near_per_segment"] = int(mem["n_near"]) / n
+                    out.update(pair_counts(sim))
                     out["off_band_blocks_per_node"] = int(sim.ws.cpl.count[0]) / n
                     out["mean_step_s"] = window / n_steps
                     out["krylov_per_newton"] = c["krylov_iterations"] / max(
