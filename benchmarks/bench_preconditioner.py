@@ -108,7 +108,7 @@ import scipy.linalg as sla_dense
 import scipy.sparse as sp
 import scipy.sparse.linalg as sla
 from _common import RESULTS, best_of, write_csv
-from bench_contact import coil_stack
+from bench_contact import COIL_RADIUS, MM, R_FIL, SPACING, coil_stack
 from bench_profile import REPLAYED, replay_records
 from numba import njit
 from rich.progress import Progress
@@ -127,9 +127,6 @@ from bathprint.core.banded import (
 )
 from bathprint.core.records import KRYLOV_RESTART, new_couplings
 
-MM = 1e-3
-R_FIL = 0.205 * MM  # 22G
-SPACING = 0.3 * MM
 AGGREGATES = (4, 16, 64)
 
 NEWTON_SIZES = (300, 1000, 3000, 10000)  # at 100 nodes the stack soon stops touching
@@ -977,7 +974,7 @@ def diagonal_part(out_dir: Path, sizes: Sequence[int] = BACKSUB_SIZES, pile: boo
 
 # ------------------------------------------------------------------ part blocks
 BLOCK_SIZES = (300, 1000, 3000, 10000, 30000)  # nodes
-TURN_NODES = 63  # nodes per turn of bench_contact's stacks (radius 3 mm, spacing 0.3 mm)
+TURN_NODES = round(2 * math.pi * COIL_RADIUS / SPACING)  # nodes per turn of coil_stack's (63)
 TURN_OFFSETS = (-3, -2, -1, 0, 1, 2, 3)  # the nodes of the next turn a node's blocks reach
 
 
