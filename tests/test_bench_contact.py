@@ -53,6 +53,34 @@ def test_the_scene_parts_run_and_report_against_the_run_without_contact(bench, m
             assert r["wall_ratio"] == pytest.approx(r["wall_s"] / rows[0]["wall_s"])
 
 
+def test_the_ratio_part_pairs_each_seed_and_summarises_the_ratios(bench, monkeypatch):
+    """``--part ratio`` on a tiny budget: without and with contact for each seed, back to
+    back, each contact run's ratio against its own seed's run without; the summary's mean
+    lies in its interval and the count within the goal is the count of such seeds."""
+    mod = bench("bench_contact_newton")
+    monkeypatch.setattr(mod, "SCENE_DURATION_S", 0.02)
+    monkeypatch.setattr(mod, "RATIO_SEEDS", (1, 2))
+    rows = mod.ratio_rows()
+    assert [(r["seed"], r["variant"]) for r in rows] == [
+        (1, "without contact"),
+        (1, "contact"),
+        (2, "without contact"),
+        (2, "contact"),
+    ]
+    for without, contact in (rows[0:2], rows[2:4]):
+        assert contact["wall_ratio"] == pytest.approx(contact["wall_s"] / without["wall_s"])
+    synthetic = [
+        {"variant": v, "wall_ratio": x}
+        for x in (2.5, 3.5, 4.0)
+        for v in ("without contact", "contact")
+    ]
+    m = mod.ratio_summary(synthetic)
+    assert m["seeds"] == 3 and m["within_goal"] == 1  # only 2.5 is within 3x
+    assert m["mean"] == pytest.approx(10.0 / 3.0)
+    assert m["min"] == 2.5 and m["max"] == 4.0
+    assert 2.5 <= m["low"] < m["mean"] < m["high"] <= 4.0
+
+
 def test_every_coil_stack_stands_under_the_bath_surface(bench):
     """The tallest stack (10^4 nodes, pitch 1.5 contact distances, about 98 mm) keeps its top
     5 mm under the surface; a short one stands at 50 mm below it."""

@@ -1374,6 +1374,47 @@ def contact_seeds() -> str:
     )
 
 
+def contact_ratio_seeds() -> str:
+    """Contact's paired cost over the seeds of ``bench_contact_newton.py --part ratio``, and
+    the mean with its bootstrap interval (the bench's own ``ratio_summary``)."""
+    path = RESULTS / "contact_ratio_seeds.csv"
+    table = _csv(path)
+    sys.path.insert(0, str(ROOT / "benchmarks"))  # the bench imports _common and bench_contact
+    try:
+        from bench_contact_newton import RATIO_GOAL, ratio_summary
+    finally:
+        sys.path.pop(0)
+    without = {r["seed"]: r for r in table if r["variant"] == "without contact"}
+    rows = []
+    for r in table:
+        if r["variant"] != "contact":
+            continue
+        w = without[r["seed"]]
+        rows.append(
+            [
+                r["seed"],
+                _g(w["wall_s"]),
+                _g(r["wall_s"]),
+                f"{_g(r['wall_ratio'])}×",
+                f"{r['steps']} / {w['steps']}",
+                f"{_g(r['newton_per_step'])} / {_g(w['newton_per_step'])}",
+                f"{_g(r['jacobians_per_step'])} / {_g(w['jacobians_per_step'])}",
+                _g(r["krylov_per_newton"]),
+                _g(r["min_gap_ratio"], 3),
+            ]
+        )
+    head = ["seed", "wall without (s)", "wall with (s)", "with / without", "steps with / without"]
+    head += ["Newton per step", "Jacobians per step", "Krylov per Newton (with)"]
+    head += ["smallest gap / 2r (with)"]
+    m = ratio_summary(table)
+    summary = (
+        f"Mean over {m['seeds']} seeds: **{_g(m['mean'])}×** [{_g(m['low'])}, {_g(m['high'])}] "
+        f"(95% bootstrap interval), from {_g(m['min'])}× to {_g(m['max'])}×; "
+        f"{m['within_goal']} of {m['seeds']} seeds within {RATIO_GOAL:g}×."
+    )
+    return _table(head, rows) + "\n\n" + summary + "\n\n" + provenance(path)
+
+
 def contact_newton() -> str:
     path = RESULTS / "contact_newton.csv"
     rows = [
@@ -1824,6 +1865,7 @@ TABLES: dict[str, Callable[[], str]] = {
     "contact-line-search-scene": contact_line_search_scene,
     "contact-near-gap": contact_near_gap,
     "contact-seeds": contact_seeds,
+    "contact-ratio-seeds": contact_ratio_seeds,
     "contact-late": contact_late,
     "backsub": backsub,
     "lu-diagonal": lu_diagonal,
