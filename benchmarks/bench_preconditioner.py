@@ -72,9 +72,10 @@ solves each, the two alternating, and the largest difference of their solutions.
 ``--part blocks``: the two kernels that take most of a pressed stack's step, the product
 with the blocks off the band (``add_blocks_matvec``, 14 random blocks per node in a stack's
 pattern: each node with the 7 nearest nodes a turn up, both ways) and GMRES's
-back-substitution (``band_solve_diagonal``, on a random diagonally dominant band), each
-alone, N = 300 to 3x10^4: the cost per block and per node against N, best of 7
-(results/stack_kernels.csv).
+back-substitution (``band_solve_diagonal``, on a random diagonally dominant band: in the
+band's storage with the fill-in columns of partial pivoting, and in the copy of the
+KL + KU + 1 columns it uses, as GMRES keeps it), each alone, N = 300 to 10^5: the cost per
+block and per node against N, best of 7 (results/stack_kernels.csv).
 
 ``--part diagonal``: GMRES's LU, with partial pivoting (``band_lu``, its solve by columns)
 against diagonal pivots (``band_lu_diagonal``, its solve through U's 8 super-diagonals
@@ -973,7 +974,7 @@ def diagonal_part(out_dir: Path, sizes: Sequence[int] = BACKSUB_SIZES, pile: boo
 
 
 # ------------------------------------------------------------------ part blocks
-BLOCK_SIZES = (300, 1000, 3000, 10000, 30000)  # nodes
+BLOCK_SIZES = (300, 1000, 3000, 10000, 30000, 100000)  # nodes
 TURN_NODES = round(2 * math.pi * COIL_RADIUS / SPACING)  # nodes per turn of coil_stack's (63)
 TURN_OFFSETS = (-3, -2, -1, 0, 1, 2, 3)  # the nodes of the next turn a node's blocks reach
 
@@ -1026,11 +1027,13 @@ def blocks_part(out_dir: Path, sizes: Sequence[int] = BLOCK_SIZES) -> Path:
         inv = np.zeros(n)
         if band_lu_diagonal(lu, n, np.zeros(n, dtype=np.int64), inv, 0.1) != 0:
             raise RuntimeError("the random band matrix needed row swaps")
+        lu_used = np.ascontiguousarray(lu[:, : L.KL + L.KU + 1])  # as GMRES keeps it (krylov.lu)
         b0, b = rng.standard_normal(n), np.zeros(n)
         reps = max(3, 2_000_000 // k)
         _product_loop(1, cpl, x, y)
         _backsub_loop(1, lu, n, inv, b0, b)
-        product = backsub = np.inf
+        _backsub_loop(1, lu_used, n, inv, b0, b)
+        product = backsub = backsub_used = np.inf
         for _ in range(7):
             t0 = time.perf_counter()
             _product_loop(reps, cpl, x, y)
@@ -1038,6 +1041,9 @@ def blocks_part(out_dir: Path, sizes: Sequence[int] = BLOCK_SIZES) -> Path:
             t0 = time.perf_counter()
             _backsub_loop(reps, lu, n, inv, b0, b)
             backsub = min(backsub, (time.perf_counter() - t0) / reps)
+            t0 = time.perf_counter()
+            _backsub_loop(reps, lu_used, n, inv, b0, b)
+            backsub_used = min(backsub_used, (time.perf_counter() - t0) / reps)
         rows.append(
             {
                 "nodes": nodes,
@@ -1048,13 +1054,17 @@ def blocks_part(out_dir: Path, sizes: Sequence[int] = BLOCK_SIZES) -> Path:
                 "ns_per_block": 1e9 * product / k,
                 "backsub_us": 1e6 * backsub,
                 "ns_per_node_backsub": 1e9 * backsub / nodes,
+                "lu_used_mb": lu_used.nbytes / 1e6,
+                "ns_per_node_backsub_used_columns": 1e9 * backsub_used / nodes,
             }
         )
         r = rows[-1]
         print(
             f"{nodes:>6} nodes: product {r['ns_per_block']:.2f} ns per block "
             f"({r['blocks_mb']:.1f} MB of blocks), back-substitution "
-            f"{r['ns_per_node_backsub']:.1f} ns per node ({r['band_mb']:.1f} MB of band)",
+            f"{r['ns_per_node_backsub']:.1f} ns per node ({r['band_mb']:.1f} MB of band), "
+            f"{r['ns_per_node_backsub_used_columns']:.1f} through the {L.KL + L.KU + 1} columns "
+            f"it uses ({r['lu_used_mb']:.1f} MB)",
             flush=True,
         )
     path = write_csv(out_dir / "stack_kernels.csv", rows)

@@ -19,6 +19,7 @@ from bathprint import SceneError, Simulation, SimulationError, simulate
 from bathprint.core import layout as L
 from bathprint.core import records, solver
 from bathprint.core.assemble import assemble
+from bathprint.core.banded import band_lu_diagonal
 from bathprint.core.effects import contact
 from bathprint.core.effects._segment_geometry import segment_distance
 from bathprint.core.records import Rod, Stage, new_couplings, new_krylov, new_workspace
@@ -382,7 +383,9 @@ def test_gmres_solves_band_plus_off_band_blocks_like_a_dense_solve(
     """With the banded LU as preconditioner, and with the axial coarse correction after it
     (``numerics.preconditioner = "axial_coarse"``): the same solution as a dense solve. The
     LU takes its diagonal pivots (no row swaps) where they pass the threshold, and starts
-    again with partial pivoting where they do not (a band with no diagonal shift)."""
+    again with partial pivoting where they do not (a band with no diagonal shift). The LU
+    without row swaps is kept in ``krylov.lu``, only the columns it uses, the same numbers
+    as in the band's own storage, and the band stays as assembled."""
     rng = np.random.default_rng(1)
     n_nodes = 60
     nd = 3 * n_nodes
@@ -407,9 +410,16 @@ def test_gmres_solves_band_plus_off_band_blocks_like_a_dense_solve(
     x = np.zeros(3 * n_nodes)
     x[:nd] = b
     counters = np.zeros(L.N_COUNTERS, np.int64)
+    assembled = ws.band[:nd].copy()
     assert solver.factor(ws, nd)
     swapped = np.any(ws.piv[:nd] != np.arange(nd))
     assert swapped == (shift == 0.0) == (ws.krylov.diagonal[0] == 0)
+    if not swapped:
+        full, inv = assembled.copy(), np.zeros(nd)
+        piv = np.zeros(nd, dtype=np.int64)
+        assert band_lu_diagonal(full, nd, piv, inv, solver.PIVOT_THRESHOLD) == 0
+        np.testing.assert_array_equal(ws.krylov.lu[:nd], full[:, : L.KL + L.KU + 1])
+        np.testing.assert_array_equal(ws.band[:nd], assembled)
     assert solver.solve(ws, nd, x, counters, 1e-10)
     exact = np.linalg.solve(dense, b)
     np.testing.assert_allclose(x[:nd], exact, rtol=0, atol=1e-8 * np.abs(exact).max())

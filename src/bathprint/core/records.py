@@ -101,7 +101,8 @@ class Krylov(NamedTuple):
     coarse_info: np.ndarray  # (2,) int64: coarse unknowns and half-bandwidth of its LU (0: none)
     e: np.ndarray  # (2, 3 cap): the coarse correction, and its product with the Newton matrix
     inv_diag: np.ndarray  # (3 cap,): reciprocals of the LU's pivots when it took no row swaps
-    diagonal: np.ndarray  # (1,) int64: 1 when the LU in ``band`` took no row swaps
+    diagonal: np.ndarray  # (1,) int64: 1 when the LU took no row swaps (then it is in ``lu``)
+    lu: np.ndarray  # (3 cap, KL + KU + 1): the LU without row swaps, only the columns it uses
 
 
 class Contact(NamedTuple):
@@ -280,7 +281,7 @@ COARSE_KL = 24  # couplings further apart (in coarse nodes) are left out of its 
 def new_krylov(n_dof: int, restart: int, coarse: int = 0) -> Krylov:
     """GMRES workspace for ``n_dof`` unknowns; ``coarse``: the spacing (nodes) of the axial
     coarse correction, 0 for none."""
-    from bathprint.core.layout import BAND_WIDTH
+    from bathprint.core.layout import BAND_WIDTH, KL, KU
 
     n_coarse = n_dof // (3 * coarse) + 2 if coarse > 0 else 0
     n_fine = n_dof if coarse > 0 else 0
@@ -299,6 +300,7 @@ def new_krylov(n_dof: int, restart: int, coarse: int = 0) -> Krylov:
         e=np.zeros((2, n_fine)),
         inv_diag=np.zeros(n_dof),
         diagonal=np.zeros(1, dtype=np.int64),
+        lu=np.zeros((n_dof, KL + KU + 1)),
     )
 
 

@@ -56,30 +56,33 @@ def off_band(ws) -> bool:
 
 @njit(**KERNEL)
 def factor(ws, nd: int) -> bool:
-    """Factorise the assembled Newton matrix's band (``ws.band``) in place; False if
-    singular.
+    """Factorise the assembled Newton matrix's band (``ws.band``); False if singular.
 
     With couplings off the band the LU only preconditions GMRES, and it is taken without
     row swaps (:func:`~bathprint.core.banded.band_lu_diagonal`, half the work) unless a
-    diagonal pivot falls below PIVOT_THRESHOLD of its column, when partial pivoting starts
-    again from the unfactored copy that GMRES keeps anyway (with the axial coarse correction,
-    its coarse matrix is factorised too). Without them the LU solves Newton's equations
-    directly, with partial pivoting as always."""
+    diagonal pivot falls below PIVOT_THRESHOLD of its column, when partial pivoting factors
+    ``ws.band`` in place (with the axial coarse correction, its coarse matrix is factorised
+    too). The LU without row swaps goes into ``krylov.lu``, which holds only the KL + KU + 1
+    columns it uses: GMRES streams it in every iteration, and the fill-in columns that
+    partial pivoting needs made a tall stack's back-substitution 1.2x (3x10^4 nodes) to 1.4x
+    (10^5) slower per node (``python benchmarks/bench_preconditioner.py --part blocks``).
+    Without couplings off the band the LU solves Newton's equations directly, in place,
+    with partial pivoting as always."""
     kr = ws.krylov
     if off_band(ws):
         a = kr.band_a  # the assembled entries only: the slots partial pivoting fills stay 0
+        lu = kr.lu
         for i in range(nd):
             for k in range(KL + KU + 1):
                 a[i, k] = ws.band[i, k]
+                lu[i, k] = ws.band[i, k]
         if kr.coarse[0] > 0:
             _coarse_factor(ws, nd)
-        status = band_lu_diagonal(ws.band, nd, ws.piv, kr.inv_diag, PIVOT_THRESHOLD)
+        status = band_lu_diagonal(lu, nd, ws.piv, kr.inv_diag, PIVOT_THRESHOLD)
         kr.diagonal[0] = 1 if status == 0 else 0
         if status >= 0:
             return status == 0
-        for i in range(nd):  # a row swap is due: partial pivoting, from the copy
-            for k in range(ws.band.shape[1]):
-                ws.band[i, k] = a[i, k]
+        # a row swap is due: partial pivoting, in ws.band (still as assembled)
     kr.diagonal[0] = 0
     return band_lu(ws.band, nd, KL, KU, ws.piv) == 0
 
@@ -234,7 +237,7 @@ def _dot(a: np.ndarray, b: np.ndarray, nd: int) -> float:
 
 @kernel
 def _gmres(ws, nd: int, b: np.ndarray, counters: np.ndarray, rtol: float) -> bool:
-    """Restarted GMRES for A x = b, right-preconditioned by the banded LU (in ``ws.band``):
+    """Restarted GMRES for A x = b, right-preconditioned by the banded LU:
         minimise |b - A M^-1 u| over the Krylov space, x = M^-1 u. The preconditioned vectors
         z_j = M^-1 v_j are kept (as flexible GMRES keeps them, Saad 1993), so that x = sum y_j z_j
         costs no further back-substitution. ``b`` is overwritten by x. The back-substitutions go
@@ -275,7 +278,7 @@ def _gmres(ws, nd: int, b: np.ndarray, counters: np.ndarray, rtol: float) -> boo
             for k in range(nd):
                 zj[k] = vj[k]
             if kr.diagonal[0]:  # the LU took no row swaps
-                band_solve_diagonal(ws.band, nd, kr.inv_diag, zj)
+                band_solve_diagonal(kr.lu, nd, kr.inv_diag, zj)
             else:
                 band_solve_by_columns(ws.band, nd, ws.piv, zj)
             v_new = basis[j + 1]
