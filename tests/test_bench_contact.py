@@ -60,7 +60,7 @@ def test_the_ratio_part_pairs_each_seed_and_summarises_the_ratios(bench, monkeyp
     mod = bench("bench_contact_newton")
     monkeypatch.setattr(mod, "SCENE_DURATION_S", 0.02)
     monkeypatch.setattr(mod, "RATIO_SEEDS", (1, 2))
-    rows = mod.ratio_rows()
+    rows = mod.ratio_report()  # the rows, with their summary printed
     assert [(r["seed"], r["variant"]) for r in rows] == [
         (1, "without contact"),
         (1, "contact"),
