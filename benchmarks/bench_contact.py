@@ -364,6 +364,7 @@ def saturation_rows(
                 if contact:
                     out.update(pair_counts(sim))
                     out["off_band_blocks_per_node"] = int(sim.ws.cpl.count[0]) / n
+                    out["merged_blocks_per_node"] = max(int(sim.ws.cpl.merged[0]), 0) / n
                     out["mean_step_s"] = window / n_steps
                     out["krylov_per_newton"] = c["krylov_iterations"] / max(
                         c["newton_iterations"], 1

@@ -70,8 +70,10 @@ above it: GMRES's), on the LU of random diagonally dominant band matrices of 3 N
 solves each, the two alternating, and the largest difference of their solutions.
 
 ``--part blocks``: the two kernels that take most of a pressed stack's step, the product
-with the blocks off the band (``add_blocks_matvec``, 14 random blocks per node in a stack's
-pattern: each node with the 7 nearest nodes a turn up, both ways) and GMRES's
+with the blocks off the band (``add_blocks_matvec``, 16 random blocks per node in a stack's
+pattern: each node with the 4 nearest nodes a turn up, both ways, each node block written
+twice as a contact pass writes it; block by block as assembled, and by rows of the 8 merged
+blocks per node that ``merge_blocks`` sums, with the merge's own time) and GMRES's
 back-substitution (``band_solve_diagonal``, on a random diagonally dominant band: in the
 band's storage with the fill-in columns of partial pivoting, and in the copy of the
 KL + KU + 1 columns it uses, as GMRES keeps it), each alone, N = 300 to 10^5: the cost per
@@ -125,6 +127,7 @@ from bathprint.core.banded import (
     band_solve,
     band_solve_by_columns,
     band_solve_diagonal,
+    merge_blocks,
 )
 from bathprint.core.records import KRYLOV_RESTART, new_couplings
 
@@ -976,24 +979,29 @@ def diagonal_part(out_dir: Path, sizes: Sequence[int] = BACKSUB_SIZES, pile: boo
 # ------------------------------------------------------------------ part blocks
 BLOCK_SIZES = (300, 1000, 3000, 10000, 30000, 100000)  # nodes
 TURN_NODES = round(2 * math.pi * COIL_RADIUS / SPACING)  # nodes per turn of coil_stack's (63)
-TURN_OFFSETS = (-3, -2, -1, 0, 1, 2, 3)  # the nodes of the next turn a node's blocks reach
+TURN_OFFSETS = (-2, -1, 0, 1)  # the nodes of the next turn a node's blocks reach
+WRITES = 2  # each node block is written by this many segment pairs
 
 
 def stack_couplings(nodes: int, rng: np.random.Generator):
-    """Random 3x3 blocks with a pressed stack's pattern: each node coupled to the 7 nearest
-    nodes one turn up, both ways (14 blocks per node, as the relaxed stacks of ``bench_contact
-    --part saturation`` hold 13-16), in the order a contact pass writes them."""
+    """Random 3x3 blocks with a pressed stack's pattern: each node coupled to the 4 nearest
+    nodes one turn up, both ways, each node block written twice (16 blocks per node and 8
+    distinct, as the relaxed stacks of ``bench_contact --part saturation`` hold 15.7 and 7.8
+    at 3000 nodes: two segments share each node), in the order a contact pass writes them."""
     pairs = [
         (i, i + TURN_NODES + d)
         for i in range(nodes)
         for d in TURN_OFFSETS
         if 0 <= i + TURN_NODES + d < nodes
     ]
-    k = 2 * len(pairs)
+    k = 2 * WRITES * len(pairs)
     cpl = new_couplings(k)
-    for q, (i, j) in enumerate(pairs):
-        cpl.row[2 * q], cpl.col[2 * q] = i, j
-        cpl.row[2 * q + 1], cpl.col[2 * q + 1] = j, i
+    q = 0
+    for i, j in pairs:
+        for _ in range(WRITES):
+            cpl.row[q], cpl.col[q] = i, j
+            cpl.row[q + 1], cpl.col[q + 1] = j, i
+            q += 2
     cpl.block[:] = rng.standard_normal((k, 3, 3))
     cpl.count[0] = k
     return cpl
@@ -1003,6 +1011,12 @@ def stack_couplings(nodes: int, rng: np.random.Generator):
 def _product_loop(reps: int, cpl, x: np.ndarray, y: np.ndarray) -> None:
     for _ in range(reps):
         add_blocks_matvec(cpl, x, y)
+
+
+@njit
+def _merge_loop(reps: int, cpl, n_rows: int) -> None:
+    for _ in range(reps):
+        merge_blocks(cpl, n_rows)
 
 
 @njit
@@ -1031,13 +1045,23 @@ def blocks_part(out_dir: Path, sizes: Sequence[int] = BLOCK_SIZES) -> Path:
         b0, b = rng.standard_normal(n), np.zeros(n)
         reps = max(3, 2_000_000 // k)
         _product_loop(1, cpl, x, y)
+        _merge_loop(1, cpl, nodes)
+        merged = int(cpl.merged[0])
+        cpl.merged[0] = -1
         _backsub_loop(1, lu, n, inv, b0, b)
         _backsub_loop(1, lu_used, n, inv, b0, b)
-        product = backsub = backsub_used = np.inf
+        product = product_merged = merge = backsub = backsub_used = np.inf
         for _ in range(7):
+            cpl.merged[0] = -1  # block by block, as assembled
             t0 = time.perf_counter()
             _product_loop(reps, cpl, x, y)
             product = min(product, (time.perf_counter() - t0) / reps)
+            t0 = time.perf_counter()
+            _merge_loop(reps, cpl, nodes)
+            merge = min(merge, (time.perf_counter() - t0) / reps)
+            t0 = time.perf_counter()
+            _product_loop(reps, cpl, x, y)  # by merged rows
+            product_merged = min(product_merged, (time.perf_counter() - t0) / reps)
             t0 = time.perf_counter()
             _backsub_loop(reps, lu, n, inv, b0, b)
             backsub = min(backsub, (time.perf_counter() - t0) / reps)
@@ -1052,6 +1076,10 @@ def blocks_part(out_dir: Path, sizes: Sequence[int] = BLOCK_SIZES) -> Path:
                 "band_mb": lu.nbytes / 1e6,
                 "product_us": 1e6 * product,
                 "ns_per_block": 1e9 * product / k,
+                "merged_blocks": merged,
+                "merge_us": 1e6 * merge,
+                "product_merged_us": 1e6 * product_merged,
+                "merged_over_assembled": product_merged / product,
                 "backsub_us": 1e6 * backsub,
                 "ns_per_node_backsub": 1e9 * backsub / nodes,
                 "lu_used_mb": lu_used.nbytes / 1e6,
@@ -1061,7 +1089,9 @@ def blocks_part(out_dir: Path, sizes: Sequence[int] = BLOCK_SIZES) -> Path:
         r = rows[-1]
         print(
             f"{nodes:>6} nodes: product {r['ns_per_block']:.2f} ns per block "
-            f"({r['blocks_mb']:.1f} MB of blocks), back-substitution "
+            f"({r['blocks_mb']:.1f} MB of blocks), by merged rows "
+            f"{r['merged_over_assembled']:.2f}x that (merging {r['merge_us']:.0f} us), "
+            "back-substitution "
             f"{r['ns_per_node_backsub']:.1f} ns per node ({r['band_mb']:.1f} MB of band), "
             f"{r['ns_per_node_backsub_used_columns']:.1f} through the {L.KL + L.KU + 1} columns "
             f"it uses ({r['lu_used_mb']:.1f} MB)",

@@ -92,22 +92,24 @@ def test_diagonal_part_times_both_lus_of_the_same_system(tmp_path, monkeypatch, 
 
 
 def test_blocks_part_times_the_stacks_two_kernels_alone(tmp_path, monkeypatch, load_script):
-    """``--part blocks``: a stack's pattern of off-band blocks (each node with the 7 nearest
-    nodes a turn up, both ways) and a row per size with the cost per block and per node."""
+    """``--part blocks``: a stack's pattern of off-band blocks (each node with the 4 nearest
+    nodes a turn up, both ways, each node block written twice) and a row per size with the
+    cost per block and per node, and of the product by merged rows."""
     monkeypatch.syspath_prepend(str(BENCH))
     mod = load_script(BENCH / "bench_preconditioner.py")
     rng = np.random.default_rng(0)
     n = 200
     cpl = mod.stack_couplings(n, rng)
     k = int(cpl.count[0])
-    assert k == 2 * sum(
+    distinct = 2 * sum(
         1 for i in range(n) for d in mod.TURN_OFFSETS if 0 <= i + mod.TURN_NODES + d < n
     )
+    assert k == mod.WRITES * distinct
     rows, cols = cpl.row[:k], cpl.col[:k]
     assert set(zip(rows.tolist(), cols.tolist(), strict=True)) == set(
         zip(cols.tolist(), rows.tolist(), strict=True)
     )  # both ways
-    assert np.all(np.abs(np.abs(rows - cols) - mod.TURN_NODES) <= 3)
+    assert np.all(np.abs(np.abs(rows - cols) - mod.TURN_NODES) <= 2)
     path = mod.blocks_part(tmp_path, sizes=(100, 200))
     with path.open() as f:
         out = list(csv.DictReader(f))
@@ -115,3 +117,5 @@ def test_blocks_part_times_the_stacks_two_kernels_alone(tmp_path, monkeypatch, l
     for r in out:
         assert float(r["ns_per_block"]) > 0.0 and float(r["ns_per_node_backsub"]) > 0.0
         assert float(r["blocks_mb"]) == pytest.approx(int(r["blocks"]) * 88 / 1e6)
+        assert int(r["merged_blocks"]) * mod.WRITES == int(r["blocks"])
+        assert float(r["product_merged_us"]) > 0.0 and float(r["merge_us"]) > 0.0

@@ -19,7 +19,7 @@ from bathprint import SceneError, Simulation, SimulationError, simulate
 from bathprint.core import layout as L
 from bathprint.core import records, solver
 from bathprint.core.assemble import assemble
-from bathprint.core.banded import band_lu_diagonal
+from bathprint.core.banded import add_blocks_matvec, band_lu_diagonal, merge_blocks
 from bathprint.core.effects import contact
 from bathprint.core.effects._segment_geometry import segment_distance
 from bathprint.core.records import Rod, Stage, new_couplings, new_krylov, new_workspace
@@ -427,6 +427,52 @@ def test_gmres_solves_band_plus_off_band_blocks_like_a_dense_solve(
     if coarse:  # the coarse matrix was built and factorised: 16 coarse nodes for 60 nodes
         assert list(ws.krylov.coarse_info) == [16, int(ws.krylov.coarse_info[1])]
         assert 2 <= ws.krylov.coarse_info[1] <= records.COARSE_KL
+
+
+def test_merged_blocks_sum_each_node_block_and_give_the_same_product() -> None:
+    """merge_blocks sums the blocks that share a node block into rows, each once, in the
+    order of assembly; the product over the merged rows equals the one over the blocks as
+    assembled (to round-off), and an assembly of the Newton matrix drops the merged rows
+    until the next factorisation merges them again."""
+    rng = np.random.default_rng(3)
+    n_rows, n_blocks = 40, 300
+    cpl = new_couplings(n_blocks)
+    dense = np.zeros((3 * n_rows, 3 * n_rows))
+    for k in range(n_blocks):  # about two blocks per node block
+        i, j = rng.integers(0, n_rows, 2)
+        cpl.row[k], cpl.col[k], cpl.block[k] = i, j, rng.normal(size=(3, 3))
+        dense[3 * i : 3 * i + 3, 3 * j : 3 * j + 3] += cpl.block[k]
+    cpl.count[0] = n_blocks
+    x = rng.normal(size=3 * n_rows)
+    by_block = np.zeros(3 * n_rows)
+    add_blocks_matvec(cpl, x, by_block)  # not merged yet: block by block
+    merge_blocks(cpl, n_rows)
+    m = int(cpl.merged[0])
+    distinct = {(int(r), int(c)) for r, c in zip(cpl.row, cpl.col, strict=True)}
+    assert m == len(distinct) < n_blocks and cpl.merged[1] == n_rows
+    start = cpl.m_start
+    for r in range(n_rows):
+        cols = cpl.m_col[start[r] : start[r + 1]]
+        first = [int(c) for k, c in zip(cpl.row, cpl.col, strict=True) if k == r]
+        assert list(cols) == list(dict.fromkeys(first))  # each once, in assembly order
+        for s, c in zip(range(start[r], start[r + 1]), cols, strict=True):
+            np.testing.assert_allclose(
+                cpl.m_block[s], dense[3 * r : 3 * r + 3, 3 * c : 3 * c + 3], rtol=1e-12
+            )
+    merged = np.zeros(3 * n_rows)
+    add_blocks_matvec(cpl, x, merged)
+    np.testing.assert_allclose(merged, dense @ x, rtol=0, atol=1e-12 * np.abs(dense @ x).max())
+    np.testing.assert_allclose(merged, by_block, rtol=0, atol=1e-12 * np.abs(by_block).max())
+    # in a run, the factorisation merges the assembled blocks; the next assembly with the
+    # Jacobian drops them (the product goes block by block until they are merged again)
+    sim = Simulation("period_doubling_22G", {"duration_s": 0.3})
+    sim.advance(0.3)
+    cpl = sim.ws.cpl
+    assert cpl.count[0] > 0 and 0 < cpl.merged[0] < cpl.count[0]
+    model, rod, stage, out = sim.kernel_inputs()
+    out = out._replace(cpl=cpl)
+    assemble(model, rod, stage, out, np.zeros(L.N_EFFECTS, np.int64), np.zeros(L.N_EFFECTS))
+    assert cpl.merged[0] == -1
 
 
 def test_a_pickled_simulation_keeps_its_axial_coarse_correction(pressed_stack) -> None:

@@ -51,6 +51,7 @@ def assemble(model, rod, stage, out, calls: np.ndarray, energies: np.ndarray) ->
     if stage.jac:
         band_clear(out.band, 3 * free_nodes(rod.n_nodes, model.params[0]))
         out.cpl.count[0] = 0
+        out.cpl.merged[0] = -1  # merged again when factorised
     if enabled[E_ELASTICITY]:
         calls[E_ELASTICITY] += 1
         energies[E_ELASTICITY] = elasticity.accumulate(model, rod, stage, out)

@@ -77,12 +77,20 @@ class Scratch(NamedTuple):
 
 class Couplings(NamedTuple):
     """Jacobian blocks between nodes further apart than the band holds (contact pairs):
-    block k adds ``block[k]`` (3x3) at node block (row[k], col[k])."""
+    block k adds ``block[k]`` (3x3) at node block (row[k], col[k]), as assembled (one per
+    pair and pair of nodes; several land on one node block). :func:`bathprint.core.banded.
+    merge_blocks` sums those of each node block into rows (``merged``), which the products
+    stream: half as many blocks on a pressed stack, and each row's sum kept in registers."""
 
     count: np.ndarray  # (1,) int64: blocks written (may exceed the capacity: grow, retry)
     row: np.ndarray  # (K,) int64 node
     col: np.ndarray  # (K,) int64 node
     block: np.ndarray  # (K, 3, 3)
+    merged: np.ndarray  # (2,) int64: merged blocks (-1: not merged since assembly) and rows
+    m_start: np.ndarray  # (K + 1,) int64: row r's merged blocks are m_start[r]:m_start[r + 1]
+    m_col: np.ndarray  # (K,) int64 node
+    m_block: np.ndarray  # (K, 3, 3)
+    order: np.ndarray  # (K,) int64: scratch, the blocks in row order
 
 
 class Krylov(NamedTuple):
@@ -271,6 +279,11 @@ def new_couplings(capacity: int) -> Couplings:
         row=np.zeros(capacity, dtype=np.int64),
         col=np.zeros(capacity, dtype=np.int64),
         block=np.zeros((capacity, 3, 3)),
+        merged=np.full(2, -1, dtype=np.int64),
+        m_start=np.zeros(capacity + 1, dtype=np.int64),
+        m_col=np.zeros(capacity, dtype=np.int64),
+        m_block=np.zeros((capacity, 3, 3)),
+        order=np.zeros(capacity, dtype=np.int64),
     )
 
 

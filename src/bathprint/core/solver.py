@@ -37,6 +37,7 @@ from bathprint.core.banded import (
     band_solve,
     band_solve_by_columns,
     band_solve_diagonal,
+    merge_blocks,
 )
 from bathprint.core.effects.hydrodynamics import apply_nonlocal
 from bathprint.core.jit import KERNEL, kernel
@@ -66,10 +67,13 @@ def factor(ws, nd: int) -> bool:
     columns it uses: GMRES streams it in every iteration, and the fill-in columns that
     partial pivoting needs made a tall stack's back-substitution 1.2x (3x10^4 nodes) to 1.4x
     (10^5) slower per node (``python benchmarks/bench_preconditioner.py --part blocks``).
-    Without couplings off the band the LU solves Newton's equations directly, in place,
-    with partial pivoting as always."""
+    The off-band blocks are summed by node block into rows
+    (:func:`~bathprint.core.banded.merge_blocks`) for GMRES's products. Without couplings
+    off the band the LU solves Newton's equations directly, in place, with partial pivoting
+    as always."""
     kr = ws.krylov
     if off_band(ws):
+        merge_blocks(ws.cpl, nd // 3)
         a = kr.band_a  # the assembled entries only: the slots partial pivoting fills stay 0
         lu = kr.lu
         for i in range(nd):
