@@ -31,12 +31,13 @@ the penalty's soft onset, ``contact.width_fraction``, also starting before conta
 exactly costs; the final frame's touching segments' gaps, 10th percentile and median, say
 how exactly it is held either way), and against GMRES's stopping tolerance
 (``--part krylov``: Newton's forcing term); ``--part ratio`` measures contact's cost there
-over ten seeds, paired seed by seed, with a bootstrap interval. ``--part late`` starts from
+over ten seeds, paired seed by seed, with a bootstrap interval, and ``--part ratio_onset``
+the same with the soft onset of 0.2 delta from 1.02 (r_A + r_B). ``--part late`` starts from
 the pile's state at 0.8 s, where contact costs most, and changes one thing at a time for
 60 ms more: the Newton policy, the linear solve, the soft onset.
 
     python benchmarks/bench_contact_newton.py
-        [--part variants|sizes|scene|near_gap|seeds|onset|krylov|late|ratio]
+        [--part variants|sizes|scene|near_gap|seeds|onset|krylov|late|ratio|ratio_onset]
 """
 
 from __future__ import annotations
@@ -333,22 +334,29 @@ RATIO_SEEDS = tuple(range(10))
 RATIO_GOAL = 3.0  # the goal for contact's cost where turns touch (docs/performance.md)
 
 
-def ratio_rows() -> list[dict]:
-    """Without and with contact (defaults) for each needle-imperfection seed of RATIO_SEEDS,
-    back to back: the wall-time ratio of contact, seed by seed (paired)."""
+#: the soft onset that starts before contact (docs/performance.md: the faster way to hold a
+#: pile's contact distance): its scene overrides and its rows' label
+ONSET_BEFORE_CONTACT = {"contact.width_fraction": 0.2, "contact.distance_factor": 1.02}
+ONSET_LABEL = "contact, soft onset 0.2 delta from 1.02 (r_A + r_B)"
+
+
+def ratio_rows(contact: dict | None = None, label: str = "contact") -> list[dict]:
+    """Without and with contact (its defaults, or the ``contact`` overrides, rows labelled
+    ``label``) for each needle-imperfection seed of RATIO_SEEDS, back to back: the
+    wall-time ratio of contact, seed by seed (paired)."""
     rows = []
     for seed in RATIO_SEEDS:
-        rows += _scene_rows({"without contact": _without_contact(), "contact": {}}, seed)
+        rows += _scene_rows({"without contact": _without_contact(), label: contact or {}}, seed)
     return rows
 
 
-def ratio_summary(rows: list[dict]) -> dict[str, float]:
-    """The mean over seeds of the paired ratio (contact's wall over the wall without, same
-    seed) with its 95% bootstrap interval over seeds, and how many seeds are within
-    RATIO_GOAL."""
+def ratio_summary(rows: list[dict], label: str = "contact") -> dict[str, float]:
+    """The mean over seeds of the paired ratio (the wall of the rows labelled ``label`` over
+    the wall without contact, same seed) with its 95% bootstrap interval over seeds, and how
+    many seeds are within RATIO_GOAL."""
     from bathprint.agents.statistics import bootstrap_ci
 
-    ratios = np.array([float(r["wall_ratio"]) for r in rows if r["variant"] == "contact"])
+    ratios = np.array([float(r["wall_ratio"]) for r in rows if r["variant"] == label])
     mean, lo, hi = bootstrap_ci(np.mean, ratios[:, None])
     return {
         "seeds": len(ratios),
@@ -361,16 +369,21 @@ def ratio_summary(rows: list[dict]) -> dict[str, float]:
     }
 
 
-def ratio_report() -> list[dict]:
+def ratio_report(contact: dict | None = None, label: str = "contact") -> list[dict]:
     """:func:`ratio_rows`, with their summary printed."""
-    rows = ratio_rows()
-    r = ratio_summary(rows)
+    rows = ratio_rows(contact, label)
+    r = ratio_summary(rows, label)
     print(
-        f"contact / without over {r['seeds']} seeds: mean {r['mean']:.2f}x "
+        f"{label} / without over {r['seeds']} seeds: mean {r['mean']:.2f}x "
         f"[{r['low']:.2f}, {r['high']:.2f}] (95% bootstrap), {r['min']:.2f} "
         f"to {r['max']:.2f}; {r['within_goal']} within {RATIO_GOAL:g}x"
     )
     return rows
+
+
+def ratio_onset_report() -> list[dict]:
+    """:func:`ratio_report` with the soft onset that starts before contact."""
+    return ratio_report(ONSET_BEFORE_CONTACT, ONSET_LABEL)
 
 
 def seed_rows() -> list[dict]:
@@ -473,6 +486,7 @@ if __name__ == "__main__":
             "krylov",
             "late",
             "ratio",
+            "ratio_onset",
         ),
         default="all",
     )
@@ -506,6 +520,10 @@ if __name__ == "__main__":
             [("contact_late", late_rows)],
         ),
         "ratio": (f"{scene}, seeds {RATIO_SEEDS}:", [("contact_ratio_seeds", ratio_report)]),
+        "ratio_onset": (
+            f"{scene}, seeds {RATIO_SEEDS}, {ONSET_LABEL}:",
+            [("contact_ratio_seeds_onset", ratio_onset_report)],
+        ),
     }
     for name, (title, outputs) in parts.items():
         if part in ("all", name):

@@ -81,6 +81,28 @@ def test_the_ratio_part_pairs_each_seed_and_summarises_the_ratios(bench, monkeyp
     assert 2.5 <= m["low"] < m["mean"] < m["high"] <= 4.0
 
 
+def test_the_onset_ratio_part_runs_the_onset_before_contact(bench, monkeypatch):
+    """``--part ratio_onset``: the same pairing with the soft onset of 0.2 delta from 1.02
+    (r_A + r_B) in the contact runs, which hold lightly loaded turns just apart."""
+    mod = bench("bench_contact_newton")
+    monkeypatch.setattr(mod, "SCENE_DURATION_S", 0.02)
+    monkeypatch.setattr(mod, "RATIO_SEEDS", (3,))
+    seen = []
+    scene_rows = mod._scene_rows
+    monkeypatch.setattr(mod, "_scene_rows", lambda v, seed: seen.append(v) or scene_rows(v, seed))
+    rows = mod.ratio_onset_report()
+    assert [(r["seed"], r["variant"]) for r in rows] == [
+        (3, "without contact"),
+        (3, mod.ONSET_LABEL),
+    ]
+    assert seen[0][mod.ONSET_LABEL] == {
+        "contact.width_fraction": 0.2,
+        "contact.distance_factor": 1.02,
+    }
+    assert rows[1]["wall_ratio"] == pytest.approx(rows[1]["wall_s"] / rows[0]["wall_s"])
+    assert mod.ratio_summary(rows, mod.ONSET_LABEL)["seeds"] == 1
+
+
 def test_every_coil_stack_stands_under_the_bath_surface(bench):
     """The tallest stack (10^4 nodes, pitch 1.5 contact distances, about 98 mm) keeps its top
     5 mm under the surface; a short one stands at 50 mm below it."""

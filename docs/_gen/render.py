@@ -1374,20 +1374,27 @@ def contact_seeds() -> str:
     )
 
 
-def contact_ratio_seeds() -> str:
-    """Contact's paired cost over the seeds of ``bench_contact_newton.py --part ratio``, and
-    the mean with its bootstrap interval (the bench's own ``ratio_summary``)."""
-    path = RESULTS / "contact_ratio_seeds.csv"
-    table = _csv(path)
+def _bench_contact_newton():
+    """``benchmarks/bench_contact_newton.py`` as a module (its labels and summaries)."""
     sys.path.insert(0, str(ROOT / "benchmarks"))  # the bench imports _common and bench_contact
     try:
-        from bench_contact_newton import RATIO_GOAL, ratio_summary
+        import bench_contact_newton
     finally:
         sys.path.pop(0)
+    return bench_contact_newton
+
+
+def _contact_ratio_table(name: str, label: str) -> str:
+    """Contact's paired cost over the seeds of a ratio part of ``bench_contact_newton.py``
+    (result file ``name``, contact rows labelled ``label``), and the mean with its bootstrap
+    interval (the bench's own ``ratio_summary``)."""
+    path = RESULTS / f"{name}.csv"
+    table = _csv(path)
+    bench = _bench_contact_newton()
     without = {r["seed"]: r for r in table if r["variant"] == "without contact"}
     rows = []
     for r in table:
-        if r["variant"] != "contact":
+        if r["variant"] != label:
             continue
         w = without[r["seed"]]
         rows.append(
@@ -1406,13 +1413,23 @@ def contact_ratio_seeds() -> str:
     head = ["seed", "wall without (s)", "wall with (s)", "with / without", "steps with / without"]
     head += ["Newton per step", "Jacobians per step", "Krylov per Newton (with)"]
     head += ["smallest gap / 2r (with)"]
-    m = ratio_summary(table)
+    m = bench.ratio_summary(table, label)
     summary = (
         f"Mean over {m['seeds']} seeds: **{_g(m['mean'])}×** [{_g(m['low'])}, {_g(m['high'])}] "
         f"(95% bootstrap interval), from {_g(m['min'])}× to {_g(m['max'])}×; "
-        f"{m['within_goal']} of {m['seeds']} seeds within {RATIO_GOAL:g}×."
+        f"{m['within_goal']} of {m['seeds']} seeds within {bench.RATIO_GOAL:g}×."
     )
     return _table(head, rows) + "\n\n" + summary + "\n\n" + provenance(path)
+
+
+def contact_ratio_seeds() -> str:
+    """``bench_contact_newton.py --part ratio``: contact as the scenes list it."""
+    return _contact_ratio_table("contact_ratio_seeds", "contact")
+
+
+def contact_ratio_seeds_onset() -> str:
+    """``--part ratio_onset``: contact with the soft onset that starts before contact."""
+    return _contact_ratio_table("contact_ratio_seeds_onset", _bench_contact_newton().ONSET_LABEL)
 
 
 def contact_newton() -> str:
@@ -1866,6 +1883,7 @@ TABLES: dict[str, Callable[[], str]] = {
     "contact-near-gap": contact_near_gap,
     "contact-seeds": contact_seeds,
     "contact-ratio-seeds": contact_ratio_seeds,
+    "contact-ratio-seeds-onset": contact_ratio_seeds_onset,
     "contact-late": contact_late,
     "backsub": backsub,
     "lu-diagonal": lu_diagonal,
