@@ -1,7 +1,7 @@
 """What freezing settled material (``numerics.freeze_beyond_mm``) costs in accuracy and
 saves in time.
 
-    python benchmarks/bench_freezing.py [--part coil|seeds|rope|envs] [--episodes 8]
+    python benchmarks/bench_freezing.py [--part coil|seeds|turns|onset|rope|envs] [--episodes 8]
 
 (1) A steady coil (scene ``gelation_coiling_22G``, 3 s; draft and balanced presets, and draft
     with ``inertia``): coil
@@ -14,6 +14,12 @@ saves in time.
     200 mm and not, for each of ``SEED_PAIRS`` seeds of the needle imperfection: freezing's
     change paired by seed, beside how much R varies from seed to seed. One seed's change
     can hide a bias that every seed shares.
+(1c) ``--part onset``: what ``tests/test_freezing.py`` asserts of the coil at the needle
+    with ``inertia`` (the three turns next to the needle at 6 s, draft, seeds 0-5), with
+    contact's default onset and with the onset that starts before contact
+    (``contact.width_fraction = 0.2``, ``contact.distance_factor = 1.02``): freezing beyond
+    100 mm against a tenfold tighter tolerance, and the free and clamped joints
+    (freezing_onset.csv).
 (2) Rope coiling on the floor (scene ``rope_coiling_18G``, 6 s, or as far as 20 times the
     steps of the run without freezing take it): the RMS change of the last
     30 mm of material next to the needle and of the pile's centre, with the material resting
@@ -23,8 +29,8 @@ saves in time.
     beside the difference between the draft and balanced presets (both without freezing),
     and environment steps per CPU second of each.
 
-Writes benchmarks/results/freezing_coil.csv, freezing_seeds.csv, freezing_rope.csv and
-freezing_envs.csv. Times
+Writes benchmarks/results/freezing_coil.csv, freezing_seeds.csv, freezing_onset.csv,
+freezing_rope.csv and freezing_envs.csv. Times
 are ratios to the run without freezing measured in the same process.
 """
 
@@ -300,6 +306,79 @@ def plot_turns(summary: list[dict]) -> Path:
 ROPE_STEP_BUDGET = 20  # a variant may take this many times the steps of the run without freezing
 
 
+ONSET_SEEDS = 6
+ONSET_DURATION_S = 6.0
+#: contact's onset variants of --part onset: label, scene overrides
+ONSET_VARIANTS = (
+    ("default onset", {}),
+    (
+        "onset before contact (0.2 delta from 1.02 (r_A + r_B))",
+        {"contact.width_fraction": 0.2, "contact.distance_factor": 1.02},
+    ),
+)
+
+
+def _near_needle_radius(over: dict, duration_s: float) -> float:
+    """Median radius (m) of the NEAR_NEEDLE_TURNS full turns below the stem at
+    ``duration_s`` of COIL with ``over``."""
+    sim = Simulation(COIL, {**over, "duration_s": duration_s})
+    pos, axis = sim.model.needle[0, 1:4].copy(), sim.model.needle[0, 4:7].copy()
+    sim.advance(duration_s)
+    geom = coil_geometry(sim.centerline(), pos, axis)
+    if geom is None or len(geom.radii) < NEAR_NEEDLE_TURNS:
+        raise RuntimeError(f"{COIL} with {over}: no coil at the needle")
+    return float(np.median(geom.radii[:NEAR_NEEDLE_TURNS]))
+
+
+def onset_table(n_seeds: int = ONSET_SEEDS, duration_s: float = ONSET_DURATION_S) -> list[dict]:
+    """Per contact onset and seed, with ``inertia``: the change of the coil at the needle
+    that freezing beyond 100 mm (clamped joint, the default) makes, beside that of a tenfold
+    tighter tolerance at half the node spacing (the draft preset's own error), and those of
+    the free joint beyond 60 and 150 mm and the clamped joint beyond 60 mm (what
+    ``tests/test_freezing.py`` asserts with the default onset, there over seeds 0-5 and
+    0-1)."""
+    effects = [*Simulation(COIL).scene.effects, "inertia"]
+    spacing = Simulation(COIL).scene.numerics.node_spacing_mm
+    rows = []
+    for label, onset in ONSET_VARIANTS:
+        for seed in range(n_seeds):
+            base = {"effects": effects, "seed": seed, **onset}
+            draft = {**base, "numerics.accuracy": "draft"}
+            tight = {
+                **base,
+                "numerics.tolerance": 1e-3,
+                "numerics.max_inlet_growth": 2.0,
+                "numerics.node_spacing_mm": 2 * spacing,
+            }
+
+            def radius(over: dict, freeze_mm: float = 0.0, joint: str = "auto") -> float:
+                frozen = {"numerics.freeze_beyond_mm": freeze_mm, "numerics.freeze_joint": joint}
+                return _near_needle_radius({**over, **frozen}, duration_s)
+
+            r0, r0_free = radius(draft), radius(draft, 0.0, "free")
+            rows.append(
+                {
+                    "onset": label,
+                    "seed": seed,
+                    "radius_m": r0,
+                    "frozen_100mm_change": radius(draft, 100.0) / r0 - 1,
+                    "tighter_change": radius(tight) / r0 - 1,
+                    "free_60mm_change": radius(draft, 60.0, "free") / r0_free - 1,
+                    "free_150mm_change": radius(draft, 150.0, "free") / r0_free - 1,
+                    "clamped_60mm_change": radius(draft, 60.0, "clamped") / r0_free - 1,
+                }
+            )
+            r = rows[-1]
+            print(
+                f"{label}, seed {seed}: frozen beyond 100 mm {100 * r['frozen_100mm_change']:+.2f}%"
+                f", tighter {100 * r['tighter_change']:+.2f}%; free joint beyond 60 / 150 mm "
+                f"{100 * r['free_60mm_change']:+.2f}% / {100 * r['free_150mm_change']:+.2f}%, "
+                f"clamped beyond 60 mm {100 * r['clamped_60mm_change']:+.2f}%",
+                flush=True,
+            )
+    return rows
+
+
 def rope_table(duration_s: float = 6.0) -> list[dict]:
     """Changes of the rope-coiling run near the needle and of the pile, and wall ratios. A
     variant whose steps collapse stops at ROPE_STEP_BUDGET times the steps of the run without
@@ -390,7 +469,10 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__)
     ap.add_argument("--episodes", type=int, default=8)
     ap.add_argument(
-        "--part", choices=("coil", "seeds", "turns", "rope", "envs"), default=None, help="only this"
+        "--part",
+        choices=("coil", "seeds", "turns", "onset", "rope", "envs"),
+        default=None,
+        help="only this",
     )
     args = ap.parse_args()
     if args.part in (None, "coil"):
@@ -399,6 +481,8 @@ def main() -> None:
         seeds_part()
     if args.part in (None, "turns"):
         turns_part()
+    if args.part in (None, "onset"):
+        print("->", write_csv("freezing_onset", onset_table()))
     if args.part in (None, "rope"):
         rope_part()
     if args.part in (None, "envs"):

@@ -11,6 +11,8 @@ and bad settings are refused.
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 
@@ -517,3 +519,40 @@ def test_the_clamped_joint_is_the_bending_of_the_joining_node_with_its_exact_jac
         dx[j] = 1e-10
         fd_jac[:, j] = -(joint(base + dx, False)[1] - joint(base - dx, False)[1]) / 2e-10
     np.testing.assert_allclose(jac, fd_jac, rtol=1e-5, atol=1e-6 * np.abs(fd_jac).max())
+
+
+def test_the_onset_part_pairs_each_measurement_with_its_own_onset(load_script, monkeypatch):
+    """``bench_freezing.py --part onset``: for each onset and seed, every run gets the
+    onset's contact keys, inertia and the seed; the changes are the ratios to the runs
+    without freezing of the same joint (fake radii); and one real draft run measures the
+    coil at the needle."""
+    bench = Path(__file__).resolve().parents[1] / "benchmarks"
+    monkeypatch.syspath_prepend(str(bench))
+    mod = load_script(bench / "bench_freezing.py")
+    calls = []
+
+    def fake(over: dict, duration_s: float) -> float:
+        calls.append(over)
+        if over.get("numerics.tolerance") == 1e-3:
+            return 1.02e-3  # the tighter run
+        mm = over["numerics.freeze_beyond_mm"]
+        return {0.0: 1.0e-3, 60.0: 1.04e-3, 100.0: 0.99e-3, 150.0: 1.005e-3}[mm]
+
+    real = mod._near_needle_radius
+    monkeypatch.setattr(mod, "_near_needle_radius", fake)
+    rows = mod.onset_table(n_seeds=2, duration_s=1.0)
+    assert [(r["onset"], r["seed"]) for r in rows] == [
+        (label, seed) for label, _ in mod.ONSET_VARIANTS for seed in (0, 1)
+    ]
+    for r in rows:
+        assert r["frozen_100mm_change"] == pytest.approx(-0.01)
+        assert r["tighter_change"] == pytest.approx(0.02)
+        assert r["free_60mm_change"] == pytest.approx(0.04)
+        assert r["clamped_60mm_change"] == pytest.approx(0.04)
+    assert len(calls) == 7 * len(rows)
+    for label, onset in mod.ONSET_VARIANTS:
+        mine = [c for c in calls if all(c.get(k) == v for k, v in onset.items())]
+        assert len(mine) >= 14 and all("inertia" in c["effects"] for c in mine), label
+    assert {c["numerics.freeze_joint"] for c in calls} == {"auto", "free", "clamped"}
+    radius = real({"numerics.accuracy": "draft", "seed": 0}, 3.0)
+    assert 1e-3 < radius < 5e-3  # the 22G coil at 0.5 ml/min: about 2.3 mm

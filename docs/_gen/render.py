@@ -552,6 +552,31 @@ def freezing_turns() -> str:
     return _table(head, rows) + "\n\n" + provenance(path)
 
 
+def freezing_onset() -> str:
+    """``bench_freezing.py --part onset``: per contact onset, the mean change over the seeds
+    (and their range) of the coil at the needle, with inertia."""
+    path = RESULTS / "freezing_onset.csv"
+    table = _csv(path)
+    cols = [
+        "frozen_100mm_change",
+        "tighter_change",
+        "free_60mm_change",
+        "free_150mm_change",
+        "clamped_60mm_change",
+    ]
+    rows = []
+    for onset in dict.fromkeys(r["onset"] for r in table):
+        mine = [r for r in table if r["onset"] == onset]
+        cells = [onset, str(len(mine))]
+        for c in cols:
+            v = [float(r[c]) for r in mine]
+            cells.append(f"{_pct(sum(v) / len(v))} ({_pct(min(v))} to {_pct(max(v))})")
+        rows.append(cells)
+    head = ["contact onset", "seeds", "frozen beyond 100 mm (clamped)", "tenfold tolerance"]
+    head += ["free joint, beyond 60 mm", "free joint, beyond 150 mm", "clamped, beyond 60 mm"]
+    return _table(head, rows) + "\n\n" + provenance(path)
+
+
 def freezing_rope() -> str:
     path = RESULTS / "freezing_rope.csv"
     rows = [
@@ -1859,6 +1884,7 @@ TABLES: dict[str, Callable[[], str]] = {
     "hard-cases": hard_cases,
     "freezing-coil": freezing_coil,
     "freezing-turns": freezing_turns,
+    "freezing-onset": freezing_onset,
     "freezing-rope": freezing_rope,
     "freezing-envs": freezing_envs,
     "accuracy-presets": accuracy_presets,
