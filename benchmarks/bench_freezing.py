@@ -43,6 +43,7 @@ from pathlib import Path
 
 import numpy as np
 from _common import RESULTS, write_csv
+from bench_contact_newton import ONSET_BEFORE_CONTACT
 
 import bathprint.envs as E
 from bathprint.analysis.measure import buckling_length, coil_geometry
@@ -311,10 +312,7 @@ ONSET_DURATION_S = 6.0
 #: contact's onset variants of --part onset: label, scene overrides
 ONSET_VARIANTS = (
     ("default onset", {}),
-    (
-        "onset before contact (0.2 delta from 1.02 (r_A + r_B))",
-        {"contact.width_fraction": 0.2, "contact.distance_factor": 1.02},
-    ),
+    ("onset before contact (0.2 delta from 1.02 (r_A + r_B))", ONSET_BEFORE_CONTACT),
 )
 
 
@@ -337,8 +335,9 @@ def onset_table(n_seeds: int = ONSET_SEEDS, duration_s: float = ONSET_DURATION_S
     the free joint beyond 60 and 150 mm and the clamped joint beyond 60 mm (what
     ``tests/test_freezing.py`` asserts with the default onset, there over seeds 0-5 and
     0-1)."""
-    effects = [*Simulation(COIL).scene.effects, "inertia"]
-    spacing = Simulation(COIL).scene.numerics.node_spacing_mm
+    scene = Simulation(COIL).scene
+    effects = [*scene.effects, "inertia"]
+    spacing = scene.numerics.node_spacing_mm
     rows = []
     for label, onset in ONSET_VARIANTS:
         for seed in range(n_seeds):

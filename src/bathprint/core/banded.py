@@ -272,8 +272,8 @@ def merge_blocks(cpl, n_rows: int) -> None:
 def add_blocks_matvec(cpl, x: np.ndarray, y: np.ndarray) -> None:
     """y += B x for the off-band 3x3 blocks ``cpl`` (:class:`bathprint.core.records.
     Couplings`): by rows of merged blocks when :func:`merge_blocks` has summed them since
-    their assembly (half as many on a pressed stack, 0.4-0.46x the time of the product over
-    the blocks as assembled), else block k at node block (row[k], col[k]) one by one."""
+    their assembly (half as many on a pressed stack, each row's sum in registers), else
+    block k at node block (row[k], col[k]) one by one."""
     if cpl.merged[0] >= 0:
         start = cpl.m_start
         m_col = cpl.m_col
