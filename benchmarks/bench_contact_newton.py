@@ -245,6 +245,7 @@ def _scene_rows(variants: dict[str, dict], seed: int | None = None) -> list[dict
                 "touching_segments_final": gaps.get("touching", 0),
                 "touching_gap_p10_final": gaps.get("p10", math.nan),
                 "touching_gap_median_final": gaps.get("median", math.nan),
+                **_observables(s["measurements"]),
                 "wall_s": wall,
                 "wall_ratio": wall / base,
             }
@@ -259,6 +260,26 @@ def _scene_rows(variants: dict[str, dict], seed: int | None = None) -> list[dict
             flush=True,
         )
     return rows
+
+
+#: what the pile looks like at the end of a run (``Simulation`` measurements, SI units)
+OBSERVABLES = (
+    "coil_radius_m",
+    "coil_pitch_m",
+    "coil_frequency_rad_s",
+    "buckling_length_m",
+    "plume_opening_angle_rad",
+    "curvature_variance_1_m2",
+)
+
+
+def _observables(m: dict) -> dict:
+    """The regime and OBSERVABLES of a run's measurements (NaN where not measured)."""
+    out: dict = {"regime": m.get("regime") or ""}
+    for key in OBSERVABLES:
+        v = m.get(key)
+        out[key] = math.nan if v is None else float(v)
+    return out
 
 
 def _without_contact() -> dict:
@@ -367,6 +388,42 @@ def ratio_summary(rows: list[dict], label: str = "contact") -> dict[str, float]:
         "max": float(ratios.max()),
         "within_goal": int((ratios <= RATIO_GOAL).sum()),
     }
+
+
+def observable_comparison(rows_a: list[dict], label_a: str, rows_b: list[dict], label_b: str):
+    """Per observable of OBSERVABLES, over the seeds both sets ran: the mean of each set's
+    rows labelled ``label_a`` and ``label_b``, the seed-paired relative difference b / a - 1
+    with its 95% bootstrap interval, and the seed-to-seed spread of a (its coefficient of
+    variation). What the pile looks like, beside what it costs."""
+    from bathprint.agents.statistics import bootstrap_ci
+
+    a = {r["seed"]: r for r in rows_a if r["variant"] == label_a}
+    b = {r["seed"]: r for r in rows_b if r["variant"] == label_b}
+    seeds = sorted(set(a) & set(b))
+    out = []
+    for key in OBSERVABLES:
+        pairs = [(float(a[s][key]), float(b[s][key])) for s in seeds]
+        pairs = [(x, y) for x, y in pairs if math.isfinite(x) and math.isfinite(y) and x > 0]
+        if len(pairs) < 2:
+            continue
+        xa, xb = np.array(pairs).T
+        rel, lo, hi = bootstrap_ci(np.mean, (xb / xa - 1.0)[:, None])
+        out.append(
+            {
+                "observable": key,
+                "seeds": len(pairs),
+                f"mean {label_a}": float(xa.mean()),
+                f"mean {label_b}": float(xb.mean()),
+                "paired_change": rel,
+                "paired_change_low": lo,
+                "paired_change_high": hi,
+                "seed_spread": float(xa.std(ddof=1) / xa.mean()),
+            }
+        )
+    regimes = [(a[s]["regime"], b[s]["regime"]) for s in seeds]
+    same = sum(x == y for x, y in regimes)
+    out.append({"observable": "regime", "seeds": len(seeds), "same_regime": same})
+    return out
 
 
 def ratio_report(contact: dict | None = None, label: str = "contact") -> list[dict]:
