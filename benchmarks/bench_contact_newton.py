@@ -53,7 +53,7 @@ from _common import write_csv
 from bench_contact import R_FIL, coil_stack
 
 from bathprint import Simulation, simulate
-from bathprint.analysis.measure import touching_gaps
+from bathprint.analysis.measure import MEASURE_KEYS, coil_geometry, touching_gaps
 from bathprint.core.effects._segment_geometry import PARALLEL_SIN2, SLIDING_SIN2, closest_params
 
 N_NODES = 300
@@ -214,7 +214,8 @@ def _scene_rows(variants: dict[str, dict], seed: int | None = None) -> list[dict
     """SCENE for SCENE_DURATION_S under each variant's overrides (and the needle
     imperfection's ``seed``); wall times as ratios to the first variant's."""
     rows, base = [], None
-    radius = Simulation(SCENE).model.radius
+    model = Simulation(SCENE).model
+    radius, needle = model.radius, model.needle[0, 1:7].copy()
     for label, extra in variants.items():
         over = {"duration_s": SCENE_DURATION_S, "outputs.plot": False, **extra}
         if seed is not None:
@@ -246,6 +247,7 @@ def _scene_rows(variants: dict[str, dict], seed: int | None = None) -> list[dict
                 "touching_gap_p10_final": gaps.get("p10", math.nan),
                 "touching_gap_median_final": gaps.get("median", math.nan),
                 **_observables(s["measurements"]),
+                **_needle_turns(res.final, needle),
                 "wall_s": wall,
                 "wall_ratio": wall / base,
             }
@@ -262,8 +264,11 @@ def _scene_rows(variants: dict[str, dict], seed: int | None = None) -> list[dict
     return rows
 
 
-#: what the pile looks like at the end of a run (``Simulation`` measurements, SI units)
+#: what the pile looks like at the end of a run, SI units: the turns next to the stem
+#: (:func:`_needle_turns`) and the run's own measurements (``measure_all``)
 OBSERVABLES = (
+    "needle_turns_radius_m",
+    "needle_turns_pitch_m",
     "coil_radius_m",
     "coil_pitch_m",
     "coil_frequency_rad_s",
@@ -276,10 +281,32 @@ OBSERVABLES = (
 def _observables(m: dict) -> dict:
     """The regime and OBSERVABLES of a run's measurements (NaN where not measured)."""
     out: dict = {"regime": m.get("regime") or ""}
-    for key in OBSERVABLES:
+    for key in (k for k in OBSERVABLES if k in MEASURE_KEYS):
         v = m.get(key)
         out[key] = math.nan if v is None else float(v)
     return out
+
+
+#: full turns below the stem that :func:`_needle_turns` measures (as tests/test_freezing.py)
+NEEDLE_TURNS = 3
+
+
+def _needle_turns(frame: np.ndarray, needle: np.ndarray) -> dict:
+    """The coil being written: the median radius and mean |pitch| (m) of the NEEDLE_TURNS
+    full turns next to the stem in ``frame`` (``coil_geometry``, whatever the regime), and
+    how many full turns it counts (NaN and 0 without as many)."""
+    g = coil_geometry(frame, needle[:3], needle[3:])
+    if g is None or g.full_turns < NEEDLE_TURNS:
+        return {
+            "needle_turns_radius_m": math.nan,
+            "needle_turns_pitch_m": math.nan,
+            "full_turns": 0,
+        }
+    return {
+        "needle_turns_radius_m": float(np.median(g.radii[:NEEDLE_TURNS])),
+        "needle_turns_pitch_m": float(np.mean(np.abs(g.pitches[:NEEDLE_TURNS]))),
+        "full_turns": g.full_turns,
+    }
 
 
 def _without_contact() -> dict:

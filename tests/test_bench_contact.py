@@ -69,6 +69,10 @@ def test_the_ratio_part_pairs_each_seed_and_summarises_the_ratios(bench, monkeyp
     ]
     for without, contact in (rows[0:2], rows[2:4]):
         assert contact["wall_ratio"] == pytest.approx(contact["wall_s"] / without["wall_s"])
+        for r in (without, contact):  # what the pile looks like, beside what it costs
+            assert isinstance(r["regime"], str) and r["regime"]
+            assert set(mod.OBSERVABLES) <= set(r)
+            assert r["buckling_length_m"] > 0.0 or math.isnan(r["buckling_length_m"])
     synthetic = [
         {"variant": v, "wall_ratio": x}
         for x in (2.5, 3.5, 4.0)
@@ -79,6 +83,34 @@ def test_the_ratio_part_pairs_each_seed_and_summarises_the_ratios(bench, monkeyp
     assert m["mean"] == pytest.approx(10.0 / 3.0)
     assert m["min"] == 2.5 and m["max"] == 4.0
     assert 2.5 <= m["low"] < m["mean"] < m["high"] <= 4.0
+
+
+def test_the_observable_comparison_pairs_the_seeds_both_onsets_ran(bench):
+    """What the pile looks like under two contact settings: the paired relative change over
+    the seeds both ran (a seed missing from one set, or without the observable, drops out),
+    its bootstrap interval, the first set's seed spread, and how many seeds keep the regime."""
+    mod = bench("bench_contact_newton")
+
+    def row(seed, variant, radius_mm, regime="drag_coiling"):
+        r = {"seed": seed, "variant": variant, "regime": regime}
+        r |= {k: math.nan for k in mod.OBSERVABLES}
+        r["coil_radius_m"] = radius_mm * 1e-3
+        return r
+
+    a = [row(0, "contact", 2.0), row(1, "contact", 2.2), row(2, "contact", 2.4)]
+    a += [row(3, "contact", 9.9)]  # only in a: not paired
+    a += [row(0, "without contact", 5.0)]  # another label: ignored
+    b = [row(0, "soft", 2.2), row(1, "soft", 2.42), row(2, "soft", 2.4, "period_doubling")]
+    out = {r["observable"]: r for r in mod.observable_comparison(a, "contact", b, "soft")}
+    assert set(out) == {"coil_radius_m", "regime"}  # the all-NaN observables drop out
+    r = out["coil_radius_m"]
+    assert r["seeds"] == 3
+    assert r["mean contact"] == pytest.approx(2.2e-3)
+    assert r["mean soft"] == pytest.approx((2.2 + 2.42 + 2.4) * 1e-3 / 3)
+    assert r["paired_change"] == pytest.approx(0.2 / 3)  # +10%, +10%, 0%
+    assert 0.0 <= r["paired_change_low"] <= r["paired_change"] <= r["paired_change_high"] <= 0.1 + 1e-12
+    assert r["seed_spread"] == pytest.approx(0.2 / 2.2)
+    assert out["regime"] == {"observable": "regime", "seeds": 3, "same_regime": 2}
 
 
 def test_the_onset_ratio_part_runs_the_onset_before_contact(bench, monkeypatch):

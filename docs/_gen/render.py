@@ -28,6 +28,7 @@ import re
 import shutil
 import subprocess
 import sys
+from collections import Counter
 from collections.abc import Callable
 from functools import cache
 from pathlib import Path
@@ -1457,6 +1458,74 @@ def contact_ratio_seeds_onset() -> str:
     return _contact_ratio_table("contact_ratio_seeds_onset", _bench_contact_newton().ONSET_LABEL)
 
 
+#: observable column: (what the table calls it, factor from SI to its unit)
+_OBSERVABLE_SHOWN = {
+    "needle_turns_radius_m": ("radius of the three turns next to the stem (mm)", 1e3),
+    "needle_turns_pitch_m": ("their pitch (mm)", 1e3),
+    "coil_radius_m": ("coil radius (mm)", 1e3),
+    "coil_pitch_m": ("coil pitch (mm)", 1e3),
+    "coil_frequency_rad_s": ("coil frequency (rad/s)", 1.0),
+    "buckling_length_m": ("buckling length (mm)", 1e3),
+    "plume_opening_angle_rad": ("plume opening angle (deg)", 180.0 / math.pi),
+    "curvature_variance_1_m2": ("curvature variance (1/mm²)", 1e-6),
+}
+
+
+def contact_onset_observables() -> str:
+    """What the pile looks like at the end of the ratio parts' runs: without contact, with
+    the default onset and with the onset before contact, each change paired seed by seed
+    (``bench_contact_newton.observable_comparison``)."""
+    bench = _bench_contact_newton()
+    default_path = RESULTS / "contact_ratio_seeds.csv"
+    onset_path = RESULTS / "contact_ratio_seeds_onset.csv"
+    default, onset = _csv(default_path), _csv(onset_path)
+    label = bench.ONSET_LABEL
+    by_contact = bench.observable_comparison(default, "without contact", default, "contact")
+    by_onset = bench.observable_comparison(default, "contact", onset, label)
+    contact_change = {r["observable"]: r for r in by_contact}
+
+    def change(r: dict) -> str:
+        pct = [100 * r[k] for k in ("paired_change", "paired_change_low", "paired_change_high")]
+        return f"{pct[0]:+.1f}% [{pct[1]:+.1f}, {pct[2]:+.1f}]"
+
+    rows = []
+    for r in by_onset:
+        key = r["observable"]
+        if key == "regime":
+            continue
+        name, unit = _OBSERVABLE_SHOWN[key]
+        c = contact_change.get(key)
+        rows.append(
+            [
+                name,
+                str(r["seeds"]),
+                _g(c["mean without contact"] * unit) if c else "–",
+                _g(r["mean contact"] * unit),
+                _g(r[f"mean {label}"] * unit),
+                change(c) if c else "–",
+                change(r),
+                f"{100 * r['seed_spread']:.1f}%",
+            ]
+        )
+    head = ["at the end of 1 s", "seeds", "without contact", "default onset"]
+    head += ["onset before contact", "contact's change (paired)", "the onset's change (paired)"]
+    head += ["seed-to-seed spread (default)"]
+    regimes = Counter(r["regime"] for r in default if r["variant"] == "contact")
+    regimes_onset = Counter(r["regime"] for r in onset if r["variant"] == label)
+    regimes_without = Counter(r["regime"] for r in default if r["variant"] == "without contact")
+
+    def names(c: Counter) -> str:
+        return ", ".join(f"{k.replace('_', ' ')} {n}" for k, n in sorted(c.items()))
+
+    same = next(r for r in by_onset if r["observable"] == "regime")
+    line = (
+        f"Regime at 1 s: without contact {names(regimes_without)}; default onset "
+        f"{names(regimes)}; onset before contact {names(regimes_onset)} (the same as the "
+        f"default onset on {same['same_regime']} of {same['seeds']} seeds)."
+    )
+    return _table(head, rows) + "\n\n" + line + "\n\n" + provenance(default_path, onset_path)
+
+
 def contact_newton() -> str:
     path = RESULTS / "contact_newton.csv"
     rows = [
@@ -1910,6 +1979,7 @@ TABLES: dict[str, Callable[[], str]] = {
     "contact-seeds": contact_seeds,
     "contact-ratio-seeds": contact_ratio_seeds,
     "contact-ratio-seeds-onset": contact_ratio_seeds_onset,
+    "contact-onset-observables": contact_onset_observables,
     "contact-late": contact_late,
     "backsub": backsub,
     "lu-diagonal": lu_diagonal,
