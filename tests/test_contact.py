@@ -243,31 +243,43 @@ def test_contact_forces_balance_pairwise() -> None:
     assert np.abs(total).max() < 1e-9 * 1e-6  # N: zero to round-off
 
 
-def test_friction_between_touching_turns_balances_pairwise_and_dissipates() -> None:
-    """With ``contact.friction_coefficient`` 0.5 the collapsing coil's turns slide on each
-    other: per pair, the friction force (with friction less without) on segment A is minus
-    that on B, and its power on the nodes' velocities is never positive (regularised Coulomb
-    friction opposes the tangential sliding), and negative where turns slide."""
-    sim = _collapsing_coil(True, **{"contact.friction_coefficient": 0.5})
+@pytest.mark.parametrize(
+    "key, field, value",
+    [
+        ("contact.friction_coefficient", "contact_friction", 0.5),
+        ("contact.damping_time_s", "contact_damping_time", 1e-3),
+    ],
+    ids=["friction", "dashpot"],
+)
+def test_friction_and_the_dashpot_between_touching_turns_balance_pairwise_and_dissipate(
+    key: str, field: str, value: float
+) -> None:
+    """The collapsing coil's turns slide on and press into each other: per pair, the force
+    of friction (``contact.friction_coefficient`` 0.5) or of the normal dashpot
+    (``contact.damping_time_s`` 1 ms), with it less without, on segment A is minus that on
+    B, and its power on the nodes' velocities is never positive (regularised Coulomb friction
+    opposes the tangential sliding, the dashpot the rate the distance closes or opens), and
+    negative where turns move."""
+    sim = _collapsing_coil(True, **{key: value})
     sim.advance(0.6)
     model, rod, _, out = sim.kernel_inputs(1.0, 0.0, 0.0, False)
     pairs = sim.ws.contact.pairs[: sim.ws.contact.count[0]].copy()
     v = rod.vel.reshape(-1, 3)
     params = model.params
-    assert params[0]["contact_friction"] == pytest.approx(0.5)
+    assert params[0][field] == pytest.approx(value)
     sliding, powers = 0, []
     for i, j in pairs:
         one = _pair_alone(sim, i, j)
         forces = {}
-        for mu in (0.5, 0.0):
-            params[0]["contact_friction"] = mu
+        for x in (value, 0.0):
+            params[0][field] = x
             o = out._replace(force=np.zeros_like(out.force), contact=one)
             contact.accumulate(model, rod, Stage(sim.t, 0.0, 0.0, 0.0, False), o)
-            forces[mu] = o.force.reshape(-1, 3)
-        params[0]["contact_friction"] = 0.5
-        fric = forces[0.5] - forces[0.0]
+            forces[x] = o.force.reshape(-1, 3)
+        params[0][field] = value
+        fric = forces[value] - forces[0.0]
         on_a, on_b = fric[i : i + 2].sum(axis=0), fric[j : j + 2].sum(axis=0)
-        scale = np.abs(forces[0.5]).max()
+        scale = np.abs(forces[value]).max()
         if np.abs(on_a).max() <= 1e-12 * max(scale, 1e-300):
             continue
         sliding += 1
@@ -303,17 +315,26 @@ def _crossing_figure_eight(n: int) -> np.ndarray:
 _JACOBIAN_ERROR = {"crossing": 2e-5, "squeezed_coil": 5e-2}
 
 
+#: a velocity-dependent part of contact: none, friction, or the normal dashpot
+_VELOCITY_TERMS = {
+    "none": {},
+    "friction": {"contact.friction_coefficient": 0.5},
+    "dashpot": {"contact.damping_time_s": 1e-3},
+}
+
+
 @pytest.mark.parametrize("shape", ["crossing", "squeezed_coil"])
-@pytest.mark.parametrize("friction", [0.0, 0.5])
+@pytest.mark.parametrize("velocity_term", list(_VELOCITY_TERMS))
 def test_contact_jacobian_with_its_off_band_blocks_matches_finite_differences(
-    friction: float, shape: str
+    velocity_term: str, shape: str
 ) -> None:
     """A figure eight crossing itself and a coil squeezed below the contact distance (many
     pairs touch): the assembled Newton matrix (band and off-band blocks) against central
-    differences of the force, in positions without friction, in velocities with it
-    (friction's Jacobian holds the geometry, as the floor's does: exact in the velocities
-    only). Exact where contact acts at the closest points; for the nearly parallel turns of
-    the coil the positions' Jacobian holds the contact point (``_JACOBIAN_ERROR``)."""
+    differences of the force, in positions without a velocity term, in velocities with
+    friction or the dashpot (their Jacobians hold the geometry, as the floor's does: exact
+    in the velocities only). Exact where contact acts at the closest points; for the nearly
+    parallel turns of the coil the positions' Jacobian holds the contact point
+    (``_JACOBIAN_ERROR``)."""
     r = 0.5 * MM
     n = 120
     pts = _crossing_figure_eight(n) if shape == "crossing" else _squeezed_coil(n)
@@ -322,8 +343,8 @@ def test_contact_jacobian_with_its_off_band_blocks_matches_finite_differences(
         {
             "effects": ["elasticity", "drag", "contact"],
             "needle.inner_diameter_mm": 2 * r / MM,
-            "contact.friction_coefficient": friction,
             "contact.hessian": "exact",
+            **_VELOCITY_TERMS[velocity_term],
         },
     )
     rng = np.random.default_rng(4)
@@ -345,7 +366,7 @@ def test_contact_jacobian_with_its_off_band_blocks_matches_finite_differences(
 
     nd = 3 * n
     for which, coeffs, x0 in (("x", (1.0, 0.0), sim.pos), ("v", (0.0, 1.0), sim.vel)):
-        if (which == "v") != (friction > 0.0):
+        if (which == "v") != (velocity_term != "none"):
             continue
         out = assembled(sim.pos.copy(), sim.vel.copy(), *coeffs, True)
         cpl = out.cpl
@@ -662,6 +683,8 @@ def test_the_parallel_angle_sets_where_nearly_parallel_segments_touch() -> None:
         ("contact.near_gap_fraction", 2.5),
         ("contact.parallel_angle_deg", -1.0),
         ("contact.parallel_angle_deg", 60.0),
+        ("contact.damping_time_s", -1e-3),
+        ("contact.damping_time_s", 2.0),
         ("numerics.preconditioner", "multigrid"),
     ],
 )

@@ -100,6 +100,7 @@ PARAMS_FIELDS: tuple[tuple[str, str, str], ...] = (
     ("contact_sliding_sin2", "f8", "-, sin^2 of the angle from which it is at closest points"),
     ("contact_friction", "f8", "-, Coulomb coefficient between touching segments"),
     ("contact_friction_velocity", "f8", "m/s, regularisation of that friction"),
+    ("contact_damping_time", "f8", "s, Kelvin-Voigt time of the normal dashpot (0: none)"),
     ("krylov_tolerance", "f8", "-, GMRES residual relative to the right-hand side"),
     ("contact_exact_hessian", "?", "contact's Newton matrix: exact Hessian (else Gauss-Newton)"),
     ("gel_model", "i8", "-, one of GEL_* (gelation's material model)"),

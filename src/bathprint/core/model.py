@@ -328,6 +328,7 @@ def compile_model(scene: Scene) -> Model:
     p.contact_sliding_sin2 = math.sin(math.radians(min(2.0 * c.parallel_angle_deg, 90.0))) ** 2
     p.contact_friction = c.friction_coefficient
     p.contact_friction_velocity = c.friction_velocity_mm_s * MM
+    p.contact_damping_time = c.damping_time_s
     p.contact_exact_hessian = c.hessian == "exact"
     enabled = np.array([1 if e in scene.effects else 0 for e in L.EFFECT_NAMES], dtype=np.int64)
     flow = _flow_table(scene)

@@ -246,6 +246,13 @@ class Contact:
     friction_velocity_mm_s: float = _num(
         1.0, 1e-6, 1e3, lo_open=True, doc="regularisation of that friction"
     )
+    damping_time_s: float = _num(
+        0.0,
+        0.0,
+        1.0,
+        doc="Kelvin-Voigt time of a normal dashpot between touching segments, the penalty's "
+        "stiffness times this on the rate the distance closes (0: none)",
+    )
     near_gap_fraction: float = _num(
         0.3,
         0.0,

@@ -24,6 +24,15 @@ F = -mu N u_t / sqrt(|u_t|^2 + u_eps^2) on A (and the opposite on B), N = dE/dp 
 force, distributed to the nodes by the closest-point weights. Its velocity Jacobian is exact
 with the geometry (normal, closest points, N) held at the iterate (as the floor holds N).
 
+Optional damping of touching segments (``contact.damping_time_s`` beta > 0): a normal
+dashpot F = -beta E''(p) (dd/dt) grad d, the linear spring-dashpot of the discrete element
+method (Cundall & Strack 1979, Geotechnique 29, 47) with the penalty's own stiffness, so a
+pressed contact relaxes over beta and the damping starts from zero with the soft onset, as
+in Hunt & Crossley's law (1975, J. Appl. Mech. 42, 440). PyElastica's rod contact carries
+such a damping (its ``nu``). It stands for what dissipates when two turns press together in
+the bath, the squeeze film between them first; it matters with ``inertia``, where
+touching turns are otherwise a spring between masses with almost no damping.
+
 Candidate pairs come from a uniform spatial hash with a search distance delta_max + skin,
 kept as a Verlet list (:func:`prepare`): rebuilt when two nodes may have closed half the
 skin since (twice the largest motion relative to the common motion), when nodes are born or
@@ -381,8 +390,9 @@ def step_limit(contact) -> float:
 
 @njit(**KERNEL)
 def accumulate(model, rod, stage, out) -> float:
-    """Add contact (and friction) forces of the candidate pairs, and their Jacobian with the
-    blocks between distant nodes into ``out.cpl``; return the contact energy (J).
+    """Add contact (and its dashpot's and friction's) forces of the candidate pairs, and their
+    Jacobian with the blocks between distant nodes into ``out.cpl``; return the contact
+    energy (J).
 
     Pairs are in whole-filament numbers (``out.whole``). A frozen tail is an obstacle that
     follows the first active node (as it does after each step): its nodes sit at their
@@ -405,6 +415,7 @@ def accumulate(model, rod, stage, out) -> float:
     factor = p.contact_distance_factor
     mu_f = p.contact_friction
     eps = p.contact_friction_velocity
+    beta = p.contact_damping_time
     exact = p.contact_exact_hessian
     energy = 0.0
     hess_needed = do_jac and cx != 0.0 and exact
@@ -473,9 +484,40 @@ def accumulate(model, rod, stage, out) -> float:
                     row = max(nodes[a], 0)
                     col = max(nodes[b], 0)
                     add_coupling(out.band, out.cpl, n_free, row, col, blk, cx)
+        if beta > 0.0 and e_pp > 0.0:
+            _dashpot(
+                rod.vel, vel, whole_nodes, nodes, grad, beta * e_pp, force, out, n_free, cv, do_jac
+            )
         if mu_f > 0.0:
             _friction(vel, i, j, nodes, s, t, grad, e_p, mu_f, eps, force, out, n_free, cv, do_jac)
     return energy
+
+
+@njit(**KERNEL, inline="always")
+def _dashpot(active_vel, vel, whole_nodes, nodes, grad, c_d, force, out, n_free, cv, do_jac):
+    """Kelvin-Voigt normal dashpot of a touching pair: F_a = -c_d (grad d . v) grad_a d on
+    node a, c_d = beta E''(p) (N s/m), so a pressed contact relaxes in beta as a linear
+    spring-dashpot does (Cundall & Strack 1979), and its damping starts at zero with the soft
+    onset. It dissipates c_d (dd/dt)^2. A frozen node moves with the first active node
+    (``active_vel``, the stage's); its velocity Jacobian holds c_d and grad d at the iterate."""
+    ddot = 0.0
+    for a in range(4):
+        for c in range(3):
+            v = active_vel[c] if nodes[a] < 0 else vel[3 * whole_nodes[a] + c]
+            ddot += grad[3 * a + c] * v
+    for a in range(4):
+        node = max(nodes[a], 0)
+        for c in range(3):
+            force[3 * node + c] -= c_d * ddot * grad[3 * a + c]
+    if not (do_jac and cv != 0.0):
+        return
+    blk = out.scratch.blk_b
+    for a in range(4):
+        for b in range(4):
+            for r in range(3):
+                for c in range(3):
+                    blk[r, c] = c_d * grad[3 * a + r] * grad[3 * b + c]
+            add_coupling(out.band, out.cpl, n_free, max(nodes[a], 0), max(nodes[b], 0), blk, cv)
 
 
 @njit(**KERNEL, inline="always")
