@@ -17,7 +17,8 @@ saves in time.
 (1c) ``--part onset``: what ``tests/test_freezing.py`` asserts of the coil at the needle
     with ``inertia`` (the three turns next to the needle at 6 s, draft, seeds 0-5), with
     contact's default onset and with the onset that starts before contact
-    (``contact.width_fraction = 0.2``, ``contact.distance_factor = 1.02``): freezing beyond
+    (``contact.width_fraction = 0.2``, ``contact.distance_factor = 1.02``), each without and
+    with contact's normal dashpot (``contact.damping_time_s``, DASHPOT_S): freezing beyond
     100 mm against a tenfold tighter tolerance, and the free and clamped joints
     (freezing_onset.csv).
 (2) Rope coiling on the floor (scene ``rope_coiling_18G``, 6 s, or as far as 20 times the
@@ -309,10 +310,22 @@ ROPE_STEP_BUDGET = 20  # a variant may take this many times the steps of the run
 
 ONSET_SEEDS = 6
 ONSET_DURATION_S = 6.0
+#: the normal dashpot of --part onset (``contact.damping_time_s``, s): a touching pair of
+#: 22G turns is a spring of k = ``contact.stiffness_pa`` (1 kPa) between masses of
+#: m = (rho + C_a rho_bath) A per length, omega = sqrt(2 k / m) ~ 2700 rad/s at full
+#: stiffness and ~650 rad/s at 6% of it (the onset before contact's resting gaps), which the
+#: bath's drag damps by under 1%; beta omega / 2 > 1 damps it critically at both
+DASHPOT_S = 0.01
+_DASHPOT = {"contact.damping_time_s": DASHPOT_S}
 #: contact's onset variants of --part onset: label, scene overrides
 ONSET_VARIANTS = (
     ("default onset", {}),
     ("onset before contact (0.2 delta from 1.02 (r_A + r_B))", ONSET_BEFORE_CONTACT),
+    (f"default onset, dashpot {DASHPOT_S * 1e3:g} ms", _DASHPOT),
+    (
+        f"onset before contact, dashpot {DASHPOT_S * 1e3:g} ms",
+        {**ONSET_BEFORE_CONTACT, **_DASHPOT},
+    ),
 )
 
 
