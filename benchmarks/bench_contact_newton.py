@@ -32,12 +32,14 @@ exactly costs; the final frame's touching segments' gaps, 10th percentile and me
 how exactly it is held either way), and against GMRES's stopping tolerance
 (``--part krylov``: Newton's forcing term); ``--part ratio`` measures contact's cost there
 over ten seeds, paired seed by seed, with a bootstrap interval, and ``--part ratio_onset``
-the same with the soft onset of 0.2 delta from 1.02 (r_A + r_B). ``--part late`` starts from
+the same with the soft onset of 0.2 delta from 1.02 (r_A + r_B), ``--part ratio_inertia``
+with ``inertia`` listed in every run (and contact's normal dashpot). ``--part late`` starts from
 the pile's state at 0.8 s, where contact costs most, and changes one thing at a time for
 60 ms more: the Newton policy, the linear solve, the soft onset.
 
     python benchmarks/bench_contact_newton.py
-        [--part variants|sizes|scene|near_gap|seeds|onset|krylov|late|ratio|ratio_onset]
+        [--part variants|sizes|scene|near_gap|seeds|onset|krylov|late|ratio|ratio_onset|
+                ratio_inertia]
 """
 
 from __future__ import annotations
@@ -465,6 +467,40 @@ def ratio_report(contact: dict | None = None, label: str = "contact") -> list[di
     return rows
 
 
+#: contact's normal dashpot of ``--part ratio_inertia`` (s; bench_freezing.DASHPOT_S says why)
+DASHPOT_S = 0.01
+DASHPOT_LABEL = f"contact, dashpot {DASHPOT_S * 1e3:g} ms"
+
+
+def inertia_rows() -> list[dict]:
+    """The ten seeds of :func:`ratio_rows` with ``inertia`` listed in every run (the
+    experiments' regime: its number (rho + rho_f) A v^2 S^2 / B is about 97 at 5 ml/min):
+    without contact, with it, and with it and its normal dashpot."""
+    effects = [*Simulation(SCENE).scene.effects, "inertia"]
+    without = [e for e in effects if e != "contact"]
+    variants = {
+        "without contact": {"effects": without},
+        "contact": {"effects": effects},
+        DASHPOT_LABEL: {"effects": effects, "contact.damping_time_s": DASHPOT_S},
+    }
+    rows = []
+    for seed in RATIO_SEEDS:
+        rows += _scene_rows(variants, seed)
+    return rows
+
+
+def inertia_report() -> list[dict]:
+    """:func:`inertia_rows`, with the summary of each contact variant printed."""
+    rows = inertia_rows()
+    for label in ("contact", DASHPOT_LABEL):
+        r = ratio_summary(rows, label)
+        print(
+            f"with inertia, {label} / without over {r['seeds']} seeds: mean {r['mean']:.2f}x "
+            f"[{r['low']:.2f}, {r['high']:.2f}], {r['min']:.2f} to {r['max']:.2f}"
+        )
+    return rows
+
+
 def ratio_onset_report() -> list[dict]:
     """:func:`ratio_report` with the soft onset that starts before contact."""
     return ratio_report(ONSET_BEFORE_CONTACT, ONSET_LABEL)
@@ -571,6 +607,7 @@ if __name__ == "__main__":
             "late",
             "ratio",
             "ratio_onset",
+            "ratio_inertia",
         ),
         default="all",
     )
@@ -607,6 +644,10 @@ if __name__ == "__main__":
         "ratio_onset": (
             f"{scene}, seeds {RATIO_SEEDS}, {ONSET_LABEL}:",
             [("contact_ratio_seeds_onset", ratio_onset_report)],
+        ),
+        "ratio_inertia": (
+            f"{scene} with inertia, seeds {RATIO_SEEDS}:",
+            [("contact_ratio_seeds_inertia", inertia_report)],
         ),
     }
     for name, (title, outputs) in parts.items():

@@ -108,7 +108,13 @@ def test_the_observable_comparison_pairs_the_seeds_both_onsets_ran(bench):
     assert r["mean contact"] == pytest.approx(2.2e-3)
     assert r["mean soft"] == pytest.approx((2.2 + 2.42 + 2.4) * 1e-3 / 3)
     assert r["paired_change"] == pytest.approx(0.2 / 3)  # +10%, +10%, 0%
-    assert 0.0 <= r["paired_change_low"] <= r["paired_change"] <= r["paired_change_high"] <= 0.1 + 1e-12
+    assert (
+        0.0
+        <= r["paired_change_low"]
+        <= r["paired_change"]
+        <= r["paired_change_high"]
+        <= 0.1 + 1e-12
+    )
     assert r["seed_spread"] == pytest.approx(0.2 / 2.2)
     assert out["regime"] == {"observable": "regime", "seeds": 3, "same_regime": 2}
 
@@ -133,6 +139,26 @@ def test_the_onset_ratio_part_runs_the_onset_before_contact(bench, monkeypatch):
     }
     assert rows[1]["wall_ratio"] == pytest.approx(rows[1]["wall_s"] / rows[0]["wall_s"])
     assert mod.ratio_summary(rows, mod.ONSET_LABEL)["seeds"] == 1
+
+
+def test_the_inertia_ratio_part_lists_inertia_in_every_run(bench, monkeypatch):
+    """``--part ratio_inertia``: the paired seeds with ``inertia`` in every run, without
+    contact, with it, and with it and its normal dashpot."""
+    mod = bench("bench_contact_newton")
+    monkeypatch.setattr(mod, "SCENE_DURATION_S", 0.02)
+    monkeypatch.setattr(mod, "RATIO_SEEDS", (2,))
+    seen = []
+    scene_rows = mod._scene_rows
+    monkeypatch.setattr(mod, "_scene_rows", lambda v, seed: seen.append(v) or scene_rows(v, seed))
+    rows = mod.inertia_report()
+    labels = ["without contact", "contact", mod.DASHPOT_LABEL]
+    assert [(r["seed"], r["variant"]) for r in rows] == [(2, label) for label in labels]
+    variants = seen[0]
+    assert all("inertia" in variants[label]["effects"] for label in labels)
+    assert "contact" not in variants["without contact"]["effects"]
+    assert variants[mod.DASHPOT_LABEL]["contact.damping_time_s"] == mod.DASHPOT_S > 0.0
+    for r in rows[1:]:
+        assert r["wall_ratio"] == pytest.approx(r["wall_s"] / rows[0]["wall_s"])
 
 
 def test_every_coil_stack_stands_under_the_bath_surface(bench):
