@@ -1453,6 +1453,28 @@ def contact_ratio_seeds() -> str:
     return _contact_ratio_table("contact_ratio_seeds", "contact")
 
 
+def contact_ratio_seeds_inertia() -> str:
+    """``--part ratio_inertia``: contact's cost with inertia listed in every run, and with
+    contact's dashpot."""
+    bench = _bench_contact_newton()
+    text = _contact_ratio_table("contact_ratio_seeds_inertia", "contact")
+    table = _csv(RESULTS / "contact_ratio_seeds_inertia.csv")
+    m = bench.ratio_summary(table, bench.DASHPOT_LABEL)
+    rows = [r for r in table if r["variant"] == bench.DASHPOT_LABEL]
+    gaps = [float(r["min_gap_ratio"]) for r in rows]
+    newton = [float(r["newton_per_step"]) for r in rows]
+    krylov = [float(r["krylov_per_newton"]) for r in rows]
+    line = (
+        f"With contact's dashpot ({_g(bench.DASHPOT_S * 1e3)} ms): **{_g(m['mean'])}×** "
+        f"[{_g(m['low'])}, {_g(m['high'])}], from {_g(m['min'])}× to {_g(m['max'])}×; Newton "
+        f"{_g(min(newton))}-{_g(max(newton))} per step, Krylov {_g(min(krylov))}-"
+        f"{_g(max(krylov))} per Newton iteration, smallest gap {_g(min(gaps), 3)}-"
+        f"{_g(max(gaps), 3)} (2r)."
+    )
+    head, source = text.rsplit("\n\n", 1)
+    return head + "\n\n" + line + "\n\n" + source
+
+
 def contact_ratio_seeds_onset() -> str:
     """``--part ratio_onset``: contact with the soft onset that starts before contact."""
     return _contact_ratio_table("contact_ratio_seeds_onset", _bench_contact_newton().ONSET_LABEL)
@@ -1980,6 +2002,7 @@ TABLES: dict[str, Callable[[], str]] = {
     "contact-ratio-seeds": contact_ratio_seeds,
     "contact-ratio-seeds-onset": contact_ratio_seeds_onset,
     "contact-onset-observables": contact_onset_observables,
+    "contact-ratio-seeds-inertia": contact_ratio_seeds_inertia,
     "contact-late": contact_late,
     "backsub": backsub,
     "lu-diagonal": lu_diagonal,
