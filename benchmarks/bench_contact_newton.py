@@ -33,13 +33,14 @@ how exactly it is held either way), and against GMRES's stopping tolerance
 (``--part krylov``: Newton's forcing term); ``--part ratio`` measures contact's cost there
 over ten seeds, paired seed by seed, with a bootstrap interval, and ``--part ratio_onset``
 the same with the soft onset of 0.2 delta from 1.02 (r_A + r_B), ``--part ratio_inertia``
-with ``inertia`` listed in every run (and contact's normal dashpot). ``--part late`` starts from
+with ``inertia`` listed in every run (and contact's normal dashpot), and
+``--part dashpot_overdamped`` that dashpot without inertia. ``--part late`` starts from
 the pile's state at 0.8 s, where contact costs most, and changes one thing at a time for
 60 ms more: the Newton policy, the linear solve, the soft onset.
 
     python benchmarks/bench_contact_newton.py
         [--part variants|sizes|scene|near_gap|seeds|onset|krylov|late|ratio|ratio_onset|
-                ratio_inertia]
+                ratio_inertia|dashpot_overdamped]
 """
 
 from __future__ import annotations
@@ -54,7 +55,7 @@ import numpy as np
 from _common import write_csv
 from bench_contact import R_FIL, coil_stack
 
-from bathprint import Simulation, simulate
+from bathprint import Simulation, SimulationError, simulate
 from bathprint.analysis.measure import MEASURE_KEYS, coil_geometry, touching_gaps
 from bathprint.core.effects._segment_geometry import PARALLEL_SIN2, SLIDING_SIN2, closest_params
 
@@ -501,6 +502,50 @@ def inertia_report() -> list[dict]:
     return rows
 
 
+#: --part dashpot_overdamped: contact's dashpot (s) on the overdamped pile
+OVERDAMPED_DASHPOTS_S = (0.0, 1e-3, 1e-2)
+
+
+def dashpot_overdamped_rows(seed: int = 0) -> list[dict]:
+    """SCENE (overdamped) with contact's dashpot at each of OVERDAMPED_DASHPOTS_S: how far
+    it gets in SCENE_DURATION_S, its counts, and the failure it reports where GMRES stalls
+    (the dashpot's couplings between turns, beta E'' / (h gamma), dwarf the band)."""
+    rows = []
+    for beta in OVERDAMPED_DASHPOTS_S:
+        over = {"seed": seed, "contact.damping_time_s": beta}
+        Simulation(SCENE, {**over, "duration_s": 0.01}).advance(0.01)  # compile
+        sim = Simulation(SCENE, over)
+        failure = ""
+        t0 = time.perf_counter()
+        try:
+            sim.advance(SCENE_DURATION_S)
+        except SimulationError as e:
+            failure = str(e)
+        wall = time.perf_counter() - t0
+        c = sim.counts()
+        rows.append(
+            {
+                "scene": SCENE,
+                "seed": seed,
+                "damping_time_s": beta,
+                "reached_s": sim.t,
+                "steps": c["steps"],
+                "newton_per_step": c["newton_iterations"] / max(c["steps"], 1),
+                "krylov_per_newton": c["krylov_iterations"] / max(c["newton_iterations"], 1),
+                "wall_s": wall,
+                "failure": failure,
+            }
+        )
+        r = rows[-1]
+        print(
+            f"dashpot {beta * 1e3:g} ms: reached {r['reached_s']:.3f} s in {wall:.1f} s, "
+            f"{r['steps']} steps, {r['krylov_per_newton']:.2f} Krylov per Newton"
+            + (f"; {failure[:160]}" if failure else ""),
+            flush=True,
+        )
+    return rows
+
+
 def ratio_onset_report() -> list[dict]:
     """:func:`ratio_report` with the soft onset that starts before contact."""
     return ratio_report(ONSET_BEFORE_CONTACT, ONSET_LABEL)
@@ -608,6 +653,7 @@ if __name__ == "__main__":
             "ratio",
             "ratio_onset",
             "ratio_inertia",
+            "dashpot_overdamped",
         ),
         default="all",
     )
@@ -648,6 +694,10 @@ if __name__ == "__main__":
         "ratio_inertia": (
             f"{scene} with inertia, seeds {RATIO_SEEDS}:",
             [("contact_ratio_seeds_inertia", inertia_report)],
+        ),
+        "dashpot_overdamped": (
+            f"{scene}, contact's dashpot {OVERDAMPED_DASHPOTS_S} s:",
+            [("contact_dashpot_overdamped", dashpot_overdamped_rows)],
         ),
     }
     for name, (title, outputs) in parts.items():

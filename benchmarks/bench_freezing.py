@@ -1,7 +1,8 @@
 """What freezing settled material (``numerics.freeze_beyond_mm``) costs in accuracy and
 saves in time.
 
-    python benchmarks/bench_freezing.py [--part coil|seeds|turns|onset|rope|envs] [--episodes 8]
+    python benchmarks/bench_freezing.py [--part coil|seeds|turns|onset|damping|rope|envs]
+        [--episodes 8]
 
 (1) A steady coil (scene ``gelation_coiling_22G``, 3 s; draft and balanced presets, and draft
     with ``inertia``): coil
@@ -21,6 +22,9 @@ saves in time.
     with contact's normal dashpot (``contact.damping_time_s``, DASHPOT_S): freezing beyond
     100 mm against a tenfold tighter tolerance, and the free and clamped joints
     (freezing_onset.csv).
+(1d) ``--part damping``: the same comparison at the needle, freezing beyond 100 mm against
+    the tenfold tolerance, overdamped with each onset, and with inertia, the onset before
+    contact and shorter dashpots (1 and 3 ms) (freezing_damping.csv).
 (2) Rope coiling on the floor (scene ``rope_coiling_18G``, 6 s, or as far as 20 times the
     steps of the run without freezing take it): the RMS change of the last
     30 mm of material next to the needle and of the pile's centre, with the material resting
@@ -31,7 +35,7 @@ saves in time.
     and environment steps per CPU second of each.
 
 Writes benchmarks/results/freezing_coil.csv, freezing_seeds.csv, freezing_onset.csv,
-freezing_rope.csv and freezing_envs.csv. Times
+freezing_damping.csv, freezing_rope.csv and freezing_envs.csv. Times
 are ratios to the run without freezing measured in the same process.
 """
 
@@ -313,8 +317,8 @@ ONSET_DURATION_S = 6.0
 #: the normal dashpot of --part onset (``contact.damping_time_s``, s): a touching pair of
 #: 22G turns is a spring of k = ``contact.stiffness_pa`` (1 kPa) between masses of
 #: m = (rho + C_a rho_bath) A per length, omega = sqrt(2 k / m) ~ 2700 rad/s at full
-#: stiffness and ~650 rad/s at 6% of it (the onset before contact's resting gaps), which the
-#: bath's drag damps by under 1%; beta omega / 2 > 1 damps it critically at both
+#: stiffness and 540-760 rad/s at 4-8% of it (the onset before contact's resting gaps), which
+#: the bath's drag damps by under 1%; beta omega / 2 > 1 damps it critically at both
 DASHPOT_S = 0.01
 _DASHPOT = {"contact.damping_time_s": DASHPOT_S}
 #: contact's onset variants of --part onset: label, scene overrides
@@ -456,6 +460,62 @@ def _episodes(
     return np.array(finals), steps / cpu
 
 
+#: --part damping: label, with inertia, contact's overrides (what --part onset leaves out)
+DAMPING_VARIANTS = (
+    ("overdamped, default onset", False, {}),
+    ("overdamped, onset before contact", False, ONSET_BEFORE_CONTACT),
+    (
+        "inertia, onset before contact, dashpot 1 ms",
+        True,
+        {**ONSET_BEFORE_CONTACT, "contact.damping_time_s": 1e-3},
+    ),
+    (
+        "inertia, onset before contact, dashpot 3 ms",
+        True,
+        {**ONSET_BEFORE_CONTACT, "contact.damping_time_s": 3e-3},
+    ),
+)
+
+
+def damping_table(n_seeds: int = ONSET_SEEDS, duration_s: float = ONSET_DURATION_S) -> list[dict]:
+    """Per DAMPING_VARIANTS row and seed, the comparison ``tests/test_freezing.py`` makes at
+    the needle: the change of the coil there by freezing beyond 100 mm and by a tenfold
+    tighter tolerance at half the node spacing, each against the draft run."""
+    scene = Simulation(COIL).scene
+    spacing = scene.numerics.node_spacing_mm
+    rows = []
+    for label, inertia, contact in DAMPING_VARIANTS:
+        effects = [*scene.effects, *(["inertia"] if inertia else [])]
+        for seed in range(n_seeds):
+            base = {"effects": effects, "seed": seed, **contact}
+            draft = {**base, "numerics.accuracy": "draft"}
+            tight = {
+                **base,
+                "numerics.tolerance": 1e-3,
+                "numerics.max_inlet_growth": 2.0,
+                "numerics.node_spacing_mm": 2 * spacing,
+            }
+            r0 = _near_needle_radius(draft, duration_s)
+            frozen = {**draft, "numerics.freeze_beyond_mm": 100.0}
+            rows.append(
+                {
+                    "variant": label,
+                    "seed": seed,
+                    "radius_m": r0,
+                    "frozen_100mm_change": _near_needle_radius(frozen, duration_s) / r0 - 1,
+                    "tighter_change": _near_needle_radius(tight, duration_s) / r0 - 1,
+                }
+            )
+            r = rows[-1]
+            print(
+                f"{label}, seed {seed}: frozen beyond 100 mm "
+                f"{100 * r['frozen_100mm_change']:+.2f}%, "
+                f"tighter {100 * r['tighter_change']:+.2f}%",
+                flush=True,
+            )
+    return rows
+
+
 def env_table(episodes: int) -> list[dict]:
     rows = []
     for env_id in E.ENV_IDS:
@@ -482,7 +542,7 @@ def main() -> None:
     ap.add_argument("--episodes", type=int, default=8)
     ap.add_argument(
         "--part",
-        choices=("coil", "seeds", "turns", "onset", "rope", "envs"),
+        choices=("coil", "seeds", "turns", "onset", "damping", "rope", "envs"),
         default=None,
         help="only this",
     )
@@ -495,6 +555,8 @@ def main() -> None:
         turns_part()
     if args.part in (None, "onset"):
         print("->", write_csv("freezing_onset", onset_table()))
+    if args.part in (None, "damping"):
+        print("->", write_csv("freezing_damping", damping_table()))
     if args.part in (None, "rope"):
         rope_part()
     if args.part in (None, "envs"):

@@ -161,6 +161,18 @@ def test_the_inertia_ratio_part_lists_inertia_in_every_run(bench, monkeypatch):
         assert r["wall_ratio"] == pytest.approx(r["wall_s"] / rows[0]["wall_s"])
 
 
+def test_the_overdamped_dashpot_part_reports_how_far_each_run_gets(bench, monkeypatch):
+    """``--part dashpot_overdamped``: one row per dashpot, the time reached, and no failure
+    on a short run."""
+    mod = bench("bench_contact_newton")
+    monkeypatch.setattr(mod, "SCENE_DURATION_S", 0.02)
+    rows = mod.dashpot_overdamped_rows()
+    assert [r["damping_time_s"] for r in rows] == list(mod.OVERDAMPED_DASHPOTS_S)
+    for r in rows:
+        assert r["reached_s"] == pytest.approx(0.02) and r["failure"] == ""
+        assert r["steps"] > 0 and r["wall_s"] > 0.0
+
+
 def test_every_coil_stack_stands_under_the_bath_surface(bench):
     """The tallest stack (10^4 nodes, pitch 1.5 contact distances, about 98 mm) keeps its top
     5 mm under the surface; a short one stands at 50 mm below it."""

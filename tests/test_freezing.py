@@ -537,6 +537,38 @@ def test_the_clamped_joint_is_the_bending_of_the_joining_node_with_its_exact_jac
     np.testing.assert_allclose(jac, fd_jac, rtol=1e-5, atol=1e-6 * np.abs(fd_jac).max())
 
 
+def test_the_damping_part_pairs_freezing_and_the_tolerance_with_each_variant(
+    load_script, monkeypatch
+):
+    """``bench_freezing.py --part damping``: for each variant and seed, the draft, frozen and
+    tighter runs carry the variant's contact keys and inertia (or not), and the changes are
+    ratios to the draft run (fake radii)."""
+    bench = Path(__file__).resolve().parents[1] / "benchmarks"
+    monkeypatch.syspath_prepend(str(bench))
+    mod = load_script(bench / "bench_freezing.py")
+    calls = []
+
+    def fake(over: dict, duration_s: float) -> float:
+        calls.append(over)
+        if over.get("numerics.tolerance") == 1e-3:
+            return 1.02e-3
+        return 0.99e-3 if over.get("numerics.freeze_beyond_mm") == 100.0 else 1.0e-3
+
+    monkeypatch.setattr(mod, "_near_needle_radius", fake)
+    rows = mod.damping_table(n_seeds=2, duration_s=1.0)
+    assert [(r["variant"], r["seed"]) for r in rows] == [
+        (label, seed) for label, _, _ in mod.DAMPING_VARIANTS for seed in (0, 1)
+    ]
+    for r in rows:
+        assert r["frozen_100mm_change"] == pytest.approx(-0.01)
+        assert r["tighter_change"] == pytest.approx(0.02)
+    assert len(calls) == 3 * len(rows)
+    for k, (label, inertia, contact) in enumerate(mod.DAMPING_VARIANTS):
+        mine = calls[6 * k : 6 * (k + 1)]
+        assert all(("inertia" in c["effects"]) == inertia for c in mine), label
+        assert all(c[key] == v for c in mine for key, v in contact.items()), label
+
+
 def test_the_onset_part_pairs_each_measurement_with_its_own_onset(load_script, monkeypatch):
     """``bench_freezing.py --part onset``: for each onset and seed, every run gets the
     onset's contact keys, inertia and the seed; the changes are the ratios to the runs
