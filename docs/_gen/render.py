@@ -578,6 +578,51 @@ def freezing_onset() -> str:
     return _table(head, rows) + "\n\n" + provenance(path)
 
 
+def freezing_damping() -> str:
+    """``bench_freezing.py --part damping``: per variant, the mean change over the seeds (and
+    their range) of the coil at the needle by freezing and by the tenfold tolerance."""
+    path = RESULTS / "freezing_damping.csv"
+    table = _csv(path)
+    rows = []
+    for variant in dict.fromkeys(r["variant"] for r in table):
+        mine = [r for r in table if r["variant"] == variant]
+        cells = [variant, str(len(mine))]
+        for c in ("frozen_100mm_change", "tighter_change"):
+            v = [float(r[c]) for r in mine]
+            cells.append(f"{_pct(sum(v) / len(v))} ({_pct(min(v))} to {_pct(max(v))})")
+        rows.append(cells)
+    head = ["variant", "seeds", "frozen beyond 100 mm (clamped)", "tenfold tolerance"]
+    return _table(head, rows) + "\n\n" + provenance(path)
+
+
+def contact_dashpot_overdamped() -> str:
+    """``bench_contact_newton.py --part dashpot_overdamped``: how far the overdamped pile
+    gets with contact's dashpot, and why it stops."""
+    path = RESULTS / "contact_dashpot_overdamped.csv"
+    rows = []
+    for r in _csv(path):
+        failure = r["failure"]
+        cause = "–"
+        if failure:  # the cause, without its parenthesised (and nested) details
+            cause, inner = failure.split(": ", 1)[-1], ""
+            while inner != cause:
+                inner, cause = cause, re.sub(r"\s*\([^()]*\)", "", cause)
+            cause = cause.strip()
+        rows.append(
+            [
+                f"{_g(float(r['damping_time_s']) * 1e3)} ms",
+                f"{_g(r['reached_s'], 3)} s",
+                r["steps"],
+                _g(r["newton_per_step"]),
+                _g(r["krylov_per_newton"]),
+                _g(r["wall_s"]),
+                cause,
+            ]
+        )
+    head = ["dashpot", "reached", "steps", "Newton per step", "Krylov per Newton", "wall (s)"]
+    return _table([*head, "failure"], rows) + "\n\n" + provenance(path)
+
+
 def freezing_rope() -> str:
     path = RESULTS / "freezing_rope.csv"
     rows = [
@@ -1976,6 +2021,8 @@ TABLES: dict[str, Callable[[], str]] = {
     "freezing-coil": freezing_coil,
     "freezing-turns": freezing_turns,
     "freezing-onset": freezing_onset,
+    "freezing-damping": freezing_damping,
+    "contact-dashpot-overdamped": contact_dashpot_overdamped,
     "freezing-rope": freezing_rope,
     "freezing-envs": freezing_envs,
     "accuracy-presets": accuracy_presets,

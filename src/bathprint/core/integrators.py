@@ -348,8 +348,9 @@ def _filtered_norm(model, rod, state, ws, hg: float, t: float) -> float:
     rhs = ws.vecs[V_RHS]
     ca = 1.0 / (hg * hg) if p.inertial else 0.0
     stage = Stage(t, 0.0, 1.0 / hg, ca, True)
-    # D keeps its band only (an off-band damping, contact friction, is dropped from the
-    # filter); A^-1 is the whole Newton matrix's
+    # D keeps its band only (the off-band blocks of contact's friction and dashpot are
+    # dropped from the filter, their blocks within a segment kept); A^-1 is the whole
+    # Newton matrix's
     assemble(model, rod, stage, _out(state, ws, ws.band2, ws.cpl_drop), state.calls, state.energies)
     solver.damping_times(ws, nd, evec, rhs)
     if not solver.solve(ws, nd, rhs, state.counters, p.krylov_tolerance):
