@@ -395,6 +395,86 @@ def test_contact_jacobian_with_its_off_band_blocks_matches_finite_differences(
         np.testing.assert_allclose(dense, fd, atol=tol * np.abs(fd).max(), rtol=0)
 
 
+def test_the_dashpot_on_a_frozen_tail_moves_it_with_the_first_active_node() -> None:
+    """A squeezed coil whose first 20 nodes are a frozen tail (an obstacle that follows the
+    first active node): the dashpot's force on the active nodes, frozen nodes moving at
+    that node's velocity, against central differences in the active velocities, with the
+    frozen nodes' rows and columns in that node's; and it vanishes when the whole coil
+    translates."""
+    r, n, f = 0.5 * MM, 120, 20
+    sim = free_filament(
+        _squeezed_coil(n),
+        {
+            "effects": ["elasticity", "drag", "contact"],
+            "needle.inner_diameter_mm": 2 * r / MM,
+            "contact.damping_time_s": 1e-3,
+        },
+    )
+    whole = Rod(sim.pos, sim.vel, sim.vel, n, sim.node_s, sim.seg_rest, sim.seg_mat)
+    while not contact.prepare(sim.model.record, whole, f, sim.ws.contact):
+        sim._grow_off_band()
+    pairs = sim.ws.contact.pairs[: sim.ws.contact.count[0]]
+    assert ((pairs[:, 0] < f) & (pairs[:, 1] >= f)).any()  # active turns touch the tail
+    n_act = n - f
+    nd = 3 * n_act
+    vel0 = np.random.default_rng(5).normal(scale=1e-3, size=nd)
+
+    def dashpot(vel: np.ndarray, jac: bool):
+        """Contact's force on the active nodes with the dashpot, less that without."""
+        model, _, _, out = sim.kernel_inputs(0.0, 1.0, 0.0, jac)
+        params = model.params
+        forces = []
+        # the active rod is a view of the whole one, as in a step; the frozen nodes' own
+        # velocities (here NaN) are never read: they move with the first active node
+        whole_vel = np.full(3 * n, np.nan)
+        whole_vel[3 * f :] = vel
+        moving = whole._replace(vel=whole_vel)
+        for beta in (1e-3, 0.0):
+            params[0]["contact_damping_time"] = beta
+            rod = Rod(
+                sim.pos[3 * f :],
+                whole_vel[3 * f :],
+                np.zeros_like(vel),
+                n_act,
+                sim.node_s[f:],
+                sim.seg_rest[f:],
+                sim.seg_mat[f:],
+            )
+            o = out._replace(
+                force=np.zeros(nd),
+                band=np.zeros((nd, out.band.shape[1])),
+                cpl=new_couplings(16 * len(pairs)),
+                whole=moving,
+                frozen=f,
+                start=sim.pos[3 * f :].copy(),
+            )
+            contact.accumulate(model, rod, Stage(0.0, 0.0, 1.0, 0.0, jac), o)
+            forces.append(o)
+        params[0]["contact_damping_time"] = 1e-3
+        return forces[0].force - forces[1].force, forces[0]
+
+    _, out = dashpot(vel0.copy(), True)
+    dense = np.zeros((nd, nd))
+    for i in range(nd):
+        for j in range(max(0, i - L.KL), min(nd, i + L.KU + 1)):
+            dense[i, j] = out.band[i, j - i + L.KL]
+    for k in range(out.cpl.count[0]):
+        a, b = 3 * out.cpl.row[k], 3 * out.cpl.col[k]
+        dense[a : a + 3, b : b + 3] += out.cpl.block[k]
+    fd = np.zeros((nd, nd))
+    h = 1e-8
+    for k in range(nd):
+        vp, vm = vel0.copy(), vel0.copy()
+        vp[k] += h
+        vm[k] -= h
+        fd[:, k] = -(dashpot(vp, False)[0] - dashpot(vm, False)[0]) / (2 * h)
+    assert np.abs(fd[:3, :3]).max() > 0  # the tail's pairs reach the first active node
+    np.testing.assert_allclose(dense, fd, atol=2e-5 * np.abs(fd).max(), rtol=0)
+    common = np.tile([1e-3, -2e-3, 5e-4], n_act)  # a rigid translation, the tail with it
+    drift, _ = dashpot(common, False)
+    assert np.abs(drift).max() < 1e-9 * np.abs(dashpot(vel0, False)[0]).max()
+
+
 # ------------------------------------------------------------------ the solver
 @pytest.mark.parametrize("shift", [12.0, 0.0], ids=["diagonal_pivots", "row_swaps"])
 @pytest.mark.parametrize("coarse", [0, 4], ids=["band", "axial_coarse"])
