@@ -395,19 +395,29 @@ def test_contact_jacobian_with_its_off_band_blocks_matches_finite_differences(
         np.testing.assert_allclose(dense, fd, atol=tol * np.abs(fd).max(), rtol=0)
 
 
-def test_the_dashpot_on_a_frozen_tail_moves_it_with_the_first_active_node() -> None:
+@pytest.mark.parametrize(
+    "key, field, value",
+    [
+        ("contact.damping_time_s", "contact_damping_time", 1e-3),
+        ("contact.friction_coefficient", "contact_friction", 0.5),
+    ],
+    ids=["dashpot", "friction"],
+)
+def test_velocity_terms_on_a_frozen_tail_move_it_with_the_first_active_node(
+    key: str, field: str, value: float
+) -> None:
     """A squeezed coil whose first 20 nodes are a frozen tail (an obstacle that follows the
-    first active node): the dashpot's force on the active nodes, frozen nodes moving at
-    that node's velocity, against central differences in the active velocities, with the
-    frozen nodes' rows and columns in that node's; and it vanishes when the whole coil
-    translates."""
+    first active node): the force of the dashpot (or of friction) on the active nodes,
+    frozen nodes moving at that node's velocity, against central differences in the active
+    velocities, with the frozen nodes' rows and columns in that node's; and it vanishes
+    when the whole coil translates."""
     r, n, f = 0.5 * MM, 120, 20
     sim = free_filament(
         _squeezed_coil(n),
         {
             "effects": ["elasticity", "drag", "contact"],
             "needle.inner_diameter_mm": 2 * r / MM,
-            "contact.damping_time_s": 1e-3,
+            key: value,
         },
     )
     whole = Rod(sim.pos, sim.vel, sim.vel, n, sim.node_s, sim.seg_rest, sim.seg_mat)
@@ -420,7 +430,7 @@ def test_the_dashpot_on_a_frozen_tail_moves_it_with_the_first_active_node() -> N
     vel0 = np.random.default_rng(5).normal(scale=1e-3, size=nd)
 
     def dashpot(vel: np.ndarray, jac: bool):
-        """Contact's force on the active nodes with the dashpot, less that without."""
+        """Contact's force on the active nodes with the velocity term, less that without."""
         model, _, _, out = sim.kernel_inputs(0.0, 1.0, 0.0, jac)
         params = model.params
         forces = []
@@ -429,8 +439,8 @@ def test_the_dashpot_on_a_frozen_tail_moves_it_with_the_first_active_node() -> N
         whole_vel = np.full(3 * n, np.nan)
         whole_vel[3 * f :] = vel
         moving = whole._replace(vel=whole_vel)
-        for beta in (1e-3, 0.0):
-            params[0]["contact_damping_time"] = beta
+        for x in (value, 0.0):
+            params[0][field] = x
             rod = Rod(
                 sim.pos[3 * f :],
                 whole_vel[3 * f :],
@@ -450,7 +460,7 @@ def test_the_dashpot_on_a_frozen_tail_moves_it_with_the_first_active_node() -> N
             )
             contact.accumulate(model, rod, Stage(0.0, 0.0, 1.0, 0.0, jac), o)
             forces.append(o)
-        params[0]["contact_damping_time"] = 1e-3
+        params[0][field] = value
         return forces[0].force - forces[1].force, forces[0]
 
     _, out = dashpot(vel0.copy(), True)

@@ -489,7 +489,24 @@ def accumulate(model, rod, stage, out) -> float:
                 rod.vel, vel, whole_nodes, nodes, grad, beta * e_pp, force, out, n_free, cv, do_jac
             )
         if mu_f > 0.0:
-            _friction(vel, i, j, nodes, s, t, grad, e_p, mu_f, eps, force, out, n_free, cv, do_jac)
+            _friction(
+                rod.vel,
+                vel,
+                i,
+                j,
+                nodes,
+                s,
+                t,
+                grad,
+                e_p,
+                mu_f,
+                eps,
+                force,
+                out,
+                n_free,
+                cv,
+                do_jac,
+            )
     return energy
 
 
@@ -521,11 +538,13 @@ def _dashpot(active_vel, vel, whole_nodes, nodes, grad, c_d, force, out, n_free,
 
 
 @njit(**KERNEL, inline="always")
-def _friction(vel, i, j, nodes, s, t, grad, normal, mu_f, eps, force, out, n_free, cv, do_jac):
+def _friction(
+    active_vel, vel, i, j, nodes, s, t, grad, normal, mu_f, eps, force, out, n_free, cv, do_jac
+):
     """Regularised Coulomb friction on the tangential relative velocity of the closest
     points of segments i, j (whole-filament numbers; ``nodes``: active-rod numbers, < 0 in
-    the frozen tail); normal direction from the distance gradient (grad d at node i0 is
-    (1 - s) n)."""
+    the frozen tail, whose nodes move with the first active node, ``active_vel``); normal
+    direction from the distance gradient (grad d at node i0 is (1 - s) n)."""
     w = ((1.0 - s), s, -(1.0 - t), -t)  # closest point of A minus that of B
     # the unit normal: grad d of the pair = alpha_k n with alpha = (1-s, s, t-1, -t)
     n0 = grad[0] + grad[3]
@@ -538,10 +557,15 @@ def _friction(vel, i, j, nodes, s, t, grad, normal, mu_f, eps, force, out, n_fre
     whole_nodes = (i, i + 1, j, j + 1)
     u0 = u1 = u2 = 0.0
     for a in range(4):
-        b = 3 * whole_nodes[a]
-        u0 += w[a] * vel[b]
-        u1 += w[a] * vel[b + 1]
-        u2 += w[a] * vel[b + 2]
+        if nodes[a] < 0:
+            u0 += w[a] * active_vel[0]
+            u1 += w[a] * active_vel[1]
+            u2 += w[a] * active_vel[2]
+        else:
+            b = 3 * whole_nodes[a]
+            u0 += w[a] * vel[b]
+            u1 += w[a] * vel[b + 1]
+            u2 += w[a] * vel[b + 2]
     un = u0 * n0 + u1 * n1 + u2 * n2
     t0, t1, t2 = u0 - un * n0, u1 - un * n1, u2 - un * n2
     sq = math.sqrt(t0 * t0 + t1 * t1 + t2 * t2 + eps * eps)
