@@ -345,6 +345,19 @@ def _near_needle_radius(over: dict, duration_s: float) -> float:
     return float(np.median(geom.radii[:NEAR_NEEDLE_TURNS]))
 
 
+def _draft_and_tight(base: dict, spacing_mm: float) -> tuple[dict, dict]:
+    """``base`` at the draft preset, and at a tenfold tighter tolerance with half the draft's
+    node spacing (twice the scene's ``spacing_mm``): the draft preset's own error."""
+    draft = {**base, "numerics.accuracy": "draft"}
+    tight = {
+        **base,
+        "numerics.tolerance": 1e-3,
+        "numerics.max_inlet_growth": 2.0,
+        "numerics.node_spacing_mm": 2 * spacing_mm,
+    }
+    return draft, tight
+
+
 def onset_table(n_seeds: int = ONSET_SEEDS, duration_s: float = ONSET_DURATION_S) -> list[dict]:
     """Per contact onset and seed, with ``inertia``: the change of the coil at the needle
     that freezing beyond 100 mm (clamped joint, the default) makes, beside that of a tenfold
@@ -359,13 +372,7 @@ def onset_table(n_seeds: int = ONSET_SEEDS, duration_s: float = ONSET_DURATION_S
     for label, onset in ONSET_VARIANTS:
         for seed in range(n_seeds):
             base = {"effects": effects, "seed": seed, **onset}
-            draft = {**base, "numerics.accuracy": "draft"}
-            tight = {
-                **base,
-                "numerics.tolerance": 1e-3,
-                "numerics.max_inlet_growth": 2.0,
-                "numerics.node_spacing_mm": 2 * spacing,
-            }
+            draft, tight = _draft_and_tight(base, spacing)
 
             def radius(over: dict, freeze_mm: float = 0.0, joint: str = "auto") -> float:
                 frozen = {"numerics.freeze_beyond_mm": freeze_mm, "numerics.freeze_joint": joint}
@@ -488,13 +495,7 @@ def damping_table(n_seeds: int = ONSET_SEEDS, duration_s: float = ONSET_DURATION
         effects = [*scene.effects, *(["inertia"] if inertia else [])]
         for seed in range(n_seeds):
             base = {"effects": effects, "seed": seed, **contact}
-            draft = {**base, "numerics.accuracy": "draft"}
-            tight = {
-                **base,
-                "numerics.tolerance": 1e-3,
-                "numerics.max_inlet_growth": 2.0,
-                "numerics.node_spacing_mm": 2 * spacing,
-            }
+            draft, tight = _draft_and_tight(base, spacing)
             r0 = _near_needle_radius(draft, duration_s)
             frozen = {**draft, "numerics.freeze_beyond_mm": 100.0}
             rows.append(

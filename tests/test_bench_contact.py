@@ -119,15 +119,21 @@ def test_the_observable_comparison_pairs_the_seeds_both_onsets_ran(bench):
     assert out["regime"] == {"observable": "regime", "seeds": 3, "same_regime": 2}
 
 
+def _spy_scene_rows(mod, monkeypatch) -> list[dict]:
+    """The variants each call of the bench's ``_scene_rows`` gets, in order (it still runs)."""
+    seen: list[dict] = []
+    scene_rows = mod._scene_rows
+    monkeypatch.setattr(mod, "_scene_rows", lambda v, seed: seen.append(v) or scene_rows(v, seed))
+    return seen
+
+
 def test_the_onset_ratio_part_runs_the_onset_before_contact(bench, monkeypatch):
     """``--part ratio_onset``: the same pairing with the soft onset of 0.2 delta from 1.02
     (r_A + r_B) in the contact runs, which hold lightly loaded turns just apart."""
     mod = bench("bench_contact_newton")
     monkeypatch.setattr(mod, "SCENE_DURATION_S", 0.02)
     monkeypatch.setattr(mod, "RATIO_SEEDS", (3,))
-    seen = []
-    scene_rows = mod._scene_rows
-    monkeypatch.setattr(mod, "_scene_rows", lambda v, seed: seen.append(v) or scene_rows(v, seed))
+    seen = _spy_scene_rows(mod, monkeypatch)
     rows = mod.ratio_onset_report()
     assert [(r["seed"], r["variant"]) for r in rows] == [
         (3, "without contact"),
@@ -147,9 +153,7 @@ def test_the_inertia_ratio_part_lists_inertia_in_every_run(bench, monkeypatch):
     mod = bench("bench_contact_newton")
     monkeypatch.setattr(mod, "SCENE_DURATION_S", 0.02)
     monkeypatch.setattr(mod, "RATIO_SEEDS", (2,))
-    seen = []
-    scene_rows = mod._scene_rows
-    monkeypatch.setattr(mod, "_scene_rows", lambda v, seed: seen.append(v) or scene_rows(v, seed))
+    seen = _spy_scene_rows(mod, monkeypatch)
     rows = mod.inertia_report()
     labels = ["without contact", "contact", mod.DASHPOT_LABEL]
     assert [(r["seed"], r["variant"]) for r in rows] == [(2, label) for label in labels]

@@ -537,15 +537,20 @@ def test_the_clamped_joint_is_the_bending_of_the_joining_node_with_its_exact_jac
     np.testing.assert_allclose(jac, fd_jac, rtol=1e-5, atol=1e-6 * np.abs(fd_jac).max())
 
 
+def _bench_freezing(load_script, monkeypatch):
+    """``benchmarks/bench_freezing.py`` as a module (it imports the other benches)."""
+    bench = Path(__file__).resolve().parents[1] / "benchmarks"
+    monkeypatch.syspath_prepend(str(bench))
+    return load_script(bench / "bench_freezing.py")
+
+
 def test_the_damping_part_pairs_freezing_and_the_tolerance_with_each_variant(
     load_script, monkeypatch
 ):
     """``bench_freezing.py --part damping``: for each variant and seed, the draft, frozen and
     tighter runs carry the variant's contact keys and inertia (or not), and the changes are
     ratios to the draft run (fake radii)."""
-    bench = Path(__file__).resolve().parents[1] / "benchmarks"
-    monkeypatch.syspath_prepend(str(bench))
-    mod = load_script(bench / "bench_freezing.py")
+    mod = _bench_freezing(load_script, monkeypatch)
     calls = []
 
     def fake(over: dict, duration_s: float) -> float:
@@ -574,9 +579,7 @@ def test_the_onset_part_pairs_each_measurement_with_its_own_onset(load_script, m
     onset's contact keys, inertia and the seed; the changes are the ratios to the runs
     without freezing of the same joint (fake radii); and one real draft run measures the
     coil at the needle."""
-    bench = Path(__file__).resolve().parents[1] / "benchmarks"
-    monkeypatch.syspath_prepend(str(bench))
-    mod = load_script(bench / "bench_freezing.py")
+    mod = _bench_freezing(load_script, monkeypatch)
     calls = []
 
     def fake(over: dict, duration_s: float) -> float:

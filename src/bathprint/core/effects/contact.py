@@ -27,11 +27,12 @@ with the geometry (normal, closest points, N) held at the iterate (as the floor 
 Optional damping of touching segments (``contact.damping_time_s`` beta > 0): a normal
 dashpot F = -beta E''(p) (dd/dt) grad d, the linear spring-dashpot of the discrete element
 method (Cundall & Strack 1979, Geotechnique 29, 47) with the penalty's own stiffness, so a
-pressed contact relaxes over beta and the damping starts from zero with the soft onset, as
-in Hunt & Crossley's law (1975, J. Appl. Mech. 42, 440). PyElastica's rod contact carries
-such a damping (its ``nu``). It stands for what dissipates when two turns press together in
-the bath, the squeeze film between them first; it matters with ``inertia``, where
-touching turns are otherwise a spring between masses with almost no damping.
+pressed contact relaxes over beta, and its damping grows from zero with the penetration, so
+a first touch meets no damping force (the point of Hunt & Crossley's law, 1975, J. Appl.
+Mech. 42, 440). PyElastica's rod contact carries such a damping (its ``nu``). It stands,
+roughly, for what dissipates when two turns press together in the bath, the squeeze film
+first; it matters with ``inertia``, where touching turns are otherwise a spring between
+masses with almost no damping (overdamped, its couplings stall GMRES on a pile).
 
 Candidate pairs come from a uniform spatial hash with a search distance delta_max + skin,
 kept as a Verlet list (:func:`prepare`): rebuilt when two nodes may have closed half the
@@ -485,15 +486,12 @@ def accumulate(model, rod, stage, out) -> float:
                     col = max(nodes[b], 0)
                     add_coupling(out.band, out.cpl, n_free, row, col, blk, cx)
         if beta > 0.0 and e_pp > 0.0:
-            _dashpot(
-                rod.vel, vel, whole_nodes, nodes, grad, beta * e_pp, force, out, n_free, cv, do_jac
-            )
+            _dashpot(rod.vel, vel, whole_nodes, nodes, grad, beta * e_pp, out, n_free, cv, do_jac)
         if mu_f > 0.0:
             _friction(
                 rod.vel,
                 vel,
-                i,
-                j,
+                whole_nodes,
                 nodes,
                 s,
                 t,
@@ -501,7 +499,6 @@ def accumulate(model, rod, stage, out) -> float:
                 e_p,
                 mu_f,
                 eps,
-                force,
                 out,
                 n_free,
                 cv,
@@ -511,17 +508,24 @@ def accumulate(model, rod, stage, out) -> float:
 
 
 @njit(**KERNEL, inline="always")
-def _dashpot(active_vel, vel, whole_nodes, nodes, grad, c_d, force, out, n_free, cv, do_jac):
+def _node_velocity(active_vel, vel, nodes, whole_nodes, a: int, c: int) -> float:
+    """Component c (m/s) of the velocity of the pair's node a: a frozen node (``nodes[a]`` <
+    0) moves with the first active node (``active_vel``), the others at their own."""
+    return active_vel[c] if nodes[a] < 0 else vel[3 * whole_nodes[a] + c]
+
+
+@njit(**KERNEL, inline="always")
+def _dashpot(active_vel, vel, whole_nodes, nodes, grad, c_d, out, n_free, cv, do_jac):
     """Kelvin-Voigt normal dashpot of a touching pair: F_a = -c_d (grad d . v) grad_a d on
     node a, c_d = beta E''(p) (N s/m), so a pressed contact relaxes in beta as a linear
     spring-dashpot does (Cundall & Strack 1979), and its damping starts at zero with the soft
     onset. It dissipates c_d (dd/dt)^2. A frozen node moves with the first active node
     (``active_vel``, the stage's); its velocity Jacobian holds c_d and grad d at the iterate."""
+    force = out.force
     ddot = 0.0
     for a in range(4):
         for c in range(3):
-            v = active_vel[c] if nodes[a] < 0 else vel[3 * whole_nodes[a] + c]
-            ddot += grad[3 * a + c] * v
+            ddot += grad[3 * a + c] * _node_velocity(active_vel, vel, nodes, whole_nodes, a, c)
     for a in range(4):
         node = max(nodes[a], 0)
         for c in range(3):
@@ -539,12 +543,14 @@ def _dashpot(active_vel, vel, whole_nodes, nodes, grad, c_d, force, out, n_free,
 
 @njit(**KERNEL, inline="always")
 def _friction(
-    active_vel, vel, i, j, nodes, s, t, grad, normal, mu_f, eps, force, out, n_free, cv, do_jac
+    active_vel, vel, whole_nodes, nodes, s, t, grad, normal, mu_f, eps, out, n_free, cv, do_jac
 ):
     """Regularised Coulomb friction on the tangential relative velocity of the closest
-    points of segments i, j (whole-filament numbers; ``nodes``: active-rod numbers, < 0 in
-    the frozen tail, whose nodes move with the first active node, ``active_vel``); normal
-    direction from the distance gradient (grad d at node i0 is (1 - s) n)."""
+    points of the pair's segments (``whole_nodes``: their nodes' whole-filament numbers;
+    ``nodes``: active-rod numbers, < 0 in the frozen tail, whose nodes move with the first
+    active node, ``active_vel``); normal direction from the distance gradient (grad d at
+    node i0 is (1 - s) n)."""
+    force = out.force
     w = ((1.0 - s), s, -(1.0 - t), -t)  # closest point of A minus that of B
     # the unit normal: grad d of the pair = alpha_k n with alpha = (1-s, s, t-1, -t)
     n0 = grad[0] + grad[3]
@@ -554,18 +560,11 @@ def _friction(
     if nn == 0.0:
         return
     n0, n1, n2 = n0 / nn, n1 / nn, n2 / nn
-    whole_nodes = (i, i + 1, j, j + 1)
     u0 = u1 = u2 = 0.0
     for a in range(4):
-        if nodes[a] < 0:
-            u0 += w[a] * active_vel[0]
-            u1 += w[a] * active_vel[1]
-            u2 += w[a] * active_vel[2]
-        else:
-            b = 3 * whole_nodes[a]
-            u0 += w[a] * vel[b]
-            u1 += w[a] * vel[b + 1]
-            u2 += w[a] * vel[b + 2]
+        u0 += w[a] * _node_velocity(active_vel, vel, nodes, whole_nodes, a, 0)
+        u1 += w[a] * _node_velocity(active_vel, vel, nodes, whole_nodes, a, 1)
+        u2 += w[a] * _node_velocity(active_vel, vel, nodes, whole_nodes, a, 2)
     un = u0 * n0 + u1 * n1 + u2 * n2
     t0, t1, t2 = u0 - un * n0, u1 - un * n1, u2 - un * n2
     sq = math.sqrt(t0 * t0 + t1 * t1 + t2 * t2 + eps * eps)
