@@ -39,7 +39,7 @@ import time
 from collections.abc import Sequence
 
 import numpy as np
-from _common import best_of, write_csv
+from _common import SHARP_CONTACT, best_of, write_csv
 from numba import njit
 
 from bathprint import Simulation, simulate
@@ -69,7 +69,7 @@ def coil_stack(n: int, contact: bool, gap: float = 1.5, extra: dict | None = Non
     return Simulation.from_points(
         pts,
         "drag_coiling_22G",
-        {"effects": effects, "duration_s": 1e3, **(extra or {})},
+        {"effects": effects, "duration_s": 1e3, **SHARP_CONTACT, **(extra or {})},
         relaxed=True,
     )
 
@@ -472,7 +472,8 @@ def hessian_rows(scenes: list[str], fraction: float, repeats: int) -> list[dict]
     for scene in scenes:
         base = None
         for hessian in HESSIANS:
-            (row,) = whole_runs([scene], fraction, {"contact.hessian": hessian}, repeats)
+            over = {**SHARP_CONTACT, "contact.hessian": hessian}
+            (row,) = whole_runs([scene], fraction, over, repeats)
             base = base or row["wall_s"]
             rows.append({"hessian": hessian, **row, "wall_ratio": row["wall_s"] / base})
     return rows

@@ -31,15 +31,17 @@ the penalty's soft onset, ``contact.width_fraction``, also starting before conta
 exactly costs; the final frame's touching segments' gaps, 10th percentile and median, say
 how exactly it is held either way), and against GMRES's stopping tolerance
 (``--part krylov``: Newton's forcing term); ``--part ratio`` measures contact's cost there
-over ten seeds, paired seed by seed, with a bootstrap interval, and ``--part ratio_onset``
-the same with the soft onset of 0.2 delta from 1.02 (r_A + r_B), ``--part ratio_inertia``
-with ``inertia`` listed in every run (and contact's normal dashpot), and
-``--part dashpot_overdamped`` that dashpot without inertia. ``--part late`` starts from
-the pile's state at 0.8 s, where contact costs most, and changes one thing at a time for
-60 ms more: the Newton policy, the linear solve, the soft onset.
+over ten seeds, paired seed by seed, with a bootstrap interval, with contact's defaults (the
+soft onset of 0.2 delta from 1.02 (r_A + r_B)), and ``--part ratio_sharp`` the same with its
+law before that (SHARP_CONTACT), ``--part ratio_inertia`` with ``inertia`` listed in every
+run (contact's defaults then add its 10 ms dashpot), and ``--part dashpot_overdamped`` that
+dashpot without inertia. ``--part late`` starts from the pile's state at 0.8 s, where
+contact costs most, and changes one thing at a time for 60 ms more: the Newton policy, the
+linear solve, the soft onset. Every part but ``ratio`` and ``ratio_inertia`` holds
+SHARP_CONTACT, the law it was measured with (``default`` in its labels means that law).
 
     python benchmarks/bench_contact_newton.py
-        [--part variants|sizes|scene|near_gap|seeds|onset|krylov|late|ratio|ratio_onset|
+        [--part variants|sizes|scene|near_gap|seeds|onset|krylov|late|ratio|ratio_sharp|
                 ratio_inertia|dashpot_overdamped]
 """
 
@@ -52,7 +54,7 @@ import time
 from collections import Counter
 
 import numpy as np
-from _common import write_csv
+from _common import SHARP_CONTACT, write_csv
 from bench_contact import R_FIL, coil_stack
 
 from bathprint import Simulation, SimulationError, simulate
@@ -213,14 +215,19 @@ SCENE = "period_doubling_22G"
 SCENE_DURATION_S = 1.0
 
 
-def _scene_rows(variants: dict[str, dict], seed: int | None = None) -> list[dict]:
+def _scene_rows(
+    variants: dict[str, dict], seed: int | None = None, law: dict | None = None
+) -> list[dict]:
     """SCENE for SCENE_DURATION_S under each variant's overrides (and the needle
-    imperfection's ``seed``); wall times as ratios to the first variant's."""
+    imperfection's ``seed``); wall times as ratios to the first variant's. ``law``: contact's
+    law under the variants' overrides, SHARP_CONTACT unless given (the studies of Newton,
+    GMRES and the onset measured with it; ``{}``: contact's defaults)."""
+    law = SHARP_CONTACT if law is None else law
     rows, base = [], None
     model = Simulation(SCENE).model
     radius, needle = model.radius, model.needle[0, 1:7].copy()
     for label, extra in variants.items():
-        over = {"duration_s": SCENE_DURATION_S, "outputs.plot": False, **extra}
+        over = {"duration_s": SCENE_DURATION_S, "outputs.plot": False, **law, **extra}
         if seed is not None:
             over["seed"] = seed
         simulate(SCENE, {**over, "duration_s": 0.01})  # compile this combination
@@ -385,19 +392,21 @@ RATIO_SEEDS = tuple(range(10))
 RATIO_GOAL = 3.0  # the goal for contact's cost where turns touch (docs/performance.md)
 
 
-#: the soft onset that starts before contact (docs/performance.md: the faster way to hold a
-#: pile's contact distance): its scene overrides and its rows' label
+#: the soft onset that starts before contact (contact's default law; the studies of the onset
+#: and of freezing name it beside SHARP_CONTACT): its scene overrides
 ONSET_BEFORE_CONTACT = {"contact.width_fraction": 0.2, "contact.distance_factor": 1.02}
-ONSET_LABEL = "contact, soft onset 0.2 delta from 1.02 (r_A + r_B)"
+#: the rows of --part ratio_sharp: contact with its law before the onset before contact
+SHARP_LABEL = "contact, sharp onset (0.02 delta from r_A + r_B)"
 
 
-def ratio_rows(contact: dict | None = None, label: str = "contact") -> list[dict]:
-    """Without and with contact (its defaults, or the ``contact`` overrides, rows labelled
+def ratio_rows(law: dict | None = None, label: str = "contact") -> list[dict]:
+    """Without and with contact (its defaults, or the ``law`` overrides, rows labelled
     ``label``) for each needle-imperfection seed of RATIO_SEEDS, back to back: the
     wall-time ratio of contact, seed by seed (paired)."""
+    variants = {"without contact": _without_contact(), label: {}}
     rows = []
     for seed in RATIO_SEEDS:
-        rows += _scene_rows({"without contact": _without_contact(), label: contact or {}}, seed)
+        rows += _scene_rows(variants, seed, law or {})
     return rows
 
 
@@ -456,9 +465,9 @@ def observable_comparison(rows_a: list[dict], label_a: str, rows_b: list[dict], 
     return out
 
 
-def ratio_report(contact: dict | None = None, label: str = "contact") -> list[dict]:
+def ratio_report(law: dict | None = None, label: str = "contact") -> list[dict]:
     """:func:`ratio_rows`, with their summary printed."""
-    rows = ratio_rows(contact, label)
+    rows = ratio_rows(law, label)
     r = ratio_summary(rows, label)
     print(
         f"{label} / without over {r['seeds']} seeds: mean {r['mean']:.2f}x "
@@ -468,32 +477,33 @@ def ratio_report(contact: dict | None = None, label: str = "contact") -> list[di
     return rows
 
 
-#: contact's normal dashpot of ``--part ratio_inertia`` (s; bench_freezing.DASHPOT_S says why)
-DASHPOT_S = 0.01
-DASHPOT_LABEL = f"contact, dashpot {DASHPOT_S * 1e3:g} ms"
+#: the rows of --part ratio_inertia with contact's law before the onset before contact (and so
+#: without the dashpot that its default, "auto", gives with inertia)
+SHARP_NO_DASHPOT_LABEL = "contact, sharp onset, no dashpot"
 
 
 def inertia_rows() -> list[dict]:
     """The ten seeds of :func:`ratio_rows` with ``inertia`` listed in every run (the
     experiments' regime: its number (rho + rho_f) A v^2 S^2 / B is about 97 at 5 ml/min):
-    without contact, with it, and with it and its normal dashpot."""
+    without contact, with contact's defaults (the onset before contact and, with inertia, its
+    10 ms dashpot) and with SHARP_CONTACT."""
     effects = [*Simulation(SCENE).scene.effects, "inertia"]
     without = [e for e in effects if e != "contact"]
     variants = {
         "without contact": {"effects": without},
         "contact": {"effects": effects},
-        DASHPOT_LABEL: {"effects": effects, "contact.damping_time_s": DASHPOT_S},
+        SHARP_NO_DASHPOT_LABEL: {"effects": effects, **SHARP_CONTACT},
     }
     rows = []
     for seed in RATIO_SEEDS:
-        rows += _scene_rows(variants, seed)
+        rows += _scene_rows(variants, seed, {})
     return rows
 
 
 def inertia_report() -> list[dict]:
     """:func:`inertia_rows`, with the summary of each contact variant printed."""
     rows = inertia_rows()
-    for label in ("contact", DASHPOT_LABEL):
+    for label in ("contact", SHARP_NO_DASHPOT_LABEL):
         r = ratio_summary(rows, label)
         print(
             f"with inertia, {label} / without over {r['seeds']} seeds: mean {r['mean']:.2f}x "
@@ -512,7 +522,7 @@ def dashpot_overdamped_rows(seed: int = 0) -> list[dict]:
     (the dashpot's couplings between turns, beta E'' / (h gamma), dwarf the band)."""
     rows = []
     for beta in OVERDAMPED_DASHPOTS_S:
-        over = {"seed": seed, "contact.damping_time_s": beta}
+        over = {**SHARP_CONTACT, "seed": seed, "contact.damping_time_s": beta}
         Simulation(SCENE, {**over, "duration_s": 0.01}).advance(0.01)  # compile
         sim = Simulation(SCENE, over)
         failure = ""
@@ -546,9 +556,9 @@ def dashpot_overdamped_rows(seed: int = 0) -> list[dict]:
     return rows
 
 
-def ratio_onset_report() -> list[dict]:
-    """:func:`ratio_report` with the soft onset that starts before contact."""
-    return ratio_report(ONSET_BEFORE_CONTACT, ONSET_LABEL)
+def ratio_sharp_report() -> list[dict]:
+    """:func:`ratio_report` with contact's law before the onset before contact."""
+    return ratio_report(SHARP_CONTACT, SHARP_LABEL)
 
 
 def seed_rows() -> list[dict]:
@@ -594,7 +604,7 @@ def late_rows() -> list[dict]:
     counts compare Newton on the same pile; the run without contact has its own pile."""
     states = {}
     for contact in (False, True):
-        sim = Simulation(SCENE, {} if contact else _without_contact())
+        sim = Simulation(SCENE, SHARP_CONTACT if contact else _without_contact())
         sim.advance(LATE_START_S)
         states[contact] = pickle.dumps(sim)
     rows, base = [], None
@@ -651,7 +661,7 @@ if __name__ == "__main__":
             "krylov",
             "late",
             "ratio",
-            "ratio_onset",
+            "ratio_sharp",
             "ratio_inertia",
             "dashpot_overdamped",
         ),
@@ -687,9 +697,9 @@ if __name__ == "__main__":
             [("contact_late", late_rows)],
         ),
         "ratio": (f"{scene}, seeds {RATIO_SEEDS}:", [("contact_ratio_seeds", ratio_report)]),
-        "ratio_onset": (
-            f"{scene}, seeds {RATIO_SEEDS}, {ONSET_LABEL}:",
-            [("contact_ratio_seeds_onset", ratio_onset_report)],
+        "ratio_sharp": (
+            f"{scene}, seeds {RATIO_SEEDS}, {SHARP_LABEL}:",
+            [("contact_ratio_seeds_sharp", ratio_sharp_report)],
         ),
         "ratio_inertia": (
             f"{scene} with inertia, seeds {RATIO_SEEDS}:",

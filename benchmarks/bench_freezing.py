@@ -17,7 +17,7 @@ saves in time.
     can hide a bias that every seed shares.
 (1c) ``--part onset``: what ``tests/test_freezing.py`` asserts of the coil at the needle
     with ``inertia`` (the three turns next to the needle at 6 s, draft, seeds 0-5), with
-    contact's default onset and with the onset that starts before contact
+    contact's sharp onset (SHARP_CONTACT) and with the onset that starts before contact
     (``contact.width_fraction = 0.2``, ``contact.distance_factor = 1.02``), each without and
     with contact's normal dashpot (``contact.damping_time_s``, DASHPOT_S): freezing beyond
     100 mm against a tenfold tighter tolerance, and the free and clamped joints
@@ -34,6 +34,10 @@ saves in time.
     beside the difference between the draft and balanced presets (both without freezing),
     and environment steps per CPU second of each.
 
+Every part holds contact's law before the onset before contact became its default
+(``_common.SHARP_CONTACT``: "default onset" in the labels), which it was measured
+with; ``--part onset`` and ``--part damping`` set the onset before contact beside it.
+
 Writes benchmarks/results/freezing_coil.csv, freezing_seeds.csv, freezing_onset.csv,
 freezing_damping.csv, freezing_rope.csv and freezing_envs.csv. Times
 are ratios to the run without freezing measured in the same process.
@@ -47,7 +51,7 @@ import time
 from pathlib import Path
 
 import numpy as np
-from _common import RESULTS, write_csv
+from _common import RESULTS, SHARP_CONTACT, write_csv
 from bench_contact_newton import ONSET_BEFORE_CONTACT
 
 import bathprint.envs as E
@@ -63,7 +67,7 @@ SEEDS = (1, 2, 3)
 
 def _coil(overrides: dict, duration_s: float = 3.0) -> tuple[float, float, float]:
     t0 = time.perf_counter()
-    r, om = coil_run(overrides, duration_s)
+    r, om = coil_run({**SHARP_CONTACT, **overrides}, duration_s)
     return r, om, time.perf_counter() - t0
 
 
@@ -189,7 +193,8 @@ def turns_table(n_seeds: int = TURNS_SEEDS) -> list[dict]:
                 over = {"numerics.accuracy": "draft", "effects": effects, "seed": k}
                 over["numerics.freeze_beyond_mm"] = freeze_mm
                 over["duration_s"] = TURNS_DURATION_S
-                sim = Simulation(COIL, {**over, **(joint if freeze_mm > 0.0 else {})})
+                joint_over = joint if freeze_mm > 0.0 else {}
+                sim = Simulation(COIL, {**SHARP_CONTACT, **over, **joint_over})
                 pos, axis = sim.model.needle[0, 1:4].copy(), sim.model.needle[0, 4:7].copy()
                 t0 = time.perf_counter()
                 sim.advance(TURNS_EARLIER_S)
@@ -336,7 +341,7 @@ ONSET_VARIANTS = (
 def _near_needle_radius(over: dict, duration_s: float) -> float:
     """Median radius (m) of the NEAR_NEEDLE_TURNS full turns below the stem at
     ``duration_s`` of COIL with ``over``."""
-    sim = Simulation(COIL, {**over, "duration_s": duration_s})
+    sim = Simulation(COIL, {**SHARP_CONTACT, **over, "duration_s": duration_s})
     pos, axis = sim.model.needle[0, 1:4].copy(), sim.model.needle[0, 4:7].copy()
     sim.advance(duration_s)
     geom = coil_geometry(sim.centerline(), pos, axis)
@@ -408,7 +413,7 @@ def rope_table(duration_s: float = 6.0) -> list[dict]:
     freezing; it reports the time it reached, and no changes."""
 
     def run(extra: dict, max_steps: int = 10**9) -> tuple[Simulation, float]:
-        sim = Simulation("rope_coiling_18G", extra)
+        sim = Simulation("rope_coiling_18G", {**SHARP_CONTACT, **extra})
         t0 = time.perf_counter()
         try:
             sim.advance(duration_s, max_steps=max_steps)

@@ -30,7 +30,7 @@ import math
 import time
 
 import numpy as np
-from _common import RESULTS, best_of, write_csv
+from _common import RESULTS, SHARP_CONTACT, best_of, write_csv
 
 from bathprint import Simulation
 from bathprint.analysis import validation as V
@@ -262,7 +262,7 @@ def coiling_costs(duration: float, only: list[str] | None) -> list[dict]:
     for label, extra in COILING_VARIANTS.items():
         if only and label != "cox (local)" and not any(o in label for o in only):
             continue  # (the local-drag run is the base of the ratios: always run)
-        over = dict(extra)
+        over = {**SHARP_CONTACT, **extra}
         if "hydrodynamics" in label:
             over["effects"] = ["elasticity", "drag", "gravity", "hydrodynamics"]
         Simulation("drag_coiling_22G", {**over, "duration_s": 0.02}).advance(0.02)  # compile

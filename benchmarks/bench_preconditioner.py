@@ -110,7 +110,7 @@ import numpy as np
 import scipy.linalg as sla_dense
 import scipy.sparse as sp
 import scipy.sparse.linalg as sla
-from _common import RESULTS, best_of, write_csv
+from _common import RESULTS, SHARP_CONTACT, best_of, write_csv
 from bench_contact import COIL_RADIUS, MM, R_FIL, SPACING, coil_stack
 from bench_profile import REPLAYED, replay_records
 from numba import njit
@@ -360,7 +360,7 @@ def random_part(out_dir: Path) -> Path:
     stack = pressed_stack(1000)
     stack.advance(1e-2)
     states["pressed_stack_1000"] = stack
-    pd = Simulation("period_doubling_22G")
+    pd = Simulation("period_doubling_22G", SHARP_CONTACT)
     pd.advance(0.5)
     states["period_doubling_22G_0.5s"] = pd
     rows = []
@@ -966,7 +966,8 @@ def diagonal_part(out_dir: Path, sizes: Sequence[int] = BACKSUB_SIZES, pile: boo
         n = 3 * nodes
         rows.append(_diagonal_row("random", nodes, _dominant_band(rng, n), rng.standard_normal(n)))
     if pile:
-        sim = Simulation("period_doubling_22G", {"seed": 0, "outputs.plot": False})
+        over = {"seed": 0, "outputs.plot": False, **SHARP_CONTACT}
+        sim = Simulation("period_doubling_22G", over)
         sim.advance(PILE_T_S)
         nd = int(sim.ws.solver[0]["lu_nd"])
         band = np.ascontiguousarray(sim.ws.krylov.band_a[:nd])

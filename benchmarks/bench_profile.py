@@ -55,7 +55,7 @@ from types import ModuleType, SimpleNamespace
 
 import matplotlib
 import numpy as np
-from _common import RESULTS, best_of, sagging_filament, write_csv
+from _common import RESULTS, SHARP_CONTACT, best_of, sagging_filament, write_csv
 from numba import njit
 
 import bathprint.core.integrators as integ
@@ -536,7 +536,7 @@ def _pile(contact_on: bool) -> Callable[[], Simulation]:
     """``PILE_SCENE`` at ``PILE_T_S`` (adaptive steps), with or without its ``contact``."""
 
     def make() -> Simulation:
-        over: dict = {"outputs.plot": False}
+        over: dict = {"outputs.plot": False, **SHARP_CONTACT}  # the law it was measured with
         if not contact_on:
             over["effects"] = [e for e in Simulation(PILE_SCENE).scene.effects if e != "contact"]
         sim = Simulation(PILE_SCENE, over)

@@ -119,48 +119,63 @@ def test_the_observable_comparison_pairs_the_seeds_both_onsets_ran(bench):
     assert out["regime"] == {"observable": "regime", "seeds": 3, "same_regime": 2}
 
 
-def _spy_scene_rows(mod, monkeypatch) -> list[dict]:
-    """The variants each call of the bench's ``_scene_rows`` gets, in order (it still runs)."""
-    seen: list[dict] = []
+def _spy_scene_rows(mod, monkeypatch) -> list[tuple[dict, dict | None]]:
+    """(variants, law) of each call of the bench's ``_scene_rows``, in order (it still runs)."""
+    seen: list[tuple[dict, dict | None]] = []
     scene_rows = mod._scene_rows
-    monkeypatch.setattr(mod, "_scene_rows", lambda v, seed: seen.append(v) or scene_rows(v, seed))
+
+    def spy(variants, seed=None, law=None):
+        seen.append((variants, law))
+        return scene_rows(variants, seed, law)
+
+    monkeypatch.setattr(mod, "_scene_rows", spy)
     return seen
 
 
-def test_the_onset_ratio_part_runs_the_onset_before_contact(bench, monkeypatch):
-    """``--part ratio_onset``: the same pairing with the soft onset of 0.2 delta from 1.02
-    (r_A + r_B) in the contact runs, which hold lightly loaded turns just apart."""
+def test_the_ratio_parts_run_contact_by_its_defaults_and_by_its_sharp_onset(bench, monkeypatch):
+    """``--part ratio`` runs contact's defaults (no law over them); ``--part ratio_sharp``
+    the same pairing with the law before the onset before contact (SHARP_CONTACT), which
+    the studies of the solver name. The onset before contact is the default law."""
+    from bathprint import Simulation
+
     mod = bench("bench_contact_newton")
     monkeypatch.setattr(mod, "SCENE_DURATION_S", 0.02)
     monkeypatch.setattr(mod, "RATIO_SEEDS", (3,))
     seen = _spy_scene_rows(mod, monkeypatch)
-    rows = mod.ratio_onset_report()
+    mod.ratio_report()
+    rows = mod.ratio_sharp_report()
+    assert [law for _, law in seen] == [{}, mod.SHARP_CONTACT]
     assert [(r["seed"], r["variant"]) for r in rows] == [
         (3, "without contact"),
-        (3, mod.ONSET_LABEL),
+        (3, mod.SHARP_LABEL),
     ]
-    assert seen[0][mod.ONSET_LABEL] == {
-        "contact.width_fraction": 0.2,
-        "contact.distance_factor": 1.02,
-    }
+    assert mod.SHARP_CONTACT["contact.width_fraction"] == 0.02
+    assert mod.SHARP_CONTACT["contact.distance_factor"] == 1.0
+    default = Simulation(mod.SCENE).scene.contact
+    law = {"contact.width_fraction": default.width_fraction}
+    law["contact.distance_factor"] = default.distance_factor
+    assert law == mod.ONSET_BEFORE_CONTACT
     assert rows[1]["wall_ratio"] == pytest.approx(rows[1]["wall_s"] / rows[0]["wall_s"])
-    assert mod.ratio_summary(rows, mod.ONSET_LABEL)["seeds"] == 1
+    assert mod.ratio_summary(rows, mod.SHARP_LABEL)["seeds"] == 1
 
 
 def test_the_inertia_ratio_part_lists_inertia_in_every_run(bench, monkeypatch):
     """``--part ratio_inertia``: the paired seeds with ``inertia`` in every run, without
-    contact, with it, and with it and its normal dashpot."""
+    contact, with contact's defaults (its dashpot on, by "auto") and with its sharp onset
+    and no dashpot."""
     mod = bench("bench_contact_newton")
     monkeypatch.setattr(mod, "SCENE_DURATION_S", 0.02)
     monkeypatch.setattr(mod, "RATIO_SEEDS", (2,))
     seen = _spy_scene_rows(mod, monkeypatch)
     rows = mod.inertia_report()
-    labels = ["without contact", "contact", mod.DASHPOT_LABEL]
+    labels = ["without contact", "contact", mod.SHARP_NO_DASHPOT_LABEL]
     assert [(r["seed"], r["variant"]) for r in rows] == [(2, label) for label in labels]
-    variants = seen[0]
+    variants, law = seen[0]
+    assert law == {}
     assert all("inertia" in variants[label]["effects"] for label in labels)
     assert "contact" not in variants["without contact"]["effects"]
-    assert variants[mod.DASHPOT_LABEL]["contact.damping_time_s"] == mod.DASHPOT_S > 0.0
+    assert variants["contact"] == {"effects": variants[mod.SHARP_NO_DASHPOT_LABEL]["effects"]}
+    assert variants[mod.SHARP_NO_DASHPOT_LABEL]["contact.damping_time_s"] == 0.0
     for r in rows[1:]:
         assert r["wall_ratio"] == pytest.approx(r["wall_s"] / rows[0]["wall_s"])
 

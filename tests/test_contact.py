@@ -775,12 +775,34 @@ def test_the_parallel_angle_sets_where_nearly_parallel_segments_touch() -> None:
         ("contact.parallel_angle_deg", 60.0),
         ("contact.damping_time_s", -1e-3),
         ("contact.damping_time_s", 2.0),
+        ("contact.damping_time_s", "automatic"),
+        ("contact.stiffness_pa", "auto"),
         ("numerics.preconditioner", "multigrid"),
     ],
 )
 def test_bad_contact_values_are_refused_by_name(key: str, value: float | str) -> None:
     with pytest.raises(SceneError, match=key.replace(".", r"\.")):
         Simulation("drag_coiling_22G", {key: value})
+
+
+def test_the_dashpot_follows_inertia_unless_its_time_is_given() -> None:
+    """``contact.damping_time_s = "auto"`` (the default) damps touching turns for 10 ms with
+    inertia, where they are otherwise an undamped spring between masses, and not without,
+    where the dashpot only slows GMRES; a time given is used as given. The message of a bad
+    value says that "auto" is allowed."""
+    from bathprint.core.model import CONTACT_DAMPING_WITH_INERTIA_S
+
+    def damping(over: dict) -> float:
+        return float(Simulation("drag_coiling_22G", over).model.p.contact_damping_time)
+
+    inertial = [*Simulation("drag_coiling_22G").scene.effects, "inertia"]
+    assert Simulation("drag_coiling_22G").scene.contact.damping_time_s == "auto"
+    assert damping({}) == 0.0
+    assert damping({"effects": inertial}) == CONTACT_DAMPING_WITH_INERTIA_S == 0.01
+    assert damping({"effects": inertial, "contact.damping_time_s": 0.0}) == 0.0
+    assert damping({"contact.damping_time_s": 3e-3}) == 3e-3
+    with pytest.raises(SceneError, match='or "auto"'):
+        Simulation("drag_coiling_22G", {"contact.damping_time_s": -1.0})
 
 
 def test_contact_without_elasticity_is_refused() -> None:

@@ -214,6 +214,24 @@ def _gel_surface(scene: Scene, p: np.record) -> None:
     p.gel_front_lambda = neumann_lambda(gel.bath_calcium_mol_m3 / gel.binding_capacity_mol_m3)
 
 
+# contact.damping_time_s = "auto" with inertia: touching turns are a spring between masses
+# that the bath's drag damps by under 1% of critical, so a pile rattles; 10 ms keeps freezing
+# at the needle within the draft preset's error with the soft onset before contact (the
+# shortest such time of 1, 3 and 10 ms: docs/performance.md, "Freezing and contact's damping",
+# `python benchmarks/bench_freezing.py --part onset` and `--part damping`). Overdamped there
+# is no such spring, and the dashpot's couplings stall GMRES on a pile, so "auto" gives 0.
+CONTACT_DAMPING_WITH_INERTIA_S = 0.01
+
+
+def contact_damping_time(scene: Scene) -> float:
+    """The contact dashpot's Kelvin-Voigt time in s: ``contact.damping_time_s``, its "auto"
+    resolved by whether ``inertia`` is listed."""
+    value = scene.contact.damping_time_s
+    if value == "auto":
+        return CONTACT_DAMPING_WITH_INERTIA_S if "inertia" in scene.effects else 0.0
+    return float(value)
+
+
 def _hydrodynamics(scene: Scene, p: np.record, radius: float) -> None:
     """The hydrodynamics parameters (cutoff, coupling, regularisation, FMM)."""
     h = scene.hydrodynamics
@@ -328,7 +346,7 @@ def compile_model(scene: Scene) -> Model:
     p.contact_sliding_sin2 = math.sin(math.radians(min(2.0 * c.parallel_angle_deg, 90.0))) ** 2
     p.contact_friction = c.friction_coefficient
     p.contact_friction_velocity = c.friction_velocity_mm_s * MM
-    p.contact_damping_time = c.damping_time_s
+    p.contact_damping_time = contact_damping_time(scene)
     p.contact_exact_hessian = c.hessian == "exact"
     enabled = np.array([1 if e in scene.effects else 0 for e in L.EFFECT_NAMES], dtype=np.int64)
     flow = _flow_table(scene)

@@ -69,9 +69,19 @@ def apply_physics_preset(data: dict[str, Any]) -> dict[str, Any]:
     return out
 
 
-def _num(default: float, lo: float, hi: float, *, lo_open: bool = False, doc: str = "") -> Any:
-    """A float field with its allowed range [lo, hi] (or (lo, hi] when lo_open)."""
-    return field(default=default, metadata={"range": (lo, hi), "lo_open": lo_open, "doc": doc})
+def _num(
+    default: float | str,
+    lo: float,
+    hi: float,
+    *,
+    lo_open: bool = False,
+    doc: str = "",
+    auto: bool = False,
+) -> Any:
+    """A float field with its allowed range [lo, hi] (or (lo, hi] when lo_open); with
+    ``auto`` it also takes the word "auto", which :mod:`bathprint.core.model` resolves."""
+    md = {"range": (lo, hi), "lo_open": lo_open, "doc": doc, "auto": auto}
+    return field(default=default, metadata=md)
 
 
 def _vec(default: tuple[float, ...], lo: float, hi: float, doc: str = "") -> Any:
@@ -237,21 +247,29 @@ class Contact:
         1e3, 1e-3, 1e9, lo_open=True, doc="force per length per penetration (as the floor's)"
     )
     distance_factor: float = _num(
-        1.0, 0.0, 10.0, lo_open=True, doc="contact distance / the sum of the two radii"
+        1.02,
+        0.0,
+        10.0,
+        lo_open=True,
+        doc="where the penalty starts / the sum of the two radii (> 1: its soft onset begins "
+        "before the surfaces touch, so touching turns rest near the sum of the radii)",
     )
     width_fraction: float = _num(
-        0.02, 1e-4, 1.0, lo_open=True, doc="penetration of the soft onset, in contact distances"
+        0.2, 1e-4, 1.0, lo_open=True, doc="penetration of the soft onset, in contact distances"
     )
     friction_coefficient: float = _num(0.0, 0.0, 2.0, doc="Coulomb mu between touching turns")
     friction_velocity_mm_s: float = _num(
         1.0, 1e-6, 1e3, lo_open=True, doc="regularisation of that friction"
     )
-    damping_time_s: float = _num(
-        0.0,
+    damping_time_s: float | str = _num(
+        "auto",
         0.0,
         1.0,
         doc="Kelvin-Voigt time of a normal dashpot between touching segments, the penalty's "
-        "stiffness times this on the rate the distance closes (0: none)",
+        "stiffness times this on the rate the distance closes (0: none; auto: "
+        "CONTACT_DAMPING_WITH_INERTIA_S with inertia, where touching turns are otherwise an "
+        "undamped spring between masses, 0 without, where it only slows GMRES)",
+        auto=True,
     )
     near_gap_fraction: float = _num(
         0.3,
@@ -503,7 +521,8 @@ def _allowed(f: dataclasses.Field) -> str:
         kind = f"a list of 3 numbers each in {left}{lo:g}, {hi:g}]" if "vector" in md else None
         if f.type == "int":
             return f"an integer in [{int(lo)}, {int(hi)}]"
-        return kind or f"a number in {left}{lo:g}, {hi:g}]"
+        number = kind or f"a number in {left}{lo:g}, {hi:g}]"
+        return number + ' or "auto"' if md.get("auto") else number
     return f"a value of type {type(f.default).__name__}"
 
 
@@ -578,6 +597,8 @@ def _coerce(key: str, value: Any, f: dataclasses.Field) -> Any:
             raise SceneError(f"{key} = {value!r} must be an integer; allowed: {_allowed(f)}")
         return int(v)
     if "range" in md:
+        if md.get("auto") and value == "auto":
+            return value
         return _check_number(key, value, f)
     if isinstance(f.default, bool):
         if not isinstance(value, bool):
