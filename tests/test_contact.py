@@ -9,6 +9,7 @@ is the banded one, bit for bit; the built-in scenes that list contact keep their
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
@@ -22,7 +23,9 @@ from bathprint.core.assemble import assemble
 from bathprint.core.banded import add_blocks_matvec, band_lu_diagonal, merge_blocks
 from bathprint.core.effects import contact
 from bathprint.core.effects._segment_geometry import segment_distance
+from bathprint.core.model import CONTACT_DAMPING_WITH_INERTIA_S
 from bathprint.core.records import Rod, Stage, new_couplings, new_krylov, new_workspace
+from bathprint.core.scene import Contact
 
 MM = 1e-3
 
@@ -790,7 +793,6 @@ def test_the_dashpot_follows_inertia_unless_its_time_is_given() -> None:
     inertia, where they are otherwise an undamped spring between masses, and not without,
     where the dashpot only slows GMRES; a time given is used as given. The message of a bad
     value says that "auto" is allowed."""
-    from bathprint.core.model import CONTACT_DAMPING_WITH_INERTIA_S
 
     def damping(over: dict) -> float:
         return float(Simulation("drag_coiling_22G", over).model.p.contact_damping_time)
@@ -803,6 +805,8 @@ def test_the_dashpot_follows_inertia_unless_its_time_is_given() -> None:
     assert damping({"contact.damping_time_s": 3e-3}) == 3e-3
     with pytest.raises(SceneError, match='or "auto"'):
         Simulation("drag_coiling_22G", {"contact.damping_time_s": -1.0})
+    (f,) = [f for f in dataclasses.fields(Contact) if f.name == "damping_time_s"]
+    assert f"auto: {CONTACT_DAMPING_WITH_INERTIA_S:g} s with inertia" in f.metadata["doc"]
 
 
 def test_contact_without_elasticity_is_refused() -> None:

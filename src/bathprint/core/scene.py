@@ -266,9 +266,9 @@ class Contact:
         0.0,
         1.0,
         doc="Kelvin-Voigt time of a normal dashpot between touching segments, the penalty's "
-        "stiffness times this on the rate the distance closes (0: none; auto: "
-        "CONTACT_DAMPING_WITH_INERTIA_S with inertia, where touching turns are otherwise an "
-        "undamped spring between masses, 0 without, where it only slows GMRES)",
+        "stiffness times this on the rate the distance closes (0: none; auto: 0.01 s with "
+        "inertia, where touching turns are otherwise an undamped spring between masses, 0 "
+        "without, where it only slows GMRES)",
         auto=True,
     )
     near_gap_fraction: float = _num(
