@@ -33,7 +33,8 @@ computed the same thing bit for bit:
 - ``drag_coiling_22G``: 2 s of the scene with effects elasticity, drag, gravity (both trees
   the same physics: newer trees list contact in that scene by default);
 - ``period_doubling_22G``: 0.3 s of the scene as it is, with contact (for trees that have
-  it): Newton's solves by GMRES preconditioned by the banded LU;
+  it) by its sharp onset (``_common.SHARP_CONTACT``, which the trees compared had as
+  default): Newton's solves by GMRES preconditioned by the banded LU;
 - ``per call``: 2000 ``advance`` calls of one fixed 2 ms step each on a 2-node stub (the
   default scene without flow): the fixed cost of a call from Python, which environments
   pay at every step.

@@ -562,7 +562,7 @@ def ratio_sharp_report() -> list[dict]:
 
 
 def seed_rows() -> list[dict]:
-    """Without and with contact (defaults, and with the Gauss-Newton Hessian) for each
+    """Without and with contact (SHARP_CONTACT, and with the Gauss-Newton Hessian) for each
     needle-imperfection seed of SEEDS: the pile, and so the cost, is a weakly chaotic
     outcome."""
     rows = []

@@ -320,7 +320,8 @@ def fgmres(a: sp.csr_matrix, b: Vector, apply: Apply, rtol: float) -> tuple[int,
 
 # ------------------------------------------------------------------ part random
 def pressed_stack(n: int) -> Simulation:
-    """A stress-free coil stack (radius 3 mm) whose turns touch (pitch 0.98 delta), sinking."""
+    """A stress-free coil stack (radius 3 mm) whose turns touch (pitch 0.98 delta), sinking,
+    with the contact law it was measured with (SHARP_CONTACT)."""
     radius, pitch = 3 * MM, 0.98 * 2 * R_FIL
     dphi = SPACING / math.hypot(radius, pitch / (2 * math.pi))
     phi = dphi * np.arange(n)
@@ -329,7 +330,10 @@ def pressed_stack(n: int) -> Simulation:
     )
     effects = ["elasticity", "drag", "gravity", "contact"]
     return Simulation.from_points(
-        pts, "drag_coiling_22G", {"effects": effects, "duration_s": 1e3}, relaxed=True
+        pts,
+        "drag_coiling_22G",
+        {"effects": effects, "duration_s": 1e3, **SHARP_CONTACT},
+        relaxed=True,
     )
 
 

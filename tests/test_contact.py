@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import tomllib
 
 import numpy as np
 import pytest
@@ -25,7 +26,7 @@ from bathprint.core.effects import contact
 from bathprint.core.effects._segment_geometry import segment_distance
 from bathprint.core.model import CONTACT_DAMPING_WITH_INERTIA_S
 from bathprint.core.records import Rod, Stage, new_couplings, new_krylov, new_workspace
-from bathprint.core.scene import Contact
+from bathprint.core.scene import Contact, parse_override, scene_to_toml
 
 MM = 1e-3
 
@@ -803,10 +804,29 @@ def test_the_dashpot_follows_inertia_unless_its_time_is_given() -> None:
     assert damping({"effects": inertial}) == CONTACT_DAMPING_WITH_INERTIA_S == 0.01
     assert damping({"effects": inertial, "contact.damping_time_s": 0.0}) == 0.0
     assert damping({"contact.damping_time_s": 3e-3}) == 3e-3
+    key, value = parse_override("contact.damping_time_s=auto")  # --set, bare or quoted
+    assert (key, value) == ("contact.damping_time_s", "auto")
+    assert parse_override('contact.damping_time_s="auto"') == (key, value)
+    written = scene_to_toml(Simulation("drag_coiling_22G", {"effects": inertial}).scene)
+    assert damping(tomllib.loads(written)) == CONTACT_DAMPING_WITH_INERTIA_S  # a round trip
     with pytest.raises(SceneError, match='or "auto"'):
         Simulation("drag_coiling_22G", {"contact.damping_time_s": -1.0})
     (f,) = [f for f in dataclasses.fields(Contact) if f.name == "damping_time_s"]
     assert f"auto: {CONTACT_DAMPING_WITH_INERTIA_S:g} s with inertia" in f.metadata["doc"]
+
+
+def test_a_run_summary_names_the_contact_law_it_used() -> None:
+    """summary.json holds contact's law with "auto" resolved (so a result says which law
+    computed it whatever the defaults), and no such entry where contact is not listed."""
+    effects = [*Simulation("drag_coiling_22G").scene.effects, "inertia"]
+    over = {"duration_s": 0.005, "outputs.plot": False}
+    law = simulate("drag_coiling_22G", {**over, "effects": effects}).summary["contact"]
+    default = Simulation("drag_coiling_22G").scene.contact
+    assert law["width_fraction"] == default.width_fraction
+    assert law["distance_factor"] == default.distance_factor
+    assert law["damping_time_s"] == CONTACT_DAMPING_WITH_INERTIA_S
+    plain = [e for e in effects if e not in ("contact", "inertia")]
+    assert "contact" not in simulate("drag_coiling_22G", {**over, "effects": plain}).summary
 
 
 def test_contact_without_elasticity_is_refused() -> None:

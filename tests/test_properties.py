@@ -65,6 +65,8 @@ def _numbers(key: str, f: dataclasses.Field) -> tuple[st.SearchStrategy, st.Sear
     inside = st.floats(c_lo, c_hi, exclude_min=lo_open and c_lo == lo)
     if isinstance(f.default, int | float) and c_lo <= f.default <= c_hi:
         inside = st.one_of(st.just(f.default), inside)
+    if f.metadata.get("auto"):  # the word the model resolves (contact.damping_time_s)
+        inside = st.one_of(st.just("auto"), inside)
     span = max(abs(lo), abs(hi), 1.0)
     outside = st.one_of(
         st.floats(max_value=lo, exclude_max=not lo_open, allow_nan=False, allow_infinity=False),

@@ -1494,23 +1494,24 @@ def _contact_ratio_table(name: str, label: str) -> str:
 
 
 def contact_ratio_seeds() -> str:
-    """``bench_contact_newton.py --part ratio``: contact as the scenes list it."""
+    """``bench_contact_newton.py --part ratio``: contact by its defaults."""
     return _contact_ratio_table("contact_ratio_seeds", "contact")
 
 
 def contact_ratio_seeds_inertia() -> str:
-    """``--part ratio_inertia``: contact's cost with inertia listed in every run, and with
-    contact's dashpot."""
+    """``--part ratio_inertia``: contact's cost with inertia listed in every run, by its
+    defaults (with its dashpot) and by its former law without the dashpot."""
     bench = _bench_contact_newton()
     text = _contact_ratio_table("contact_ratio_seeds_inertia", "contact")
     table = _csv(RESULTS / "contact_ratio_seeds_inertia.csv")
-    m = bench.ratio_summary(table, bench.DASHPOT_LABEL)
-    rows = [r for r in table if r["variant"] == bench.DASHPOT_LABEL]
+    label = bench.SHARP_NO_DASHPOT_LABEL
+    m = bench.ratio_summary(table, label)
+    rows = [r for r in table if r["variant"] == label]
     gaps = [float(r["min_gap_ratio"]) for r in rows]
     newton = [float(r["newton_per_step"]) for r in rows]
     krylov = [float(r["krylov_per_newton"]) for r in rows]
     line = (
-        f"With contact's dashpot ({_g(bench.DASHPOT_S * 1e3)} ms): **{_g(m['mean'])}×** "
+        f"With the sharp onset and no dashpot: **{_g(m['mean'])}×** "
         f"[{_g(m['low'])}, {_g(m['high'])}], from {_g(m['min'])}× to {_g(m['max'])}×; Newton "
         f"{_g(min(newton))}-{_g(max(newton))} per step, Krylov {_g(min(krylov))}-"
         f"{_g(max(krylov))} per Newton iteration, smallest gap {_g(min(gaps), 3)}-"
@@ -1520,9 +1521,9 @@ def contact_ratio_seeds_inertia() -> str:
     return head + "\n\n" + line + "\n\n" + source
 
 
-def contact_ratio_seeds_onset() -> str:
-    """``--part ratio_onset``: contact with the soft onset that starts before contact."""
-    return _contact_ratio_table("contact_ratio_seeds_onset", _bench_contact_newton().ONSET_LABEL)
+def contact_ratio_seeds_sharp() -> str:
+    """``--part ratio_sharp``: contact with its former law, the sharp onset."""
+    return _contact_ratio_table("contact_ratio_seeds_sharp", _bench_contact_newton().SHARP_LABEL)
 
 
 #: observable column: (what the table calls it, factor from SI to its unit)
@@ -1540,15 +1541,15 @@ _OBSERVABLE_SHOWN = {
 
 def contact_onset_observables() -> str:
     """What the pile looks like at the end of the ratio parts' runs: without contact, with
-    the default onset and with the onset before contact, each change paired seed by seed
-    (``bench_contact_newton.observable_comparison``)."""
+    the sharp onset (the former default) and with the onset before contact (the default),
+    each change paired seed by seed (``bench_contact_newton.observable_comparison``)."""
     bench = _bench_contact_newton()
     default_path = RESULTS / "contact_ratio_seeds.csv"
-    onset_path = RESULTS / "contact_ratio_seeds_onset.csv"
-    default, onset = _csv(default_path), _csv(onset_path)
-    label = bench.ONSET_LABEL
+    sharp_path = RESULTS / "contact_ratio_seeds_sharp.csv"
+    default, sharp = _csv(default_path), _csv(sharp_path)
+    label = bench.SHARP_LABEL
     by_contact = bench.observable_comparison(default, "without contact", default, "contact")
-    by_onset = bench.observable_comparison(default, "contact", onset, label)
+    by_onset = bench.observable_comparison(sharp, label, default, "contact")
     contact_change = {r["observable"]: r for r in by_contact}
 
     def change(r: dict) -> str:
@@ -1567,18 +1568,18 @@ def contact_onset_observables() -> str:
                 name,
                 str(r["seeds"]),
                 _g(c["mean without contact"] * unit) if c else "–",
-                _g(r["mean contact"] * unit),
                 _g(r[f"mean {label}"] * unit),
+                _g(r["mean contact"] * unit),
                 change(c) if c else "–",
                 change(r),
                 f"{100 * r['seed_spread']:.1f}%",
             ]
         )
-    head = ["at the end of 1 s", "seeds", "without contact", "default onset"]
-    head += ["onset before contact", "contact's change (paired)", "the onset's change (paired)"]
-    head += ["seed-to-seed spread (default)"]
-    regimes = Counter(r["regime"] for r in default if r["variant"] == "contact")
-    regimes_onset = Counter(r["regime"] for r in onset if r["variant"] == label)
+    head = ["at the end of 1 s", "seeds", "without contact", "sharp onset (former default)"]
+    head += ["onset before contact (default)", "contact's change (paired)"]
+    head += ["the onset's change (paired)", "seed-to-seed spread (sharp onset)"]
+    regimes = Counter(r["regime"] for r in sharp if r["variant"] == label)
+    regimes_onset = Counter(r["regime"] for r in default if r["variant"] == "contact")
     regimes_without = Counter(r["regime"] for r in default if r["variant"] == "without contact")
 
     def names(c: Counter) -> str:
@@ -1586,11 +1587,11 @@ def contact_onset_observables() -> str:
 
     same = next(r for r in by_onset if r["observable"] == "regime")
     line = (
-        f"Regime at 1 s: without contact {names(regimes_without)}; default onset "
+        f"Regime at 1 s: without contact {names(regimes_without)}; sharp onset "
         f"{names(regimes)}; onset before contact {names(regimes_onset)} (the same as the "
-        f"default onset on {same['same_regime']} of {same['seeds']} seeds)."
+        f"sharp onset on {same['same_regime']} of {same['seeds']} seeds)."
     )
-    return _table(head, rows) + "\n\n" + line + "\n\n" + provenance(default_path, onset_path)
+    return _table(head, rows) + "\n\n" + line + "\n\n" + provenance(default_path, sharp_path)
 
 
 def contact_newton() -> str:
@@ -1808,7 +1809,7 @@ def contact_scenes() -> str:
         "wall with (s)",
         "ratio",
         "Krylov per Newton",
-        "smallest gap / δ without",
+        "smallest gap / 2r without",
         "with",
     ]
     return _table(head, rows) + "\n\n" + provenance(path)
@@ -2047,7 +2048,7 @@ TABLES: dict[str, Callable[[], str]] = {
     "contact-near-gap": contact_near_gap,
     "contact-seeds": contact_seeds,
     "contact-ratio-seeds": contact_ratio_seeds,
-    "contact-ratio-seeds-onset": contact_ratio_seeds_onset,
+    "contact-ratio-seeds-sharp": contact_ratio_seeds_sharp,
     "contact-onset-observables": contact_onset_observables,
     "contact-ratio-seeds-inertia": contact_ratio_seeds_inertia,
     "contact-late": contact_late,

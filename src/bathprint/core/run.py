@@ -25,7 +25,7 @@ import numpy as np
 
 from bathprint.core import layout as L
 from bathprint.core.extrusion import extruded_length
-from bathprint.core.model import ML_MIN, effective_numerics
+from bathprint.core.model import ML_MIN, contact_damping_time, effective_numerics
 from bathprint.core.scene import Scene, load_scene
 from bathprint.core.simulation import Simulation
 from bathprint.provenance import code_version
@@ -154,6 +154,7 @@ def summarize(sim: Simulation, wall_s: float) -> dict[str, Any]:
             **effective_numerics(sim.scene),
         },
         "effect_calls": sim.effect_calls(),
+        **_contact_law(sim),
         "exit_speed_m_s": v,
         "slender_body_coefficient_pa_s": m.mu_s,
         "bending_stiffness_n_m2": m.bending_stiffness,
@@ -162,6 +163,22 @@ def summarize(sim: Simulation, wall_s: float) -> dict[str, Any]:
         "measurements": {},
         "code": code_version(),
     }
+
+
+def _contact_law(sim: Simulation) -> dict[str, Any]:
+    """Where ``contact`` is listed, the law the run used, its ``"auto"`` resolved: a summary
+    then says which law computed it whatever the defaults were."""
+    if "contact" not in sim.scene.effects:
+        return {}
+    c = sim.scene.contact
+    law = {
+        "stiffness_pa": c.stiffness_pa,
+        "distance_factor": c.distance_factor,
+        "width_fraction": c.width_fraction,
+        "damping_time_s": contact_damping_time(sim.scene),
+        "friction_coefficient": c.friction_coefficient,
+    }
+    return {"contact": law}
 
 
 def measure_run(sim: Simulation, frames: list[np.ndarray], times: np.ndarray) -> dict[str, Any]:
