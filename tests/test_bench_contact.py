@@ -261,6 +261,18 @@ def test_the_settled_part_times_its_window_at_the_steps_it_names(bench):
     assert r["newton_per_step_contact"] >= 1.0 and r["krylov_per_newton"] >= 1.0
 
 
+def test_the_stacks_hold_the_sharp_onset_unless_given_contacts_defaults(bench):
+    """The stacks are measured with the sharp onset (SHARP_CONTACT); ``law={}`` builds them
+    with contact's defaults (``--part scaling_default``), and the rows say which."""
+    mod = bench("bench_contact")
+    sharp = mod.coil_stack(100, True, 0.98).model.p
+    default = mod.coil_stack(100, True, 0.98, law={}).model.p
+    assert (sharp.contact_width_fraction, sharp.contact_distance_factor) == (0.02, 1.0)
+    assert (default.contact_width_fraction, default.contact_distance_factor) == (0.2, 1.02)
+    (r,) = mod.scaling([100], 1e-3, 0.98, "band", warm_up=1e-3, law={})
+    assert r["law"] == "default" and r["newton_per_step_contact"] >= 1.0
+
+
 def test_the_stack_model_bounds_gmres_whatever_the_height(bench):
     """``stack_coupling``: a free stack's translation stretches no contact, so the condition
     number of the banded LU's preconditioned stack is near 1 + 4 a at every height; the
