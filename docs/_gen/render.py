@@ -1123,11 +1123,18 @@ def headline() -> str:
     )
 
 
-def contact_scaling() -> str:
-    path = RESULTS / "contact_scaling.csv"
+def contact_scaling(name: str = "contact_scaling") -> str:
+    """``bench_contact.py --part scaling`` (the sharp onset), or the result file ``name``
+    (``contact_scaling_default``: ``--part scaling_default``, contact's default law)."""
+    path = RESULTS / f"{name}.csv"
+    unit = "δ" if name == "contact_scaling" else "(2r)"  # the sharp onset's δ is 2r
     rows = [
         [
-            ("apart (1.5 δ)" if float(r["pitch_over_contact_distance"]) > 1 else "pressed (0.98 δ)")
+            (
+                f"apart (1.5 {unit})"
+                if float(r["pitch_over_contact_distance"]) > 1
+                else f"pressed (0.98 {unit})"
+            )
             + (", axial coarse" if r.get("preconditioner") == "axial_coarse" else ""),
             r["nodes"],
             _g(r["us_per_step_none"]),
@@ -2037,6 +2044,7 @@ TABLES: dict[str, Callable[[], str]] = {
     "fig1c-regimes": fig1c_regimes,
     "fig3-settling": fig3_settling,
     "contact-scaling": contact_scaling,
+    "contact-scaling-default": lambda: contact_scaling("contact_scaling_default"),
     "contact-scenes": contact_scenes,
     "contact-whole-runs": contact_whole_runs,
     "profile-tqc-her": profile_tqc_her,
