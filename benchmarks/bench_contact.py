@@ -9,7 +9,10 @@ N = 10^2 .. 10^4, with GMRES preconditioned by the banded LU and (``numerics.pre
 = "axial_coarse"``) by the banded LU and an axial coarse correction. Wall time per step and
 per node-step with and without contact (the pair search included), Krylov iterations per
 Newton iteration; ``--part settled``: the pressed stacks, 300 to 10^4 nodes, after 20 ms
-(when they have relaxed), at steps of at most 0.25 ms, for 20 ms more. (At a fixed 1 ms step the
+(when they have relaxed), at steps of at most 0.25 ms, for 20 ms more; the stacks hold
+contact's former default law, the sharp onset (``_common.SHARP_CONTACT``), and
+``--part scaling_default`` and ``--part settled_default`` run the pressed ones with its
+default law. (At a fixed 1 ms step the
 pressed stack's Newton matrix is indefinite, -P' Hess d exceeding the drag term, and GMRES
 stalls: the adaptive steps are shorter there.) (2) drag_coiling_22G (4 s) and period_doubling_22G
 (0.5 s) with and without contact: wall time ratio, Krylov iterations per Newton iteration,
@@ -27,7 +30,8 @@ Hessian of the penalty (the default) and with its Gauss-Newton part (``contact.h
 best of two each.
 
     python benchmarks/bench_contact.py [--quick]
-        [--part scaling|settled|saturation|scenes|whole|hessian]
+        [--part scaling|scaling_default|settled|settled_default|saturation|scenes|whole|
+                hessian]
 """
 
 from __future__ import annotations
@@ -234,6 +238,7 @@ def main() -> None:
             "scaling",
             "scaling_default",
             "settled",
+            "settled_default",
             "saturation",
             "scenes",
             "whole",
@@ -248,6 +253,8 @@ def main() -> None:
         scaling_default_part(args.quick)
     if args.part in ("all", "settled"):
         settled_part(args.quick)
+    if args.part in ("all", "settled_default"):
+        settled_part(args.quick, law={})
     if args.part in ("all", "saturation"):
         saturation_part(args.quick)
     if args.part in ("all", "scenes"):
@@ -284,10 +291,11 @@ SETTLED_WARM_UP_S = 0.02  # a pressed stack of 10^4 nodes relaxes over about 20 
 SETTLED_MAX_STEP_S = 2.5e-4  # the same steps at every N
 
 
-def settled_part(quick: bool) -> None:
+def settled_part(quick: bool, law: dict | None = None) -> None:
     """The pressed stacks after they have relaxed (SETTLED_WARM_UP_S), at steps of at most
     SETTLED_MAX_STEP_S: the same physics and steps at every N, so the cost per node-step
-    shows how the work of a step grows with N."""
+    shows how the work of a step grows with N. ``law``: as :func:`coil_stack` (``{}``,
+    ``--part settled_default``: contact's default law)."""
     touching = [300, 1000] if quick else [300, 1000, 3000, 10000]
     duration = 5e-3 if quick else 2e-2
     print(
@@ -297,9 +305,9 @@ def settled_part(quick: bool) -> None:
     rows = []
     for preconditioner in ("band", "axial_coarse"):
         rows += scaling(
-            touching, duration, 0.98, preconditioner, SETTLED_WARM_UP_S, SETTLED_MAX_STEP_S
+            touching, duration, 0.98, preconditioner, SETTLED_WARM_UP_S, SETTLED_MAX_STEP_S, law
         )
-    write_csv("contact_scaling_settled", rows)
+    write_csv("contact_scaling_settled" + ("" if law is None else "_default"), rows)
 
 
 SATURATION_SIZES = (300, 1000, 3000, 10000, 30000)
