@@ -1229,8 +1229,10 @@ def contact_saturation() -> str:
     return _table(head, rows) + "\n\n" + provenance(path)
 
 
-def contact_scaling_settled() -> str:
-    path = RESULTS / "contact_scaling_settled.csv"
+def contact_scaling_settled(name: str = "contact_scaling_settled") -> str:
+    """``bench_contact.py --part settled`` (the sharp onset), or the result file ``name``
+    (``contact_scaling_settled_default``: ``--part settled_default``, the default law)."""
+    path = RESULTS / f"{name}.csv"
     rows = [
         [
             "axial coarse" if r["preconditioner"] == "axial_coarse" else "banded LU",
@@ -2065,6 +2067,9 @@ TABLES: dict[str, Callable[[], str]] = {
     "sampled-profile": sampled_profile,
     "sampled-profile-stacks": lambda: sampled_profile("sampled_profile_stacks"),
     "contact-scaling-settled": contact_scaling_settled,
+    "contact-scaling-settled-default": lambda: contact_scaling_settled(
+        "contact_scaling_settled_default"
+    ),
     "contact-saturation": contact_saturation,
     "contact-hessian": contact_hessian,
     "contact-onset": contact_onset,
