@@ -407,14 +407,16 @@ def test_contact_jacobian_with_its_off_band_blocks_matches_finite_differences(
     ],
     ids=["dashpot", "friction"],
 )
+@pytest.mark.parametrize("floor", [False, True], ids=["free_tail", "tail_on_floor"])
 def test_velocity_terms_on_a_frozen_tail_move_it_with_the_first_active_node(
-    key: str, field: str, value: float
+    key: str, field: str, value: float, floor: bool
 ) -> None:
     """A squeezed coil whose first 20 nodes are a frozen tail (an obstacle that follows the
-    first active node): the force of the dashpot (or of friction) on the active nodes,
-    frozen nodes moving at that node's velocity, against central differences in the active
-    velocities, with the frozen nodes' rows and columns in that node's; and it vanishes
-    when the whole coil translates."""
+    first active node; on the floor horizontally only): the force of the dashpot (or of
+    friction) on the active nodes, frozen nodes moving at that node's velocity, against
+    central differences in the active velocities, with the frozen nodes' rows and columns
+    in that node's; and it vanishes when the whole coil translates (on the floor:
+    horizontally)."""
     r, n, f = 0.5 * MM, 120, 20
     sim = free_filament(
         _squeezed_coil(n),
@@ -424,6 +426,7 @@ def test_velocity_terms_on_a_frozen_tail_move_it_with_the_first_active_node(
             key: value,
         },
     )
+    sim.model.enabled[L.E_FLOOR] = int(floor)  # (only contact is evaluated here)
     whole = Rod(sim.pos, sim.vel, sim.vel, n, sim.node_s, sim.seg_rest, sim.seg_mat)
     while not contact.prepare(sim.model.record, whole, f, sim.ws.contact):
         sim._grow_off_band()
@@ -484,9 +487,85 @@ def test_velocity_terms_on_a_frozen_tail_move_it_with_the_first_active_node(
         fd[:, k] = -(dashpot(vp, False)[0] - dashpot(vm, False)[0]) / (2 * h)
     assert np.abs(fd[:3, :3]).max() > 0  # the tail's pairs reach the first active node
     np.testing.assert_allclose(dense, fd, atol=2e-5 * np.abs(fd).max(), rtol=0)
-    common = np.tile([1e-3, -2e-3, 5e-4], n_act)  # a rigid translation, the tail with it
+    common = np.tile([1e-3, -2e-3, 0.0 if floor else 5e-4], n_act)  # the tail moves with it
     drift, _ = dashpot(common, False)
     assert np.abs(drift).max() < 1e-9 * np.abs(dashpot(vel0, False)[0]).max()
+
+
+@pytest.mark.parametrize("floor", [False, True], ids=["free_tail", "tail_on_floor"])
+def test_contact_with_a_frozen_tail_matches_finite_differences_in_the_active_positions(
+    floor: bool,
+) -> None:
+    """The penalty's force on the active nodes of a squeezed coil whose first 20 nodes are
+    a frozen tail, the tail following the first active node's displacement (on the floor
+    horizontally only, its vertical load on the floor), against central differences in the
+    active positions; off the floor a rigid translation leaves it unchanged, on the floor a
+    vertical one of the active nodes changes it (the tail stays at its height)."""
+    r, n, f = 0.5 * MM, 120, 20
+    sim = free_filament(
+        _squeezed_coil(n),
+        {
+            "effects": ["elasticity", "drag", "contact"],
+            "needle.inner_diameter_mm": 2 * r / MM,
+            "contact.parallel_angle_deg": 0.0,  # the closest points: an exact Jacobian
+        },
+    )
+    sim.model.enabled[L.E_FLOOR] = int(floor)
+    whole = Rod(sim.pos, sim.vel, sim.vel, n, sim.node_s, sim.seg_rest, sim.seg_mat)
+    while not contact.prepare(sim.model.record, whole, f, sim.ws.contact):
+        sim._grow_off_band()
+    pairs = sim.ws.contact.pairs[: sim.ws.contact.count[0]]
+    n_act = n - f
+    nd = 3 * n_act
+    start = sim.pos[3 * f : 3 * n].copy()
+
+    def force(active: np.ndarray, jac: bool):
+        model, _, _, out = sim.kernel_inputs(1.0, 0.0, 0.0, jac)
+        sim.pos[3 * f : 3 * n] = active  # the active rod is a view of the whole one
+        rod = Rod(
+            sim.pos[3 * f :],
+            sim.vel[3 * f :],
+            np.zeros(nd),
+            n_act,
+            sim.node_s[f:],
+            sim.seg_rest[f:],
+            sim.seg_mat[f:],
+        )
+        o = out._replace(
+            force=np.zeros(nd),
+            band=np.zeros((nd, out.band.shape[1])),
+            cpl=new_couplings(16 * len(pairs)),
+            whole=whole,
+            frozen=f,
+            start=start,
+        )
+        contact.accumulate(model, rod, Stage(0.0, 1.0, 0.0, 0.0, jac), o)
+        sim.pos[3 * f : 3 * n] = start
+        return o
+
+    out = force(start.copy(), True)
+    assert np.abs(out.force[:3]).max() > 0  # the tail's pairs push the first active node
+    dense = np.zeros((nd, nd))
+    for i in range(nd):
+        for j in range(max(0, i - L.KL), min(nd, i + L.KU + 1)):
+            dense[i, j] = out.band[i, j - i + L.KL]
+    for k in range(out.cpl.count[0]):
+        a, b = 3 * out.cpl.row[k], 3 * out.cpl.col[k]
+        dense[a : a + 3, b : b + 3] += out.cpl.block[k]
+    fd = np.zeros((nd, nd))
+    h = 1e-9
+    for k in range(nd):
+        xp, xm = start.copy(), start.copy()
+        xp[k] += h
+        xm[k] -= h
+        fd[:, k] = -(force(xp, False).force - force(xm, False).force) / (2 * h)
+    np.testing.assert_allclose(dense, fd, atol=1e-5 * np.abs(fd).max(), rtol=0)
+    lift = start + np.tile([0.0, 0.0, 0.05 * r], n_act)  # the active coil lifted
+    change = np.abs(force(lift, False).force - out.force).max()
+    if floor:
+        assert change > 1e-3 * np.abs(out.force).max()  # it lifts off the tail
+    else:
+        assert change < 1e-9 * np.abs(out.force).max()  # the tail lifts with it
 
 
 # ------------------------------------------------------------------ the solver

@@ -63,7 +63,7 @@ from bathprint.core.effects._segment_geometry import (
     segment_distance,
 )
 from bathprint.core.jit import KERNEL, kernel
-from bathprint.core.layout import MAT_RADIUS
+from bathprint.core.layout import E_FLOOR, MAT_RADIUS
 from bathprint.core.topology import filament_segments, free_nodes
 
 SKIN_STEPS = 8.0  # the hash's skin covers about this many steps of relative node motion
@@ -262,7 +262,7 @@ def check(model, whole, pos0, frozen: int, contact) -> float:
     f = frozen
     sh0 = pos[3 * f] - pos0[0]
     sh1 = pos[3 * f + 1] - pos0[1]
-    sh2 = pos[3 * f + 2] - pos0[2]
+    sh2 = (pos[3 * f + 2] - pos0[2]) * _tail_z(model, f)
     # this step's motion (pos0 holds the active nodes, from f; the tail moves with node f)
     nm = contact.motion[0]
     m_step = _step_motion(pos, pos0, n_nodes, f, sh0, sh1, sh2, nm)
@@ -398,7 +398,9 @@ def accumulate(model, rod, stage, out) -> float:
     Pairs are in whole-filament numbers (``out.whole``). A frozen tail is an obstacle that
     follows the first active node (as it does after each step): its nodes sit at their
     places plus that node's displacement in the step, and the force on them goes to that
-    node, so in the Jacobian their rows and columns are its."""
+    node, so in the Jacobian their rows and columns are its. On the floor the tail follows
+    it horizontally only (its height stays, the floor carries its vertical load): the
+    frozen nodes' vertical displacement, velocity, force and Jacobian entries are zero."""
     p = model.params[0]
     whole = out.whole
     f = out.frozen
@@ -427,7 +429,8 @@ def accumulate(model, rod, stage, out) -> float:
     nm = contact.motion[1]
     sh0 = rod.pos[0] - out.start[0]
     sh1 = rod.pos[1] - out.start[1]
-    sh2 = rod.pos[2] - out.start[2]
+    tail_z = _tail_z(model, f)
+    sh2 = (rod.pos[2] - out.start[2]) * tail_z
     _step_motion(pos, contact.start_pos[3 * f :], whole.n_nodes, f, sh0, sh1, sh2, nm)
     for k in range(contact.memory[0].n_near):
         q = contact.near[k]
@@ -447,7 +450,7 @@ def accumulate(model, rod, stage, out) -> float:
             g = whole_nodes[a]
             for c in range(3):
                 shift = rod.pos[c] - out.start[c] if nodes[a] < 0 else 0.0
-                x[3 * a + c] = pos[3 * g + c] + shift
+                x[3 * a + c] = pos[3 * g + c] + shift * _follows(nodes, a, c, tail_z)
         # bounding spheres first: midpoints farther than delta + half of both lengths apart
         # cannot touch (most candidates, far from contact, stop here)
         reach = delta + 0.5 * (seg_rest[i] + seg_rest[j]) * 1.5  # (segments may stretch)
@@ -473,7 +476,7 @@ def accumulate(model, rod, stage, out) -> float:
         for a in range(4):
             node = max(nodes[a], 0)
             for c in range(3):
-                force[3 * node + c] += e_p * grad[3 * a + c]
+                force[3 * node + c] += e_p * grad[3 * a + c] * _follows(nodes, a, c, tail_z)
         if do_jac and cx != 0.0:
             for a in range(4):
                 for b in range(4):
@@ -482,17 +485,21 @@ def accumulate(model, rod, stage, out) -> float:
                             blk[r, c] = e_pp * grad[3 * a + r] * grad[3 * b + c]
                             if exact:
                                 blk[r, c] -= e_p * hess[3 * a + r, 3 * b + c]
+                            blk[r, c] *= _follows(nodes, a, r, tail_z)
+                            blk[r, c] *= _follows(nodes, b, c, tail_z)
                     row = max(nodes[a], 0)
                     col = max(nodes[b], 0)
                     add_coupling(out.band, out.cpl, n_free, row, col, blk, cx)
         if beta > 0.0 and e_pp > 0.0:
-            _dashpot(rod.vel, vel, whole_nodes, nodes, grad, beta * e_pp, out, n_free, cv, do_jac)
+            c_d = beta * e_pp
+            _dashpot(rod.vel, vel, whole_nodes, nodes, tail_z, grad, c_d, out, n_free, cv, do_jac)
         if mu_f > 0.0:
             _friction(
                 rod.vel,
                 vel,
                 whole_nodes,
                 nodes,
+                tail_z,
                 s,
                 t,
                 grad,
@@ -508,28 +515,47 @@ def accumulate(model, rod, stage, out) -> float:
 
 
 @njit(**KERNEL, inline="always")
-def _node_velocity(active_vel, vel, nodes, whole_nodes, a: int, c: int) -> float:
-    """Component c (m/s) of the velocity of the pair's node a: a frozen node (``nodes[a]`` <
-    0) moves with the first active node (``active_vel``), the others at their own."""
-    return active_vel[c] if nodes[a] < 0 else vel[3 * whole_nodes[a] + c]
+def _tail_z(model, frozen: int) -> float:
+    """1 where a frozen tail follows the first active node vertically too; 0 on the floor,
+    where it slides at its height (:mod:`bathprint.core.freezing`)."""
+    return 0.0 if frozen > 0 and model.enabled[E_FLOOR] > 0 else 1.0
 
 
 @njit(**KERNEL, inline="always")
-def _dashpot(active_vel, vel, whole_nodes, nodes, grad, c_d, out, n_free, cv, do_jac):
+def _follows(nodes, a: int, c: int, tail_z: float) -> float:
+    """How component c of the pair's node a follows the first active node: 1, except the
+    vertical component of a frozen node on the floor (``tail_z`` 0)."""
+    return tail_z if nodes[a] < 0 and c == 2 else 1.0
+
+
+@njit(**KERNEL, inline="always")
+def _node_velocity(active_vel, vel, nodes, whole_nodes, tail_z, a: int, c: int) -> float:
+    """Component c (m/s) of the velocity of the pair's node a: a frozen node (``nodes[a]`` <
+    0) moves with the first active node (``active_vel``; on the floor horizontally only),
+    the others at their own."""
+    if nodes[a] < 0:
+        return active_vel[c] * _follows(nodes, a, c, tail_z)
+    return vel[3 * whole_nodes[a] + c]
+
+
+@njit(**KERNEL, inline="always")
+def _dashpot(active_vel, vel, whole_nodes, nodes, tail_z, grad, c_d, out, n_free, cv, do_jac):
     """Kelvin-Voigt normal dashpot of a touching pair: F_a = -c_d (grad d . v) grad_a d on
     node a, c_d = beta E''(p) (N s/m), so a pressed contact relaxes in beta as a linear
     spring-dashpot does (Cundall & Strack 1979), and its damping starts at zero with the soft
     onset. It dissipates c_d (dd/dt)^2. A frozen node moves with the first active node
-    (``active_vel``, the stage's); its velocity Jacobian holds c_d and grad d at the iterate."""
+    (``active_vel``, the stage's; ``tail_z`` as :func:`_follows`); its velocity Jacobian
+    holds c_d and grad d at the iterate."""
     force = out.force
     ddot = 0.0
     for a in range(4):
         for c in range(3):
-            ddot += grad[3 * a + c] * _node_velocity(active_vel, vel, nodes, whole_nodes, a, c)
+            v = _node_velocity(active_vel, vel, nodes, whole_nodes, tail_z, a, c)
+            ddot += grad[3 * a + c] * v
     for a in range(4):
         node = max(nodes[a], 0)
         for c in range(3):
-            force[3 * node + c] -= c_d * ddot * grad[3 * a + c]
+            force[3 * node + c] -= c_d * ddot * grad[3 * a + c] * _follows(nodes, a, c, tail_z)
     if not (do_jac and cv != 0.0):
         return
     blk = out.scratch.blk_b
@@ -538,12 +564,27 @@ def _dashpot(active_vel, vel, whole_nodes, nodes, grad, c_d, out, n_free, cv, do
             for r in range(3):
                 for c in range(3):
                     blk[r, c] = c_d * grad[3 * a + r] * grad[3 * b + c]
+                    blk[r, c] *= _follows(nodes, a, r, tail_z) * _follows(nodes, b, c, tail_z)
             add_coupling(out.band, out.cpl, n_free, max(nodes[a], 0), max(nodes[b], 0), blk, cv)
 
 
 @njit(**KERNEL, inline="always")
 def _friction(
-    active_vel, vel, whole_nodes, nodes, s, t, grad, normal, mu_f, eps, out, n_free, cv, do_jac
+    active_vel,
+    vel,
+    whole_nodes,
+    nodes,
+    tail_z,
+    s,
+    t,
+    grad,
+    normal,
+    mu_f,
+    eps,
+    out,
+    n_free,
+    cv,
+    do_jac,
 ):
     """Regularised Coulomb friction on the tangential relative velocity of the closest
     points of the pair's segments (``whole_nodes``: their nodes' whole-filament numbers;
@@ -562,9 +603,9 @@ def _friction(
     n0, n1, n2 = n0 / nn, n1 / nn, n2 / nn
     u0 = u1 = u2 = 0.0
     for a in range(4):
-        u0 += w[a] * _node_velocity(active_vel, vel, nodes, whole_nodes, a, 0)
-        u1 += w[a] * _node_velocity(active_vel, vel, nodes, whole_nodes, a, 1)
-        u2 += w[a] * _node_velocity(active_vel, vel, nodes, whole_nodes, a, 2)
+        u0 += w[a] * _node_velocity(active_vel, vel, nodes, whole_nodes, tail_z, a, 0)
+        u1 += w[a] * _node_velocity(active_vel, vel, nodes, whole_nodes, tail_z, a, 1)
+        u2 += w[a] * _node_velocity(active_vel, vel, nodes, whole_nodes, tail_z, a, 2)
     un = u0 * n0 + u1 * n1 + u2 * n2
     t0, t1, t2 = u0 - un * n0, u1 - un * n1, u2 - un * n2
     sq = math.sqrt(t0 * t0 + t1 * t1 + t2 * t2 + eps * eps)
@@ -573,7 +614,7 @@ def _friction(
     for a in range(4):
         b = 3 * max(nodes[a], 0)
         for c in range(3):
-            force[b + c] += w[a] * ft[c]
+            force[b + c] += w[a] * ft[c] * _follows(nodes, a, c, tail_z)
     if not do_jac:
         return
     # dF_A/du = -mu N [P / sq - (P u)(P u)^T / sq^3], P = I - n n^T; node blocks w_a w_b
@@ -588,4 +629,5 @@ def _friction(
                     proj = (1.0 if r == c else 0.0) - nv[r] * nv[c]
                     dfdu = -mu_f * normal * (proj / sq - ut[r] * ut[c] / (sq * sq * sq))
                     blk[r, c] = -ww * dfdu
+                    blk[r, c] *= _follows(nodes, a, r, tail_z) * _follows(nodes, b, c, tail_z)
             add_coupling(out.band, out.cpl, n_free, max(nodes[a], 0), max(nodes[b], 0), blk, cv)
