@@ -327,6 +327,18 @@ _VELOCITY_TERMS = {
 }
 
 
+def _newton_matrix(out, nd: int) -> np.ndarray:
+    """The dense nd x nd matrix of an evaluation's band and its blocks off the band."""
+    dense = np.zeros((nd, nd))
+    for i in range(nd):
+        for j in range(max(0, i - L.KL), min(nd, i + L.KU + 1)):
+            dense[i, j] = out.band[i, j - i + L.KL]
+    for k in range(out.cpl.count[0]):
+        a, b = 3 * out.cpl.row[k], 3 * out.cpl.col[k]
+        dense[a : a + 3, b : b + 3] += out.cpl.block[k]
+    return dense
+
+
 @pytest.mark.parametrize("shape", ["crossing", "squeezed_coil"])
 @pytest.mark.parametrize("velocity_term", list(_VELOCITY_TERMS))
 def test_contact_jacobian_with_its_off_band_blocks_matches_finite_differences(
@@ -373,15 +385,8 @@ def test_contact_jacobian_with_its_off_band_blocks_matches_finite_differences(
         if (which == "v") != (velocity_term != "none"):
             continue
         out = assembled(sim.pos.copy(), sim.vel.copy(), *coeffs, True)
-        cpl = out.cpl
-        assert cpl.count[0] > 0  # there are couplings off the band
-        dense = np.zeros((nd, nd))
-        for i in range(nd):
-            for j in range(max(0, i - L.KL), min(nd, i + L.KU + 1)):
-                dense[i, j] = out.band[i, j - i + L.KL]
-        for k in range(cpl.count[0]):
-            a, b = 3 * cpl.row[k], 3 * cpl.col[k]
-            dense[a : a + 3, b : b + 3] += cpl.block[k]
+        assert out.cpl.count[0] > 0  # there are couplings off the band
+        dense = _newton_matrix(out, nd)
         fd = np.zeros((nd, nd))
         h = 1e-9 if which == "x" else 1e-8
         for k in range(nd):
@@ -471,13 +476,7 @@ def test_velocity_terms_on_a_frozen_tail_move_it_with_the_first_active_node(
         return forces[0].force - forces[1].force, forces[0]
 
     _, out = dashpot(vel0.copy(), True)
-    dense = np.zeros((nd, nd))
-    for i in range(nd):
-        for j in range(max(0, i - L.KL), min(nd, i + L.KU + 1)):
-            dense[i, j] = out.band[i, j - i + L.KL]
-    for k in range(out.cpl.count[0]):
-        a, b = 3 * out.cpl.row[k], 3 * out.cpl.col[k]
-        dense[a : a + 3, b : b + 3] += out.cpl.block[k]
+    dense = _newton_matrix(out, nd)
     fd = np.zeros((nd, nd))
     h = 1e-8
     for k in range(nd):
@@ -545,13 +544,7 @@ def test_contact_with_a_frozen_tail_matches_finite_differences_in_the_active_pos
 
     out = force(start.copy(), True)
     assert np.abs(out.force[:3]).max() > 0  # the tail's pairs push the first active node
-    dense = np.zeros((nd, nd))
-    for i in range(nd):
-        for j in range(max(0, i - L.KL), min(nd, i + L.KU + 1)):
-            dense[i, j] = out.band[i, j - i + L.KL]
-    for k in range(out.cpl.count[0]):
-        a, b = 3 * out.cpl.row[k], 3 * out.cpl.col[k]
-        dense[a : a + 3, b : b + 3] += out.cpl.block[k]
+    dense = _newton_matrix(out, nd)
     fd = np.zeros((nd, nd))
     h = 1e-9
     for k in range(nd):
