@@ -33,16 +33,19 @@ how exactly it is held either way), and against GMRES's stopping tolerance
 (``--part krylov``: Newton's forcing term); ``--part ratio`` measures contact's cost there
 over ten seeds, paired seed by seed, with a bootstrap interval, with contact's defaults (the
 soft onset of 0.2 delta from 1.02 (r_A + r_B)), and ``--part ratio_sharp`` the same with its
-law before that (SHARP_CONTACT), ``--part ratio_inertia`` with ``inertia`` listed in every
+law before that (SHARP_CONTACT), ``--part ratio_wide`` with the default's width of onset
+started at the sum of the radii (WIDE_AT_CONTACT: the two changes one at a time),
+``--part ratio_inertia`` with ``inertia`` listed in every
 run (contact's defaults then add its 10 ms dashpot), and ``--part dashpot_overdamped`` that
 dashpot without inertia. ``--part late`` starts from the pile's state at 0.8 s, where
 contact costs most, and changes one thing at a time for 60 ms more: the Newton policy, the
-linear solve, the soft onset. Every part but ``ratio`` and ``ratio_inertia`` holds
+linear solve, the soft onset. Every part but ``ratio``, ``ratio_wide`` (SHARP_CONTACT with
+the wider onset) and ``ratio_inertia`` holds
 SHARP_CONTACT, the law it was measured with (``default`` in its labels means that law).
 
     python benchmarks/bench_contact_newton.py
         [--part variants|sizes|scene|near_gap|seeds|onset|krylov|late|ratio|ratio_sharp|
-                ratio_inertia|dashpot_overdamped]
+                ratio_wide|ratio_inertia|dashpot_overdamped]
 """
 
 from __future__ import annotations
@@ -397,6 +400,10 @@ RATIO_GOAL = 3.0  # the goal for contact's cost where turns touch (docs/performa
 ONSET_BEFORE_CONTACT = {"contact.width_fraction": 0.2, "contact.distance_factor": 1.02}
 #: the rows of --part ratio_sharp: contact with its law before the onset before contact
 SHARP_LABEL = "contact, sharp onset (0.02 delta from r_A + r_B)"
+#: --part ratio_wide: the default's width of onset, started at the sum of the radii (the
+#: two changes from the sharp onset to the default, one at a time)
+WIDE_AT_CONTACT = {**SHARP_CONTACT, "contact.width_fraction": 0.2}
+WIDE_LABEL = "contact, soft onset 0.2 delta from r_A + r_B"
 
 
 def ratio_rows(law: dict | None = None, label: str = "contact") -> list[dict]:
@@ -561,6 +568,13 @@ def ratio_sharp_report() -> list[dict]:
     return ratio_report(SHARP_CONTACT, SHARP_LABEL)
 
 
+def ratio_wide_report() -> list[dict]:
+    """:func:`ratio_report` with the default's onset width started at the sum of the radii
+    (WIDE_AT_CONTACT): beside ``ratio_sharp`` and ``ratio``, which of the two changes moves
+    what the pile looks like."""
+    return ratio_report(WIDE_AT_CONTACT, WIDE_LABEL)
+
+
 def seed_rows() -> list[dict]:
     """Without and with contact (SHARP_CONTACT, and with the Gauss-Newton Hessian) for each
     needle-imperfection seed of SEEDS: the pile, and so the cost, is a weakly chaotic
@@ -662,6 +676,7 @@ if __name__ == "__main__":
             "late",
             "ratio",
             "ratio_sharp",
+            "ratio_wide",
             "ratio_inertia",
             "dashpot_overdamped",
         ),
@@ -700,6 +715,10 @@ if __name__ == "__main__":
         "ratio_sharp": (
             f"{scene}, seeds {RATIO_SEEDS}, {SHARP_LABEL}:",
             [("contact_ratio_seeds_sharp", ratio_sharp_report)],
+        ),
+        "ratio_wide": (
+            f"{scene}, seeds {RATIO_SEEDS}, {WIDE_LABEL}:",
+            [("contact_ratio_seeds_wide", ratio_wide_report)],
         ),
         "ratio_inertia": (
             f"{scene} with inertia, seeds {RATIO_SEEDS}:",

@@ -143,8 +143,11 @@ def test_the_ratio_parts_run_contact_by_its_defaults_and_by_its_sharp_onset(benc
     monkeypatch.setattr(mod, "RATIO_SEEDS", (3,))
     seen = _spy_scene_rows(mod, monkeypatch)
     mod.ratio_report()
+    mod.ratio_wide_report()
     rows = mod.ratio_sharp_report()
-    assert [law for _, law in seen] == [{}, mod.SHARP_CONTACT]
+    assert [law for _, law in seen] == [{}, mod.WIDE_AT_CONTACT, mod.SHARP_CONTACT]
+    assert mod.WIDE_AT_CONTACT["contact.width_fraction"] == 0.2  # the default's width ...
+    assert mod.WIDE_AT_CONTACT["contact.distance_factor"] == 1.0  # ... from r_A + r_B
     assert [(r["seed"], r["variant"]) for r in rows] == [
         (3, "without contact"),
         (3, mod.SHARP_LABEL),
