@@ -1603,6 +1603,51 @@ def contact_onset_observables() -> str:
     return _table(head, rows) + "\n\n" + line + "\n\n" + provenance(default_path, sharp_path)
 
 
+def contact_onset_split() -> str:
+    """The two changes from the sharp onset to the default one at a time, paired seed by
+    seed: the onset widened to 0.2 delta at the sum of the radii (``--part ratio_wide``),
+    then started at 1.02 (r_A + r_B) (the default, ``--part ratio``); each set's cost."""
+    bench = _bench_contact_newton()
+    paths = [RESULTS / f"contact_ratio_seeds{s}.csv" for s in ("_sharp", "_wide", "")]
+    sharp, wide, default = (_csv(p) for p in paths)
+    labels = (bench.SHARP_LABEL, bench.WIDE_LABEL, "contact")
+    widen = {
+        r["observable"]: r for r in bench.observable_comparison(sharp, labels[0], wide, labels[1])
+    }
+    start = {
+        r["observable"]: r for r in bench.observable_comparison(wide, labels[1], default, labels[2])
+    }
+
+    def change(r: dict) -> str:
+        pct = [100 * r[k] for k in ("paired_change", "paired_change_low", "paired_change_high")]
+        return f"{pct[0]:+.1f}% [{pct[1]:+.1f}, {pct[2]:+.1f}]"
+
+    rows = []
+    for key, w in widen.items():
+        if key == "regime" or key not in start:
+            continue
+        name, unit = _OBSERVABLE_SHOWN[key]
+        s = start[key]
+        rows.append(
+            [
+                name,
+                _g(w[f"mean {labels[0]}"] * unit),
+                _g(w[f"mean {labels[1]}"] * unit),
+                _g(s[f"mean {labels[2]}"] * unit),
+                change(w),
+                change(s),
+            ]
+        )
+    costs = []
+    for table, label in zip((sharp, wide, default), labels, strict=True):
+        costs.append(f"{_g(bench.ratio_summary(table, label)['mean'])}×")
+    rows.append(["with / without contact (mean)", *costs, "", ""])
+    head = ["at the end of 1 s (10 seeds)", "sharp onset (0.02 δ from 2r)"]
+    head += ["0.2 δ from 2r", "0.2 δ from 1.02 (2r) (default)", "widening (paired)"]
+    head += ["starting before contact (paired)"]
+    return _table(head, rows) + "\n\n" + provenance(*paths)
+
+
 def contact_newton() -> str:
     path = RESULTS / "contact_newton.csv"
     rows = [
@@ -2046,6 +2091,7 @@ TABLES: dict[str, Callable[[], str]] = {
     "fig1c-regimes": fig1c_regimes,
     "fig3-settling": fig3_settling,
     "contact-scaling": contact_scaling,
+    "contact-onset-split": contact_onset_split,
     "contact-scaling-default": lambda: contact_scaling("contact_scaling_default"),
     "contact-scenes": contact_scenes,
     "contact-whole-runs": contact_whole_runs,
