@@ -1,7 +1,8 @@
 """What freezing settled material (``numerics.freeze_beyond_mm``) costs in accuracy and
 saves in time.
 
-    python benchmarks/bench_freezing.py [--part coil|seeds|turns|onset|damping|rope|envs]
+    python benchmarks/bench_freezing.py
+        [--part coil|seeds|turns|onset|onset_wide|damping|rope|envs]
         [--episodes 8]
 
 (1) A steady coil (scene ``gelation_coiling_22G``, 3 s; draft and balanced presets, and draft
@@ -22,6 +23,8 @@ saves in time.
     with contact's normal dashpot (``contact.damping_time_s``, DASHPOT_S): freezing beyond
     100 mm against a tenfold tighter tolerance, and the free and clamped joints
     (freezing_onset.csv).
+    ``--part onset_wide``: the same with the default's onset width (0.2 delta) started at the
+    sum of the radii, without and with the dashpot (freezing_onset_wide.csv).
 (1d) ``--part damping``: the same comparison at the needle, freezing beyond 100 mm against
     the tenfold tolerance, overdamped with each onset, and with inertia, the onset before
     contact and shorter dashpots (1 and 3 ms) (freezing_damping.csv).
@@ -52,7 +55,7 @@ from pathlib import Path
 
 import numpy as np
 from _common import RESULTS, SHARP_CONTACT, write_csv
-from bench_contact_newton import ONSET_BEFORE_CONTACT
+from bench_contact_newton import ONSET_BEFORE_CONTACT, WIDE_AT_CONTACT
 
 import bathprint.envs as E
 from bathprint.analysis.measure import buckling_length, coil_geometry
@@ -338,6 +341,18 @@ ONSET_VARIANTS = (
 )
 
 
+#: --part onset_wide: the default's onset width started at the sum of the radii (what
+#: ``bench_contact_newton.py --part ratio_wide`` measures on the pile), without and with the
+#: dashpot
+ONSET_WIDE_VARIANTS = (
+    ("onset 0.2 delta from r_A + r_B", WIDE_AT_CONTACT),
+    (
+        f"onset 0.2 delta from r_A + r_B, dashpot {DASHPOT_S * 1e3:g} ms",
+        {**WIDE_AT_CONTACT, **_DASHPOT},
+    ),
+)
+
+
 def _near_needle_radius(over: dict, duration_s: float) -> float:
     """Median radius (m) of the NEAR_NEEDLE_TURNS full turns below the stem at
     ``duration_s`` of COIL with ``over``."""
@@ -363,18 +378,22 @@ def _draft_and_tight(base: dict, spacing_mm: float) -> tuple[dict, dict]:
     return draft, tight
 
 
-def onset_table(n_seeds: int = ONSET_SEEDS, duration_s: float = ONSET_DURATION_S) -> list[dict]:
+def onset_table(
+    n_seeds: int = ONSET_SEEDS,
+    duration_s: float = ONSET_DURATION_S,
+    variants: tuple = ONSET_VARIANTS,
+) -> list[dict]:
     """Per contact onset and seed, with ``inertia``: the change of the coil at the needle
     that freezing beyond 100 mm (clamped joint, the default) makes, beside that of a tenfold
     tighter tolerance at half the node spacing (the draft preset's own error), and those of
     the free joint beyond 60 and 150 mm and the clamped joint beyond 60 mm (what
     ``tests/test_freezing.py`` asserts with the default onset, there over seeds 0-5 and
-    0-1)."""
+    0-1), for each of ``variants`` (label, contact's overrides)."""
     scene = Simulation(COIL).scene
     effects = [*scene.effects, "inertia"]
     spacing = scene.numerics.node_spacing_mm
     rows = []
-    for label, onset in ONSET_VARIANTS:
+    for label, onset in variants:
         for seed in range(n_seeds):
             base = {"effects": effects, "seed": seed, **onset}
             draft, tight = _draft_and_tight(base, spacing)
@@ -548,7 +567,7 @@ def main() -> None:
     ap.add_argument("--episodes", type=int, default=8)
     ap.add_argument(
         "--part",
-        choices=("coil", "seeds", "turns", "onset", "damping", "rope", "envs"),
+        choices=("coil", "seeds", "turns", "onset", "onset_wide", "damping", "rope", "envs"),
         default=None,
         help="only this",
     )
@@ -561,6 +580,9 @@ def main() -> None:
         turns_part()
     if args.part in (None, "onset"):
         print("->", write_csv("freezing_onset", onset_table()))
+    if args.part in (None, "onset_wide"):
+        rows = onset_table(variants=ONSET_WIDE_VARIANTS)
+        print("->", write_csv("freezing_onset_wide", rows))
     if args.part in (None, "damping"):
         print("->", write_csv("freezing_damping", damping_table()))
     if args.part in (None, "rope"):

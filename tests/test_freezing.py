@@ -613,3 +613,8 @@ def test_the_onset_part_pairs_each_measurement_with_its_own_onset(load_script, m
     assert {c["numerics.freeze_joint"] for c in calls} == {"auto", "free", "clamped"}
     radius = real({"numerics.accuracy": "draft", "seed": 0}, 3.0)
     assert 1e-3 < radius < 5e-3  # the 22G coil at 0.5 ml/min: about 2.3 mm
+    calls.clear()  # --part onset_wide: the onset widened at the sum of the radii
+    wide = mod.onset_table(n_seeds=1, duration_s=1.0, variants=mod.ONSET_WIDE_VARIANTS)
+    assert [r["onset"] for r in wide] == [label for label, _ in mod.ONSET_WIDE_VARIANTS]
+    assert {c["contact.width_fraction"] for c in calls} == {0.2}
+    assert {c["contact.distance_factor"] for c in calls} == {1.0}

@@ -553,10 +553,11 @@ def freezing_turns() -> str:
     return _table(head, rows) + "\n\n" + provenance(path)
 
 
-def freezing_onset() -> str:
-    """``bench_freezing.py --part onset``: per contact onset, the mean change over the seeds
-    (and their range) of the coil at the needle, with inertia."""
-    path = RESULTS / "freezing_onset.csv"
+def freezing_onset(name: str = "freezing_onset") -> str:
+    """``bench_freezing.py --part onset`` (or ``--part onset_wide``, result file ``name``):
+    per contact onset, the mean change over the seeds (and their range) of the coil at the
+    needle, with inertia."""
+    path = RESULTS / f"{name}.csv"
     table = _csv(path)
     cols = [
         "frozen_100mm_change",
@@ -2076,6 +2077,7 @@ TABLES: dict[str, Callable[[], str]] = {
     "freezing-coil": freezing_coil,
     "freezing-turns": freezing_turns,
     "freezing-onset": freezing_onset,
+    "freezing-onset-wide": lambda: freezing_onset("freezing_onset_wide"),
     "freezing-damping": freezing_damping,
     "contact-dashpot-overdamped": contact_dashpot_overdamped,
     "freezing-rope": freezing_rope,
