@@ -58,7 +58,7 @@ from collections import Counter
 
 import numpy as np
 from _common import SHARP_CONTACT, write_csv
-from bench_contact import R_FIL, coil_stack
+from bench_contact import R_FIL, coil_stack, law_or_sharp
 
 from bathprint import Simulation, SimulationError, simulate
 from bathprint.analysis.measure import MEASURE_KEYS, coil_geometry, touching_gaps
@@ -225,7 +225,7 @@ def _scene_rows(
     imperfection's ``seed``); wall times as ratios to the first variant's. ``law``: contact's
     law under the variants' overrides, SHARP_CONTACT unless given (the studies of Newton,
     GMRES and the onset measured with it; ``{}``: contact's defaults)."""
-    law = SHARP_CONTACT if law is None else law
+    law = law_or_sharp(law)
     rows, base = [], None
     model = Simulation(SCENE).model
     radius, needle = model.radius, model.needle[0, 1:7].copy()

@@ -404,6 +404,50 @@ def test_contact_jacobian_with_its_off_band_blocks_matches_finite_differences(
         np.testing.assert_allclose(dense, fd, atol=tol * np.abs(fd).max(), rtol=0)
 
 
+def _coil_with_frozen_tail(n: int, f: int, floor: bool, over: dict):
+    """A squeezed coil of n nodes (radius 0.5 mm) with scene keys ``over``, the floor listed
+    or not (only contact is evaluated), and its contact pairs found with the first f nodes
+    frozen: (sim, the whole rod, the pairs)."""
+    sim = free_filament(
+        _squeezed_coil(n),
+        {"effects": ["elasticity", "drag", "contact"], "needle.inner_diameter_mm": 1.0, **over},
+    )
+    sim.model.enabled[L.E_FLOOR] = int(floor)
+    whole = Rod(sim.pos, sim.vel, sim.vel, n, sim.node_s, sim.seg_rest, sim.seg_mat)
+    while not contact.prepare(sim.model.record, whole, f, sim.ws.contact):
+        sim._grow_off_band()  # more pairs than room: grown as the simulation does
+    pairs = sim.ws.contact.pairs[: sim.ws.contact.count[0]]
+    assert ((pairs[:, 0] < f) & (pairs[:, 1] >= f)).any()  # active turns touch the tail
+    return sim, whole, pairs
+
+
+def _accumulate_on_active(model, out, whole: Rod, f: int, n_pairs: int, stage, start):
+    """Contact's evaluation on the active rod (a view of ``whole`` from node f, as in a
+    step) with the first f nodes frozen and ``start`` the active nodes' step-start
+    positions; its own force, band and off-band blocks."""
+    n_act = whole.n_nodes - f
+    nd = 3 * n_act
+    rod = Rod(
+        whole.pos[3 * f :],
+        whole.vel[3 * f :],
+        np.zeros(nd),
+        n_act,
+        whole.node_s[f:],
+        whole.seg_rest[f:],
+        whole.seg_mat[f:],
+    )
+    o = out._replace(
+        force=np.zeros(nd),
+        band=np.zeros((nd, out.band.shape[1])),
+        cpl=new_couplings(16 * n_pairs),
+        whole=whole,
+        frozen=f,
+        start=start,
+    )
+    contact.accumulate(model, rod, stage, o)
+    return o
+
+
 @pytest.mark.parametrize(
     "key, field, value",
     [
@@ -422,21 +466,8 @@ def test_velocity_terms_on_a_frozen_tail_move_it_with_the_first_active_node(
     central differences in the active velocities, with the frozen nodes' rows and columns
     in that node's; and it vanishes when the whole coil translates (on the floor:
     horizontally)."""
-    r, n, f = 0.5 * MM, 120, 20
-    sim = free_filament(
-        _squeezed_coil(n),
-        {
-            "effects": ["elasticity", "drag", "contact"],
-            "needle.inner_diameter_mm": 2 * r / MM,
-            key: value,
-        },
-    )
-    sim.model.enabled[L.E_FLOOR] = int(floor)  # (only contact is evaluated here)
-    whole = Rod(sim.pos, sim.vel, sim.vel, n, sim.node_s, sim.seg_rest, sim.seg_mat)
-    while not contact.prepare(sim.model.record, whole, f, sim.ws.contact):
-        sim._grow_off_band()
-    pairs = sim.ws.contact.pairs[: sim.ws.contact.count[0]]
-    assert ((pairs[:, 0] < f) & (pairs[:, 1] >= f)).any()  # active turns touch the tail
+    n, f = 120, 20
+    sim, whole, pairs = _coil_with_frozen_tail(n, f, floor, {key: value})
     n_act = n - f
     nd = 3 * n_act
     vel0 = np.random.default_rng(5).normal(scale=1e-3, size=nd)
@@ -451,27 +482,11 @@ def test_velocity_terms_on_a_frozen_tail_move_it_with_the_first_active_node(
         whole_vel = np.full(3 * n, np.nan)
         whole_vel[3 * f :] = vel
         moving = whole._replace(vel=whole_vel)
+        stage = Stage(0.0, 0.0, 1.0, 0.0, jac)
+        start = sim.pos[3 * f :].copy()
         for x in (value, 0.0):
             params[0][field] = x
-            rod = Rod(
-                sim.pos[3 * f :],
-                whole_vel[3 * f :],
-                np.zeros_like(vel),
-                n_act,
-                sim.node_s[f:],
-                sim.seg_rest[f:],
-                sim.seg_mat[f:],
-            )
-            o = out._replace(
-                force=np.zeros(nd),
-                band=np.zeros((nd, out.band.shape[1])),
-                cpl=new_couplings(16 * len(pairs)),
-                whole=moving,
-                frozen=f,
-                start=sim.pos[3 * f :].copy(),
-            )
-            contact.accumulate(model, rod, Stage(0.0, 0.0, 1.0, 0.0, jac), o)
-            forces.append(o)
+            forces.append(_accumulate_on_active(model, out, moving, f, len(pairs), stage, start))
         params[0][field] = value
         return forces[0].force - forces[1].force, forces[0]
 
@@ -501,19 +516,8 @@ def test_contact_with_a_frozen_tail_matches_finite_differences_in_the_active_pos
     active positions; off the floor a rigid translation leaves it unchanged, on the floor a
     vertical one of the active nodes changes it (the tail stays at its height)."""
     r, n, f = 0.5 * MM, 120, 20
-    sim = free_filament(
-        _squeezed_coil(n),
-        {
-            "effects": ["elasticity", "drag", "contact"],
-            "needle.inner_diameter_mm": 2 * r / MM,
-            "contact.parallel_angle_deg": 0.0,  # the closest points: an exact Jacobian
-        },
-    )
-    sim.model.enabled[L.E_FLOOR] = int(floor)
-    whole = Rod(sim.pos, sim.vel, sim.vel, n, sim.node_s, sim.seg_rest, sim.seg_mat)
-    while not contact.prepare(sim.model.record, whole, f, sim.ws.contact):
-        sim._grow_off_band()
-    pairs = sim.ws.contact.pairs[: sim.ws.contact.count[0]]
+    # at the closest points: an exact Jacobian
+    sim, whole, pairs = _coil_with_frozen_tail(n, f, floor, {"contact.parallel_angle_deg": 0.0})
     n_act = n - f
     nd = 3 * n_act
     start = sim.pos[3 * f : 3 * n].copy()
@@ -521,24 +525,8 @@ def test_contact_with_a_frozen_tail_matches_finite_differences_in_the_active_pos
     def force(active: np.ndarray, jac: bool):
         model, _, _, out = sim.kernel_inputs(1.0, 0.0, 0.0, jac)
         sim.pos[3 * f : 3 * n] = active  # the active rod is a view of the whole one
-        rod = Rod(
-            sim.pos[3 * f :],
-            sim.vel[3 * f :],
-            np.zeros(nd),
-            n_act,
-            sim.node_s[f:],
-            sim.seg_rest[f:],
-            sim.seg_mat[f:],
-        )
-        o = out._replace(
-            force=np.zeros(nd),
-            band=np.zeros((nd, out.band.shape[1])),
-            cpl=new_couplings(16 * len(pairs)),
-            whole=whole,
-            frozen=f,
-            start=start,
-        )
-        contact.accumulate(model, rod, Stage(0.0, 1.0, 0.0, 0.0, jac), o)
+        stage = Stage(0.0, 1.0, 0.0, 0.0, jac)
+        o = _accumulate_on_active(model, out, whole, f, len(pairs), stage, start)
         sim.pos[3 * f : 3 * n] = start
         return o
 

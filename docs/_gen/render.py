@@ -1549,6 +1549,12 @@ _OBSERVABLE_SHOWN = {
 }
 
 
+def _paired_change(r: dict) -> str:
+    """An ``observable_comparison`` row's paired relative change, in % with its interval."""
+    pct = [100 * r[k] for k in ("paired_change", "paired_change_low", "paired_change_high")]
+    return f"{pct[0]:+.1f}% [{pct[1]:+.1f}, {pct[2]:+.1f}]"
+
+
 def contact_onset_observables() -> str:
     """What the pile looks like at the end of the ratio parts' runs: without contact, with
     the sharp onset (the former default) and with the onset before contact (the default),
@@ -1561,10 +1567,6 @@ def contact_onset_observables() -> str:
     by_contact = bench.observable_comparison(default, "without contact", default, "contact")
     by_onset = bench.observable_comparison(sharp, label, default, "contact")
     contact_change = {r["observable"]: r for r in by_contact}
-
-    def change(r: dict) -> str:
-        pct = [100 * r[k] for k in ("paired_change", "paired_change_low", "paired_change_high")]
-        return f"{pct[0]:+.1f}% [{pct[1]:+.1f}, {pct[2]:+.1f}]"
 
     rows = []
     for r in by_onset:
@@ -1580,8 +1582,8 @@ def contact_onset_observables() -> str:
                 _g(c["mean without contact"] * unit) if c else "–",
                 _g(r[f"mean {label}"] * unit),
                 _g(r["mean contact"] * unit),
-                change(c) if c else "–",
-                change(r),
+                _paired_change(c) if c else "–",
+                _paired_change(r),
                 f"{100 * r['seed_spread']:.1f}%",
             ]
         )
@@ -1619,10 +1621,6 @@ def contact_onset_split() -> str:
         r["observable"]: r for r in bench.observable_comparison(wide, labels[1], default, labels[2])
     }
 
-    def change(r: dict) -> str:
-        pct = [100 * r[k] for k in ("paired_change", "paired_change_low", "paired_change_high")]
-        return f"{pct[0]:+.1f}% [{pct[1]:+.1f}, {pct[2]:+.1f}]"
-
     rows = []
     for key, w in widen.items():
         if key == "regime" or key not in start:
@@ -1635,8 +1633,8 @@ def contact_onset_split() -> str:
                 _g(w[f"mean {labels[0]}"] * unit),
                 _g(w[f"mean {labels[1]}"] * unit),
                 _g(s[f"mean {labels[2]}"] * unit),
-                change(w),
-                change(s),
+                _paired_change(w),
+                _paired_change(s),
             ]
         )
     costs = []
