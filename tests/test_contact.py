@@ -21,7 +21,7 @@ from bathprint import SceneError, Simulation, SimulationError, simulate
 from bathprint.core import layout as L
 from bathprint.core import records, solver
 from bathprint.core.assemble import assemble
-from bathprint.core.banded import add_blocks_matvec, band_lu_diagonal, merge_blocks
+from bathprint.core.banded import add_blocks_matvec, band_lu_diagonal, band_matvec, merge_blocks
 from bathprint.core.effects import contact
 from bathprint.core.effects._segment_geometry import segment_distance
 from bathprint.core.model import CONTACT_DAMPING_WITH_INERTIA_S
@@ -402,6 +402,63 @@ def test_contact_jacobian_with_its_off_band_blocks_matches_finite_differences(
         assert np.abs(fd[np.kron(far, np.ones((3, 3), bool))]).max() > 0  # truly off the band
         tol = _JACOBIAN_ERROR[shape] if which == "x" else 2e-5
         np.testing.assert_allclose(dense, fd, atol=tol * np.abs(fd).max(), rtol=0)
+
+
+@pytest.mark.parametrize("velocity_term", ["friction", "dashpot"])
+def test_the_error_filter_damps_with_contacts_blocks_off_the_band(velocity_term: str) -> None:
+    """The error filter (Shampine's, A^-1 D e) takes D = cv dF/dv whole: the blocks that
+    friction or the dashpot add between touching turns of a squeezed coil are in
+    ``solver.damping_times`` (``ws.cpl_filter``) as they are in A, against central
+    differences of the force in the velocities; without them D x misses a part of the
+    product that the assertion below sees."""
+    n = 120
+    sim = free_filament(
+        _squeezed_coil(n),
+        {
+            "effects": ["elasticity", "drag", "contact"],
+            "needle.inner_diameter_mm": 1.0,
+            **_VELOCITY_TERMS[velocity_term],
+        },
+    )
+    rng = np.random.default_rng(7)
+    sim.vel[: 3 * n] = rng.normal(scale=1e-3, size=3 * n)
+    whole = Rod(sim.pos, sim.vel, sim.vel, n, sim.node_s, sim.seg_rest, sim.seg_mat)
+    while not contact.prepare(sim.model.record, whole, 0, sim.ws.contact):
+        sim._grow_off_band()
+    cv = 1.0 / 2e-4  # 1 / (h gamma) of a 0.2 ms stage
+    nd = 3 * n
+    calls, energies = np.zeros(L.N_EFFECTS, np.int64), np.zeros(L.N_EFFECTS)
+    while True:  # more blocks than room: grown as the simulation does
+        model, rod, _, out = sim.kernel_inputs(0.0, cv, 0.0, True)
+        ws = sim.ws
+        out = out._replace(band=ws.band2, cpl=ws.cpl_filter)
+        assemble(model, rod, Stage(0.0, 0.0, cv, 0.0, True), out, calls, energies)
+        if ws.cpl_filter.count[0] <= len(ws.cpl_filter.row):
+            break
+        sim._grow_off_band()
+    assert ws.cpl_filter.count[0] > 0
+    x = rng.normal(size=nd)
+    dx = np.zeros(nd)
+    solver.damping_times(ws, nd, x, dx)
+
+    def force(vel: np.ndarray) -> np.ndarray:
+        model, rod, _, out = sim.kernel_inputs(0.0, 0.0, 0.0, False, vel=vel)
+        assemble(model, rod, Stage(0.0, 0.0, 0.0, 0.0, False), out, calls, energies)
+        return out.force[:nd].copy()
+
+    h = 1e-8
+    v0 = sim.vel.copy()
+    d_fd = np.zeros((nd, nd))
+    for k in range(nd):
+        vp, vm = v0.copy(), v0.copy()
+        vp[k] += h
+        vm[k] -= h
+        d_fd[:, k] = -cv * (force(vp) - force(vm)) / (2 * h)
+    expected = d_fd @ x
+    np.testing.assert_allclose(dx, expected, atol=2e-5 * np.abs(expected).max(), rtol=0)
+    band_only = np.zeros(nd)
+    band_matvec(ws.band2, nd, L.KL, L.KU, x, band_only)
+    assert np.abs(band_only - expected).max() > 0.01 * np.abs(expected).max()
 
 
 def _coil_with_frozen_tail(n: int, f: int, floor: bool, over: dict):
@@ -932,3 +989,18 @@ def test_couplings_grow_when_they_do_not_fit() -> None:
     sim.ws = sim.ws._replace(cpl=new_couplings(4))
     sim.advance(0.3)
     assert sim.ws.cpl.row.shape[0] >= sim.ws.cpl.count[0] > 4
+
+
+def test_the_error_filters_couplings_grow_when_they_do_not_fit() -> None:
+    """With the dashpot, the error filter's blocks off the band overflow a room of 4: the
+    step is undone, the room grown and the step taken again, which follows the run that
+    had room enough (to 1e-3 of the radius)."""
+    over = {"contact.damping_time_s": 1e-2}
+    roomy, tight = _collapsing_coil(True, **over), _collapsing_coil(True, **over)
+    tight.ws = tight.ws._replace(cpl_filter=new_couplings(4))
+    roomy.advance(0.3)
+    tight.advance(0.3)
+    assert tight.ws.cpl_filter.row.shape[0] >= tight.ws.cpl_filter.count[0] > 4
+    assert tight.counts()["steps"] > 0
+    gap = np.abs(tight.centerline() - roomy.centerline()).max()
+    assert gap < 1e-3 * 0.5 * MM

@@ -89,6 +89,7 @@ CAUSE_ERROR = 0  # the error estimate (or a Newton failure)
 CAUSE_STRAIN = 1  # a strain bound
 CAUSE_CONTACT = 2  # the no-pass-through bound of self-contact
 CAUSE_CAPACITY = 3  # the contact pairs do not fit: grow and call again (nothing was done)
+FILTER_OVERFLOW = -2.0  # the error filter's blocks off the band did not fit: grow them
 
 # Butcher tableaux of the SDIRK methods: lower-triangular A (equal diagonal gamma), nodes c
 # and the weights b_hat of the embedded solution whose difference estimates the local error.
@@ -348,10 +349,12 @@ def _filtered_norm(model, rod, state, ws, hg: float, t: float) -> float:
     rhs = ws.vecs[V_RHS]
     ca = 1.0 / (hg * hg) if p.inertial else 0.0
     stage = Stage(t, 0.0, 1.0 / hg, ca, True)
-    # D keeps its band only (the off-band blocks of contact's friction and dashpot are
-    # dropped from the filter, their blocks within a segment kept); A^-1 is the whole
-    # Newton matrix's
-    assemble(model, rod, stage, _out(state, ws, ws.band2, ws.cpl_drop), state.calls, state.energies)
+    # D and A^-1 both whole: contact's dashpot and friction add D's blocks between
+    # distant nodes (``ws.cpl_filter``), as they add A's
+    cpl = ws.cpl_filter
+    assemble(model, rod, stage, _out(state, ws, ws.band2, cpl), state.calls, state.energies)
+    if cpl.count[0] > cpl.row.shape[0]:
+        return FILTER_OVERFLOW
     solver.damping_times(ws, nd, evec, rhs)
     if not solver.solve(ws, nd, rhs, state.counters, p.krylov_tolerance):
         return np.inf
@@ -447,7 +450,8 @@ def _implicit_step(model, rod, state, ws, h: float, t: float) -> float:
             kv = vecs[V_KV + i]
             for k in range(nd):
                 evec[k] -= hb * kv[k]
-    return _filtered_norm(model, rod, state, ws, hg, t + h) / scale
+    err = _filtered_norm(model, rod, state, ws, hg, t + h)
+    return err if err == FILTER_OVERFLOW else err / scale
 
 
 @njit(**KERNEL)
@@ -663,6 +667,11 @@ def _attempt(model, state, ws, h: float) -> tuple[float, int]:
         err = explicit_step(model, rod, state, ws, h, t)
     else:
         err = _implicit_step(model, rod, state, ws, h, t)
+        if err == FILTER_OVERFLOW:  # undo the step: grow the filter's blocks, then retry
+            for k in range(3 * rod.n_nodes):
+                rod.pos[k] = pos0[k]
+                rod.vel[k] = vel0[k]
+            return -1.0, CAUSE_CAPACITY
     cause = CAUSE_ERROR
     if err >= 0.0 and p.fixed_step <= 0.0:
         # a jump in strain means Newton found a spurious (folded) branch: step back

@@ -196,6 +196,7 @@ class Workspace(NamedTuple):
     tail: np.ndarray  # (1,) TAIL_DTYPE: the frozen tail's lumped load
     scratch: Scratch
     cpl: Couplings  # off-band Jacobian blocks of the Newton matrix
+    cpl_filter: Couplings  # off-band blocks of the error filter's damping / mass matrix
     cpl_drop: Couplings  # zero capacity: where evaluations that keep only the band write
     krylov: Krylov
     contact: Contact
@@ -364,6 +365,7 @@ def new_workspace(
         tail=np.zeros(1, dtype=TAIL_DTYPE),
         scratch=new_scratch(),
         cpl=new_couplings(16 * capacity if off_band else 0),
+        cpl_filter=new_couplings(16 * capacity if off_band else 0),
         cpl_drop=new_couplings(0),
         krylov=new_krylov(n_dof, KRYLOV_RESTART, coarse) if off_band else new_krylov(0, 0),
         contact=new_contact(capacity, 8 * capacity) if off_band else new_contact(0, 0),

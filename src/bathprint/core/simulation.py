@@ -173,16 +173,20 @@ class Simulation:
     def _grow_off_band(self) -> None:
         """Double the room for couplings off the band and for contact pairs."""
         ws = self.ws
-        cpl, con = ws.cpl, ws.contact
+        cpl, cpl_filter, con = ws.cpl, ws.cpl_filter, ws.contact
         if cpl.count[0] > cpl.row.shape[0]:
             cpl = records.new_couplings(max(2 * cpl.row.shape[0], int(cpl.count[0]) + 16))
+        if cpl_filter.count[0] > cpl_filter.row.shape[0]:
+            cpl_filter = records.new_couplings(
+                max(2 * cpl_filter.row.shape[0], int(cpl_filter.count[0]) + 16)
+            )
         if con.count[0] > con.pairs.shape[0]:
             fresh = records.new_contact(
                 self.capacity, max(2 * con.pairs.shape[0], int(con.count[0]))
             )
             fresh.memory[:] = con.memory
             con = fresh
-        self.ws = ws._replace(cpl=cpl, contact=con)
+        self.ws = ws._replace(cpl=cpl, cpl_filter=cpl_filter, contact=con)
 
     @property
     def state(self) -> records.State:

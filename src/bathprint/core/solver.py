@@ -204,8 +204,10 @@ def solve(ws, nd: int, rhs: np.ndarray, counters: np.ndarray, rtol: float) -> bo
 
 @kernel
 def damping_times(ws, nd: int, x: np.ndarray, y: np.ndarray) -> None:
-    """y = D x with D the damping / mass matrix assembled into ``ws.band2``."""
+    """y = D x with D the damping / mass matrix assembled into ``ws.band2`` and, off the
+    band, ``ws.cpl_filter`` (contact's dashpot and friction between distant nodes)."""
     band_matvec(ws.band2, nd, KL, KU, x, y)
+    add_blocks_matvec(ws.cpl_filter, x, y)
 
 
 @kernel
