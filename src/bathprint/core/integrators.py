@@ -357,6 +357,7 @@ def _filtered_norm(model, rod, state, ws, hg: float, t: float) -> float:
         return FILTER_OVERFLOW
     solver.damping_times(ws, nd, evec, rhs)
     if not solver.solve(ws, nd, rhs, state.counters, p.krylov_tolerance):
+        ws.solver[0].krylov_failed = True  # a failure at the smallest step says so
         return np.inf
     return _rms(rhs, nd, ws)
 
@@ -737,7 +738,7 @@ def _reject(model, state, ws, h: float, err: float, cause: int) -> int:
         if cause == CAUSE_CONTACT:
             return STATUS_CONTACT
         state.info[2] = state.clock[1]
-        if err < 0.0:
+        if err < 0.0 or (cause == CAUSE_ERROR and sol.krylov_failed):
             return STATUS_KRYLOV if sol.krylov_failed else STATUS_NEWTON
         return STATUS_STRAIN if cause == CAUSE_STRAIN else STATUS_ERROR
     return STATUS_OK
