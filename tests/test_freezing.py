@@ -170,7 +170,7 @@ def test_freezing_changes_the_coil_at_the_needle_less_than_a_tighter_tolerance(
     moves the three turns next to the needle less on average than the draft preset's own
     error does (a tenfold tolerance at half the node spacing). Measured with contact's
     defaults (its onset before contact, and with inertia its 10 ms dashpot): overdamped
-    +0.40% against +0.97%, with inertia -0.44% against +1.6% (``python
+    +0.40% against +0.97%, with inertia -0.50% against +1.4% (``python
     benchmarks/bench_freezing.py --part damping`` and ``--part onset``); without the dashpot
     the bouncing turns took it away (-1.4% against +0.8%). With the former sharp onset and
     no dashpot: overdamped +0.58% against +0.85%, with inertia -0.14% against +0.64%. With
