@@ -4,6 +4,7 @@
     python benchmarks/bench_hydrodynamics.py step      # one step vs N, both couplings
     python benchmarks/bench_hydrodynamics.py coiling   # drag_coiling_22G, 6 s, each drag model
     python benchmarks/bench_hydrodynamics.py workprec  # error vs step and vs wall time
+    python benchmarks/bench_hydrodynamics.py stall     # the ablation's "all" run that stalls
     python benchmarks/bench_hydrodynamics.py all
 
 (1) eval: the nonlocal flow of a coil (node spacing 0.5 mm, radius 1.5 mm, pitch 0.9 mm,
@@ -18,7 +19,11 @@ steps, evaluations, nodes, the coil's radius and pitch (analysis.measure), and t
 to the local-drag run. (4) workprec: the error of
 lagging against the step size (fixed steps), and error against wall time for both couplings
 at adaptive tolerances (the relaxing filament and drag_coiling_22G for 0.5 s, against a
-reference at tolerance 1e-9 with the implicit coupling). Results: benchmarks/results/hydro_*.csv.
+reference at tolerance 1e-9 with the implicit coupling). (5) stall: the ablation's "all"
+run at d = 0.41 mm, 0.5 ml/min (Fig. 2's set: inertia, contact, the nonlocal flow inside
+Newton, surface gelation, viscosity), where GMRES stalls at the smallest step at 1.5 s, to
+STALL_DURATION_S as planned and with one thing changed at a time: contact's dashpot off,
+the lagged nonlocal flow, no hydrodynamics. Results: benchmarks/results/hydro_*.csv.
 Single-threaded numba; the machine is shared, so wall times carry ~30% noise.
 """
 
@@ -32,10 +37,11 @@ import time
 import numpy as np
 from _common import RESULTS, SHARP_CONTACT, best_of, write_csv
 
-from bathprint import Simulation
+from bathprint import Simulation, SimulationError, simulate
 from bathprint.analysis import validation as V
 from bathprint.analysis.measure import coil_pitch, coil_radius
 from bathprint.core.effects import _stokeslet
+from bathprint.studies.reproduce import ablation
 
 MU = 1e-3
 A_CUT = 0.6e-3
@@ -364,9 +370,63 @@ def work_precision() -> tuple[list[dict], list[dict]]:
     return fixed, adaptive
 
 
+#: --part stall: the ablation run (set, d in mm, Q in ml/min, variant) and how far it runs
+STALL_RUN = ("fig2", (0.41, 0.5), "all")
+STALL_DURATION_S = 1.7
+
+
+def stall_variants() -> dict[str, dict]:
+    """The ablation's STALL_RUN overrides (duration STALL_DURATION_S), and with one thing
+    changed: contact's dashpot off, the lagged nonlocal flow, hydrodynamics left out."""
+    runs, _ = ablation.plan()
+    set_name, point, variant = STALL_RUN
+    over = next(
+        r["overrides"]
+        for r in runs
+        if r["set"] == set_name and r["point"] == point and r["variant"] == variant
+    )
+    over = {**over, "duration_s": STALL_DURATION_S, "outputs.plot": False}
+    return {
+        "as in the ablation": over,
+        "no dashpot": {**over, "contact.damping_time_s": 0.0},
+        "lagged nonlocal flow": {**over, "hydrodynamics.coupling": "lagged"},
+        "no hydrodynamics": {
+            **over,
+            "effects": [e for e in over["effects"] if e != "hydrodynamics"],
+        },
+    }
+
+
+def stall_rows() -> list[dict]:
+    """Each of :func:`stall_variants`: how far it gets, its steps and Krylov failures, and
+    the failure's cause."""
+    rows = []
+    for label, over in stall_variants().items():
+        t0 = time.perf_counter()
+        try:
+            s = simulate(ablation.SCENE, over).summary
+            reached, cause, counts = s["time_s"], "", s
+        except SimulationError as e:
+            reached, cause, counts = e.time_s, e.cause, {}
+        rows.append(
+            {
+                "variant": label,
+                "duration_s": STALL_DURATION_S,
+                "reached_s": reached,
+                "failure": cause,
+                "steps": counts.get("steps"),
+                "rejected_steps": counts.get("rejected_steps"),
+                "krylov_failures": counts.get("krylov_failures"),
+                "wall_s": time.perf_counter() - t0,
+            }
+        )
+        print(rows[-1], flush=True)
+    return rows
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("what", choices=("eval", "step", "coiling", "workprec", "all"))
+    ap.add_argument("what", choices=("eval", "step", "coiling", "workprec", "stall", "all"))
     ap.add_argument("--max-direct", type=int, default=10_000)
     ap.add_argument("--max-fmm", type=int, default=100_000)
     ap.add_argument("--max-step-n", type=int, default=3_000)
@@ -384,6 +444,8 @@ def main() -> None:
         print("wrote", write_csv("hydro_work_precision", adaptive))
     if args.what in ("coiling", "all"):
         print("wrote", write_csv("hydro_coiling", coiling_costs(args.duration, args.only)))
+    if args.what in ("stall", "all"):
+        print("wrote", write_csv("hydro_stall", stall_rows()))
 
 
 if __name__ == "__main__":

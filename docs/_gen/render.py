@@ -624,6 +624,25 @@ def contact_dashpot_overdamped() -> str:
     return _table([*head, "failure"], rows) + "\n\n" + provenance(path)
 
 
+def hydro_stall() -> str:
+    """``bench_hydrodynamics.py stall``: how far the ablation's stalling "all" run gets as
+    planned and with one thing changed."""
+    path = RESULTS / "hydro_stall.csv"
+    rows = [
+        [
+            r["variant"],
+            f"{_g(r['reached_s'], 4)} of {_g(r['duration_s'])} s",
+            r["steps"] or "–",
+            r["krylov_failures"] or "–",
+            _g(r["wall_s"]),
+            r["failure"] or "–",
+        ]
+        for r in _csv(path)
+    ]
+    head = ["variant", "reached", "steps", "Krylov failures", "wall (s)", "failure"]
+    return _table(head, rows) + "\n\n" + provenance(path)
+
+
 def freezing_rope() -> str:
     path = RESULTS / "freezing_rope.csv"
     rows = [
@@ -2078,6 +2097,7 @@ TABLES: dict[str, Callable[[], str]] = {
     "freezing-onset-wide": lambda: freezing_onset("freezing_onset_wide"),
     "freezing-damping": freezing_damping,
     "contact-dashpot-overdamped": contact_dashpot_overdamped,
+    "hydro-stall": hydro_stall,
     "freezing-rope": freezing_rope,
     "freezing-envs": freezing_envs,
     "accuracy-presets": accuracy_presets,
