@@ -1004,3 +1004,17 @@ def test_the_error_filters_couplings_grow_when_they_do_not_fit() -> None:
     assert tight.counts()["steps"] > 0
     gap = np.abs(tight.centerline() - roomy.centerline()).max()
     assert gap < 1e-3 * 0.5 * MM
+
+
+def test_the_error_filter_has_room_for_blocks_only_with_the_dashpot_or_friction() -> None:
+    """Without contact's dashpot or friction the filter writes no blocks off the band, and
+    the workspace holds no room for them; a dashpot switched on later grows it from none."""
+    plain = _collapsing_coil(True)
+    assert len(plain.ws.cpl_filter.row) == 0
+    for over in ({"contact.damping_time_s": 1e-2}, {"contact.friction_coefficient": 0.5}):
+        assert len(_collapsing_coil(True, **over).ws.cpl_filter.row) > 0
+    plain.advance(0.05)
+    assert plain.ws.cpl_filter.count[0] == 0
+    plain.model.p.contact_damping_time = 1e-2
+    plain.advance(0.3)
+    assert plain.ws.cpl_filter.row.shape[0] >= plain.ws.cpl_filter.count[0] > 0

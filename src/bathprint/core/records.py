@@ -347,10 +347,17 @@ KRYLOV_RESTART = 30
 
 
 def new_workspace(
-    capacity: int, n_vecs: int, off_band: bool = False, hydro: bool = False, coarse: int = 0
+    capacity: int,
+    n_vecs: int,
+    off_band: bool = False,
+    hydro: bool = False,
+    coarse: int = 0,
+    velocity_couplings: bool = False,
 ) -> Workspace:
     """Scratch for a state of ``capacity`` nodes; ``off_band``: room for couplings off the
     band (contact), their GMRES workspace and the contact pairs (else zero-size arrays);
+    ``velocity_couplings``: room for them in the error filter too (contact's dashpot or
+    friction; else none, grown if they appear);
     ``hydro``: the hydrodynamics effect's arrays (else zero-size); ``coarse``: the spacing of
     GMRES's axial coarse correction (0: none)."""
     from bathprint.core.layout import BAND_WIDTH, SOLVER_DTYPE, TAIL_DTYPE
@@ -365,7 +372,7 @@ def new_workspace(
         tail=np.zeros(1, dtype=TAIL_DTYPE),
         scratch=new_scratch(),
         cpl=new_couplings(16 * capacity if off_band else 0),
-        cpl_filter=new_couplings(16 * capacity if off_band else 0),
+        cpl_filter=new_couplings(16 * capacity if off_band and velocity_couplings else 0),
         cpl_drop=new_couplings(0),
         krylov=new_krylov(n_dof, KRYLOV_RESTART, coarse) if off_band else new_krylov(0, 0),
         contact=new_contact(capacity, 8 * capacity) if off_band else new_contact(0, 0),

@@ -143,8 +143,14 @@ class Simulation:
         coarse = (
             records.COARSE_SPACING if self.scene.numerics.preconditioner == "axial_coarse" else 0
         )
+        p = self.model.p
         self.ws = records.new_workspace(
-            cap, N_VECS, off_band=self._off_band(), hydro=hydro, coarse=coarse
+            cap,
+            N_VECS,
+            off_band=self._off_band(),
+            hydro=hydro,
+            coarse=coarse,
+            velocity_couplings=p.contact_damping_time > 0 or p.contact_friction > 0,
         )
         if old is not None:  # what the stepper remembers survives a grow, but not the LU
             self.ws.solver[:] = old.solver
