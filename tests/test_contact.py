@@ -461,6 +461,39 @@ def test_the_error_filter_damps_with_contacts_blocks_off_the_band(velocity_term:
     assert np.abs(band_only - expected).max() > 0.01 * np.abs(expected).max()
 
 
+def test_the_error_filters_assembly_keeps_the_nonlocal_flows_linearisation() -> None:
+    """With the nonlocal flow inside Newton, the Newton matrix's nonlocal part is linearised
+    at each Newton-matrix assembly. The error filter assembles the damping part alone
+    (cx = 0) into a room for the dashpot's blocks: that must leave the linearisation, which
+    the filter's own solve and the next Newton solves use, as it was."""
+    sim = free_filament(
+        _squeezed_coil(60),
+        {
+            "effects": ["elasticity", "drag", "contact", "hydrodynamics"],
+            "hydrodynamics.coupling": "implicit",
+            "needle.inner_diameter_mm": 1.0,
+            "contact.damping_time_s": 1e-3,
+        },
+    )
+    whole = Rod(sim.pos, sim.vel, sim.vel, 60, sim.node_s, sim.seg_rest, sim.seg_mat)
+    while not contact.prepare(sim.model.record, whole, 0, sim.ws.contact):
+        sim._grow_off_band()
+    calls, energies = np.zeros(L.N_EFFECTS, np.int64), np.zeros(L.N_EFFECTS)
+    model, rod, _, out = sim.kernel_inputs(1.0, 5e3, 0.0, True)
+    assemble(
+        model, rod, Stage(0.0, 1.0, 5e3, 0.0, True), out._replace(cpl=sim.ws.cpl), calls, energies
+    )
+    hyd = sim.ws.hydro
+    assert hyd.memory[0]["linearized"]
+    band_other = hyd.band_other.copy()
+    assert np.abs(band_other).max() > 0
+    model, rod, _, out = sim.kernel_inputs(0.0, 5e3, 0.0, True)
+    filt = out._replace(band=sim.ws.band2, cpl=sim.ws.cpl_filter)
+    assemble(model, rod, Stage(0.0, 0.0, 5e3, 0.0, True), filt, calls, energies)
+    assert sim.ws.cpl_filter.count[0] > 0  # the filter wrote the dashpot's blocks
+    np.testing.assert_array_equal(hyd.band_other, band_other)
+
+
 def _coil_with_frozen_tail(n: int, f: int, floor: bool, over: dict):
     """A squeezed coil of n nodes (radius 0.5 mm) with scene keys ``over``, the floor listed
     or not (only contact is evaluated), and its contact pairs found with the first f nodes

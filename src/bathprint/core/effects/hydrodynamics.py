@@ -230,8 +230,9 @@ def accumulate(model, rod, stage, out) -> float:
     if implicit:
         flow(pos, rod.node_s, n_seg + 1, n_seg, hyd, u_nl)
         # the Newton matrix's nonlocal part R M W^-1 J_other, where J_other is the band so far
-        # (an evaluation that keeps only the band, cpl of zero capacity, keeps none)
-        if stage.jac and out.cpl.row.shape[0] > 0:
+        # (an evaluation that keeps only the band, cpl of zero capacity, keeps none, and so
+        # does the error filter's, which assembles the damping part alone: cx = 0)
+        if stage.jac and stage.cx != 0.0 and out.cpl.row.shape[0] > 0:
             nd = 3 * n_free
             for k in range(nd):
                 for c in range(out.band.shape[1]):
