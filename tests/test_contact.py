@@ -339,6 +339,18 @@ def _newton_matrix(out, nd: int) -> np.ndarray:
     return dense
 
 
+def _central_differences(force, x0: np.ndarray, nd: int, h: float) -> np.ndarray:
+    """-d force / dx at x0 in its first nd components, by central differences of step h
+    (``force`` maps a copy of x0 to nd forces): the dense Newton matrix it should match."""
+    fd = np.zeros((nd, nd))
+    for k in range(nd):
+        xp, xm = x0.copy(), x0.copy()
+        xp[k] += h
+        xm[k] -= h
+        fd[:, k] = -(force(xp) - force(xm)) / (2 * h)
+    return fd
+
+
 @pytest.mark.parametrize("shape", ["crossing", "squeezed_coil"])
 @pytest.mark.parametrize("velocity_term", list(_VELOCITY_TERMS))
 def test_contact_jacobian_with_its_off_band_blocks_matches_finite_differences(
@@ -387,17 +399,12 @@ def test_contact_jacobian_with_its_off_band_blocks_matches_finite_differences(
         out = assembled(sim.pos.copy(), sim.vel.copy(), *coeffs, True)
         assert out.cpl.count[0] > 0  # there are couplings off the band
         dense = _newton_matrix(out, nd)
-        fd = np.zeros((nd, nd))
-        h = 1e-9 if which == "x" else 1e-8
-        for k in range(nd):
-            xp, xm = x0.copy(), x0.copy()
-            xp[k] += h
-            xm[k] -= h
-            args_p = (xp, sim.vel.copy()) if which == "x" else (sim.pos.copy(), xp)
-            args_m = (xm, sim.vel.copy()) if which == "x" else (sim.pos.copy(), xm)
-            fp = assembled(*args_p, 0.0, 0.0, False).force[:nd]
-            fm = assembled(*args_m, 0.0, 0.0, False).force[:nd]
-            fd[:, k] = -(fp - fm) / (2 * h)
+
+        def force(x: np.ndarray, which: str = which) -> np.ndarray:
+            args = (x, sim.vel.copy()) if which == "x" else (sim.pos.copy(), x)
+            return assembled(*args, 0.0, 0.0, False).force[:nd]
+
+        fd = _central_differences(force, x0, nd, 1e-9 if which == "x" else 1e-8)
         far = np.abs(np.subtract.outer(np.arange(n), np.arange(n))) > 2
         assert np.abs(fd[np.kron(far, np.ones((3, 3), bool))]).max() > 0  # truly off the band
         tol = _JACOBIAN_ERROR[shape] if which == "x" else 2e-5
@@ -446,15 +453,7 @@ def test_the_error_filter_damps_with_contacts_blocks_off_the_band(velocity_term:
         assemble(model, rod, Stage(0.0, 0.0, 0.0, 0.0, False), out, calls, energies)
         return out.force[:nd].copy()
 
-    h = 1e-8
-    v0 = sim.vel.copy()
-    d_fd = np.zeros((nd, nd))
-    for k in range(nd):
-        vp, vm = v0.copy(), v0.copy()
-        vp[k] += h
-        vm[k] -= h
-        d_fd[:, k] = -cv * (force(vp) - force(vm)) / (2 * h)
-    expected = d_fd @ x
+    expected = cv * _central_differences(force, sim.vel, nd, 1e-8) @ x
     np.testing.assert_allclose(dx, expected, atol=2e-5 * np.abs(expected).max(), rtol=0)
     band_only = np.zeros(nd)
     band_matvec(ws.band2, nd, L.KL, L.KU, x, band_only)
@@ -582,13 +581,7 @@ def test_velocity_terms_on_a_frozen_tail_move_it_with_the_first_active_node(
 
     _, out = dashpot(vel0.copy(), True)
     dense = _newton_matrix(out, nd)
-    fd = np.zeros((nd, nd))
-    h = 1e-8
-    for k in range(nd):
-        vp, vm = vel0.copy(), vel0.copy()
-        vp[k] += h
-        vm[k] -= h
-        fd[:, k] = -(dashpot(vp, False)[0] - dashpot(vm, False)[0]) / (2 * h)
+    fd = _central_differences(lambda v: dashpot(v, False)[0], vel0, nd, 1e-8)
     assert np.abs(fd[:3, :3]).max() > 0  # the tail's pairs reach the first active node
     np.testing.assert_allclose(dense, fd, atol=2e-5 * np.abs(fd).max(), rtol=0)
     common = np.tile([1e-3, -2e-3, 0.0 if floor else 5e-4], n_act)  # the tail moves with it
@@ -623,13 +616,7 @@ def test_contact_with_a_frozen_tail_matches_finite_differences_in_the_active_pos
     out = force(start.copy(), True)
     assert np.abs(out.force[:3]).max() > 0  # the tail's pairs push the first active node
     dense = _newton_matrix(out, nd)
-    fd = np.zeros((nd, nd))
-    h = 1e-9
-    for k in range(nd):
-        xp, xm = start.copy(), start.copy()
-        xp[k] += h
-        xm[k] -= h
-        fd[:, k] = -(force(xp, False).force - force(xm, False).force) / (2 * h)
+    fd = _central_differences(lambda x: force(x, False).force, start, nd, 1e-9)
     np.testing.assert_allclose(dense, fd, atol=1e-5 * np.abs(fd).max(), rtol=0)
     lift = start + np.tile([0.0, 0.0, 0.05 * r], n_act)  # the active coil lifted
     change = np.abs(force(lift, False).force - out.force).max()

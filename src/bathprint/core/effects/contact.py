@@ -485,11 +485,7 @@ def accumulate(model, rod, stage, out) -> float:
                             blk[r, c] = e_pp * grad[3 * a + r] * grad[3 * b + c]
                             if exact:
                                 blk[r, c] -= e_p * hess[3 * a + r, 3 * b + c]
-                            blk[r, c] *= _follows(nodes, a, r, tail_z)
-                            blk[r, c] *= _follows(nodes, b, c, tail_z)
-                    row = max(nodes[a], 0)
-                    col = max(nodes[b], 0)
-                    add_coupling(out.band, out.cpl, n_free, row, col, blk, cx)
+                    _add_pair_block(out, n_free, nodes, a, b, tail_z, blk, cx)
         if beta > 0.0 and e_pp > 0.0:
             c_d = beta * e_pp
             _dashpot(rod.vel, vel, whole_nodes, nodes, tail_z, grad, c_d, out, n_free, cv, do_jac)
@@ -529,6 +525,17 @@ def _follows(nodes, a: int, c: int, tail_z: float) -> float:
 
 
 @njit(**KERNEL, inline="always")
+def _add_pair_block(out, n_free: int, nodes, a: int, b: int, tail_z: float, blk, coeff: float):
+    """Add coeff * blk, the Jacobian block of the pair's nodes a (rows) and b (columns), at
+    their node block; a frozen node's rows and columns are the first active node's, its
+    vertical ones zero on the floor (:func:`_follows`)."""
+    for r in range(3):
+        for c in range(3):
+            blk[r, c] *= _follows(nodes, a, r, tail_z) * _follows(nodes, b, c, tail_z)
+    add_coupling(out.band, out.cpl, n_free, max(nodes[a], 0), max(nodes[b], 0), blk, coeff)
+
+
+@njit(**KERNEL, inline="always")
 def _node_velocity(active_vel, vel, nodes, whole_nodes, tail_z, a: int, c: int) -> float:
     """Component c (m/s) of the velocity of the pair's node a: a frozen node (``nodes[a]`` <
     0) moves with the first active node (``active_vel``; on the floor horizontally only),
@@ -564,8 +571,7 @@ def _dashpot(active_vel, vel, whole_nodes, nodes, tail_z, grad, c_d, out, n_free
             for r in range(3):
                 for c in range(3):
                     blk[r, c] = c_d * grad[3 * a + r] * grad[3 * b + c]
-                    blk[r, c] *= _follows(nodes, a, r, tail_z) * _follows(nodes, b, c, tail_z)
-            add_coupling(out.band, out.cpl, n_free, max(nodes[a], 0), max(nodes[b], 0), blk, cv)
+            _add_pair_block(out, n_free, nodes, a, b, tail_z, blk, cv)
 
 
 @njit(**KERNEL, inline="always")
@@ -629,5 +635,4 @@ def _friction(
                     proj = (1.0 if r == c else 0.0) - nv[r] * nv[c]
                     dfdu = -mu_f * normal * (proj / sq - ut[r] * ut[c] / (sq * sq * sq))
                     blk[r, c] = -ww * dfdu
-                    blk[r, c] *= _follows(nodes, a, r, tail_z) * _follows(nodes, b, c, tail_z)
-            add_coupling(out.band, out.cpl, n_free, max(nodes[a], 0), max(nodes[b], 0), blk, cv)
+            _add_pair_block(out, n_free, nodes, a, b, tail_z, blk, cv)
