@@ -22,11 +22,12 @@ from bathprint.core import layout as L
 from bathprint.core import records, solver
 from bathprint.core.assemble import assemble
 from bathprint.core.banded import add_blocks_matvec, band_lu_diagonal, band_matvec, merge_blocks
-from bathprint.core.effects import contact
+from bathprint.core.effects import contact, hydrodynamics
 from bathprint.core.effects._segment_geometry import segment_distance
 from bathprint.core.model import CONTACT_DAMPING_WITH_INERTIA_S
 from bathprint.core.records import Rod, Stage, new_couplings, new_krylov, new_workspace
 from bathprint.core.scene import Contact, parse_override, scene_to_toml
+from bathprint.core.topology import free_nodes
 
 MM = 1e-3
 
@@ -460,11 +461,9 @@ def test_the_error_filter_damps_with_contacts_blocks_off_the_band(velocity_term:
     assert np.abs(band_only - expected).max() > 0.01 * np.abs(expected).max()
 
 
-def test_the_error_filters_assembly_keeps_the_nonlocal_flows_linearisation() -> None:
-    """With the nonlocal flow inside Newton, the Newton matrix's nonlocal part is linearised
-    at each Newton-matrix assembly. The error filter assembles the damping part alone
-    (cx = 0) into a room for the dashpot's blocks: that must leave the linearisation, which
-    the filter's own solve and the next Newton solves use, as it was."""
+def _coil_with_implicit_flow() -> Simulation:
+    """A squeezed coil (60 nodes) with contact (its 1 ms dashpot) and the nonlocal flow inside
+    Newton, its contact pairs found."""
     sim = free_filament(
         _squeezed_coil(60),
         {
@@ -477,6 +476,15 @@ def test_the_error_filters_assembly_keeps_the_nonlocal_flows_linearisation() -> 
     whole = Rod(sim.pos, sim.vel, sim.vel, 60, sim.node_s, sim.seg_rest, sim.seg_mat)
     while not contact.prepare(sim.model.record, whole, 0, sim.ws.contact):
         sim._grow_off_band()
+    return sim
+
+
+def test_the_error_filters_assembly_keeps_the_nonlocal_flows_linearisation() -> None:
+    """With the nonlocal flow inside Newton, the Newton matrix's nonlocal part is linearised
+    at each Newton-matrix assembly. The error filter assembles the damping part alone
+    (cx = 0) into a room for the dashpot's blocks: that must leave the linearisation, which
+    the filter's own solve and the next Newton solves use, as it was."""
+    sim = _coil_with_implicit_flow()
     calls, energies = np.zeros(L.N_EFFECTS, np.int64), np.zeros(L.N_EFFECTS)
     model, rod, _, out = sim.kernel_inputs(1.0, 5e3, 0.0, True)
     assemble(
@@ -491,6 +499,34 @@ def test_the_error_filters_assembly_keeps_the_nonlocal_flows_linearisation() -> 
     assemble(model, rod, Stage(0.0, 0.0, 5e3, 0.0, True), filt, calls, energies)
     assert sim.ws.cpl_filter.count[0] > 0  # the filter wrote the dashpot's blocks
     np.testing.assert_array_equal(hyd.band_other, band_other)
+
+
+def test_the_nonlocal_flows_newton_matrix_leaves_contact_out() -> None:
+    """With the nonlocal flow inside Newton, its part of the Newton matrix, R M W^-1 J_other,
+    takes J_other without contact (its in-band and off-band blocks, the dashpot's included):
+    the same product with contact switched off, while the local Newton matrix keeps
+    contact's blocks and the residual keeps the flow of contact's forces."""
+    sim = _coil_with_implicit_flow()
+    nd = 3 * free_nodes(sim.n_nodes, sim.model.p)
+    x = np.random.default_rng(3).normal(size=nd)
+    products, flows = [], []
+    for on in (1, 0):
+        sim.model.enabled[L.E_CONTACT] = on
+        calls, energies = np.zeros(L.N_EFFECTS, np.int64), np.zeros(L.N_EFFECTS)
+        model, rod, _, out = sim.kernel_inputs(1.0, 5e3, 0.0, True)
+        stage = Stage(0.0, 1.0, 5e3, 0.0, True)
+        assemble(model, rod, stage, out._replace(cpl=sim.ws.cpl), calls, energies)
+        assert (sim.ws.cpl.count[0] > 0) == bool(on)  # contact's blocks in the Newton matrix
+        assert sim.ws.hydro.memory[0]["lin_free"] == nd // 3
+        y = np.zeros(nd)
+        hydrodynamics.apply_nonlocal(sim.ws, nd, x, y)
+        products.append(y)
+        flows.append(sim.ws.hydro.u_nl[:nd].copy())
+    scale = np.abs(products[1]).max()
+    assert scale > 0
+    np.testing.assert_allclose(products[0], products[1], rtol=0, atol=1e-12 * scale)
+    # the flow itself is driven by contact's forces: switching contact off changes it
+    assert np.abs(flows[0] - flows[1]).max() > 1e-3 * np.abs(flows[0]).max()
 
 
 def _coil_with_frozen_tail(n: int, f: int, floor: bool, over: dict):

@@ -73,6 +73,8 @@ def assemble(model, rod, stage, out, calls: np.ndarray, energies: np.ndarray) ->
     if enabled[E_END_LOAD]:
         calls[E_END_LOAD] += 1
         energies[E_END_LOAD] = end_load.accumulate(model, rod, stage, out)
+    if enabled[E_HYDRODYNAMICS]:  # J_other for the nonlocal flow's Newton matrix: before contact
+        hydrodynamics.linearise(model, rod, stage, out)
     if enabled[E_CONTACT]:
         calls[E_CONTACT] += 1
         energies[E_CONTACT] = contact.accumulate(model, rod, stage, out)

@@ -36,10 +36,15 @@ is refused.
 
 **Coupling** (``hydrodynamics.coupling``). ``implicit``: u_nl is a function of the stage's
 positions, evaluated at every Newton iterate; the Newton matrix gains the dense part
-R M_nl W^-1 J_other (R = -dF_drag/du, J_other the Newton matrix of the other effects), which
-GMRES applies matrix-free (:func:`apply_nonlocal`) with the banded LU as preconditioner
-(:mod:`bathprint.core.solver`). ``lagged``: u_nl of a step is the flow at its start
-(Tornberg & Shelley 2004, J. Comput. Phys. 196, 8); first order, so its error, about
+R M_nl W^-1 J_other (R = -dF_drag/du, J_other the Newton matrix of the other effects but
+contact), which GMRES applies matrix-free (:func:`apply_nonlocal`) with the banded LU as
+preconditioner (:mod:`bathprint.core.solver`). Leaving contact out makes Newton's matrix
+inexact, not its residual: the flow of contact's forces is in u_nl at every iterate. Its
+pair forces are equal and opposite across touching turns, and with the dashpot's blocks,
+beta E''/(h gamma), in J_other GMRES stalled at the smallest step on a pile (the ablation's
+"all" at d = 0.41 mm, 0.5 ml/min; ``python benchmarks/bench_hydrodynamics.py stall``).
+``lagged``: u_nl of a step is the flow at its start (Tornberg & Shelley 2004, J. Comput.
+Phys. 196, 8); first order, so its error, about
 (h/2) |u_nl(t + h) - u_nl(t)|, is added to the step's error estimate (:mod:`._hydro_lag`).
 
 Where the Stokes far field holds: within the Oseen length nu / |u| of a moving segment. With
@@ -55,7 +60,7 @@ import math
 import numpy as np
 from numba import njit, objmode
 
-from bathprint.core.banded import add_blocks_matvec, band_matvec
+from bathprint.core.banded import band_matvec
 from bathprint.core.effects._drag_laws import law
 from bathprint.core.effects._stokeslet import (
     fmm_flow,
@@ -209,6 +214,38 @@ def remember(model, hyd) -> None:
 
 
 @njit(**KERNEL)
+def linearise(model, rod, stage, out) -> None:
+    """With the implicit coupling, keep what GMRES needs of the Newton matrix's nonlocal part
+    R M W^-1 J_other: J_other is the band assembled so far (the assembler calls this before
+    contact: its Jacobian is left out of J_other, see the module's docstring). An evaluation
+    that keeps only the band (couplings of zero capacity) keeps none, and so does the error
+    filter's, which assembles the damping part alone (cx = 0)."""
+    p = model.params[0]
+    if p.hydro_coupling != HYDRO_IMPLICIT or not stage.jac or stage.cx == 0.0:
+        return
+    if out.cpl.row.shape[0] == 0:
+        return
+    hyd = out.hydro
+    mem = hyd.memory[0]
+    n_free = free_nodes(rod.n_nodes, p)
+    n_seg = filament_segments(rod.n_nodes, p)
+    for k in range(3 * n_free):
+        for c in range(out.band.shape[1]):
+            hyd.band_other[k, c] = out.band[k, c]
+    for k in range(3 * (n_seg + 1)):
+        hyd.lin_pos[k] = rod.pos[k]
+    for i in range(n_seg + 1):
+        hyd.lin_s[i] = rod.node_s[i]
+        for a in range(3):
+            for b in range(3):
+                hyd.resist[i, a, b] = 0.0
+    mem.linearized = True
+    mem.lin_nodes = rod.n_nodes
+    mem.lin_free = n_free
+    mem.lin_seg = n_seg
+
+
+@njit(**KERNEL)
 def accumulate(model, rod, stage, out) -> float:
     """Add the drag of the local windows at the velocity relative to the nonlocal flow (and
     its Jacobian); with the implicit coupling evaluate that flow from the other effects'
@@ -217,7 +254,6 @@ def accumulate(model, rod, stage, out) -> float:
     record the sources. Returns the local law's dissipation rate (W)."""
     p = model.params[0]
     hyd = out.hydro
-    mem = hyd.memory[0]
     pos, vel, seg_mat = rod.pos, rod.vel, rod.seg_mat
     force = out.force
     n_free = free_nodes(rod.n_nodes, p)
@@ -229,25 +265,6 @@ def accumulate(model, rod, stage, out) -> float:
     u_nl = hyd.u_nl
     if implicit:
         flow(pos, rod.node_s, n_seg + 1, n_seg, hyd, u_nl)
-        # the Newton matrix's nonlocal part R M W^-1 J_other, where J_other is the band so far
-        # (an evaluation that keeps only the band, cpl of zero capacity, keeps none, and so
-        # does the error filter's, which assembles the damping part alone: cx = 0)
-        if stage.jac and stage.cx != 0.0 and out.cpl.row.shape[0] > 0:
-            nd = 3 * n_free
-            for k in range(nd):
-                for c in range(out.band.shape[1]):
-                    hyd.band_other[k, c] = out.band[k, c]
-            for k in range(3 * (n_seg + 1)):
-                hyd.lin_pos[k] = pos[k]
-            for i in range(n_seg + 1):
-                hyd.lin_s[i] = rod.node_s[i]
-                for a in range(3):
-                    for b in range(3):
-                        hyd.resist[i, a, b] = 0.0
-            mem.linearized = True
-            mem.lin_nodes = rod.n_nodes
-            mem.lin_free = n_free
-            mem.lin_seg = n_seg
     fx, fy, fz = p.bath_flow[0], p.bath_flow[1], p.bath_flow[2]
     sc = out.scratch
     f3, du, dt = sc.law_force, sc.law_du, sc.law_dt
@@ -282,10 +299,10 @@ def accumulate(model, rod, stage, out) -> float:
 @njit(**KERNEL)
 def apply_nonlocal(ws, nd: int, x: np.ndarray, y: np.ndarray) -> None:
     """y += R M_nl W^-1 J_other x: the Newton matrix's nonlocal part at the last
-    linearisation (implicit coupling), matrix-free: the other effects' Newton matrix (band
-    and couplings off the band) on x, as forces per length at the free nodes, their segment
-    means, the nonlocal flow of those at the free nodes (one evaluation), times each node's
-    linearised resistance R_i."""
+    linearisation (implicit coupling), matrix-free: the other effects' Newton matrix (their
+    band; contact, the only source of couplings off the band, is left out) on x, as forces
+    per length at the free nodes, their segment means, the nonlocal flow of those at the free
+    nodes (one evaluation), times each node's linearised resistance R_i."""
     hyd = ws.hydro
     mem = hyd.memory[0]
     n_free = mem.lin_free
@@ -293,7 +310,6 @@ def apply_nonlocal(ws, nd: int, x: np.ndarray, y: np.ndarray) -> None:
     z = hyd.work[0]
     u = hyd.work[1]
     band_matvec(hyd.band_other, nd, KL, KU, x, z)
-    add_blocks_matvec(ws.cpl, x, z)
     f_node = hyd.f_node  # (scratch here: the sources are recomputed at every evaluation)
     for i in range(n_free):
         for a in range(3):
