@@ -4,7 +4,7 @@
     python benchmarks/bench_hydrodynamics.py step      # one step vs N, both couplings
     python benchmarks/bench_hydrodynamics.py coiling   # drag_coiling_22G, 6 s, each drag model
     python benchmarks/bench_hydrodynamics.py workprec  # error vs step and vs wall time
-    python benchmarks/bench_hydrodynamics.py stall     # the ablation's "all" run that stalls
+    python benchmarks/bench_hydrodynamics.py all_effects  # the ablation's "all" on a pile
     python benchmarks/bench_hydrodynamics.py all
 
 (1) eval: the nonlocal flow of a coil (node spacing 0.5 mm, radius 1.5 mm, pitch 0.9 mm,
@@ -19,11 +19,12 @@ steps, evaluations, nodes, the coil's radius and pitch (analysis.measure), and t
 to the local-drag run. (4) workprec: the error of
 lagging against the step size (fixed steps), and error against wall time for both couplings
 at adaptive tolerances (the relaxing filament and drag_coiling_22G for 0.5 s, against a
-reference at tolerance 1e-9 with the implicit coupling). (5) stall: the ablation's "all"
-run at d = 0.41 mm, 0.5 ml/min (Fig. 2's set: inertia, contact, the nonlocal flow inside
-Newton, surface gelation, viscosity), where GMRES stalls at the smallest step at 1.5 s, to
-STALL_DURATION_S as planned and with one thing changed at a time: contact's dashpot off,
-the lagged nonlocal flow, no hydrodynamics. Results: benchmarks/results/hydro_*.csv.
+reference at tolerance 1e-9 with the implicit coupling). (5) all_effects: the ablation's
+"all" run at d = 0.41 mm, 0.5 ml/min (Fig. 2's set: inertia, contact with its dashpot, the
+nonlocal flow inside Newton, surface gelation, viscosity; its turns pile up), to
+ALL_EFFECTS_DURATION_S as planned and with one thing changed at a time: contact's dashpot
+off, no contact, the lagged nonlocal flow, no hydrodynamics; how far each gets, its steps,
+Newton and Krylov iterations and wall time. Results: benchmarks/results/hydro_*.csv.
 Single-threaded numba; the machine is shared, so wall times carry ~30% noise.
 """
 
@@ -370,25 +371,27 @@ def work_precision() -> tuple[list[dict], list[dict]]:
     return fixed, adaptive
 
 
-#: --part stall: the ablation run (set, d in mm, Q in ml/min, variant) and how far it runs
-STALL_RUN = ("fig2", (0.41, 0.5), "all")
-STALL_DURATION_S = 1.7
+#: all_effects: the ablation run (set, d in mm, Q in ml/min, variant) and how far it runs
+ALL_EFFECTS_RUN = ("fig2", (0.41, 0.5), "all")
+ALL_EFFECTS_DURATION_S = 1.7
 
 
-def stall_variants() -> dict[str, dict]:
-    """The ablation's STALL_RUN overrides (duration STALL_DURATION_S), and with one thing
-    changed: contact's dashpot off, the lagged nonlocal flow, hydrodynamics left out."""
+def all_effects_variants() -> dict[str, dict]:
+    """The ablation's ALL_EFFECTS_RUN overrides (duration ALL_EFFECTS_DURATION_S), and with
+    one thing changed: contact's dashpot off, no contact, the lagged nonlocal flow, no
+    hydrodynamics."""
     runs, _ = ablation.plan()
-    set_name, point, variant = STALL_RUN
+    set_name, point, variant = ALL_EFFECTS_RUN
     over = next(
         r["overrides"]
         for r in runs
         if r["set"] == set_name and r["point"] == point and r["variant"] == variant
     )
-    over = {**over, "duration_s": STALL_DURATION_S, "outputs.plot": False}
+    over = {**over, "duration_s": ALL_EFFECTS_DURATION_S, "outputs.plot": False}
     return {
         "as in the ablation": over,
         "no dashpot": {**over, "contact.damping_time_s": 0.0},
+        "no contact": {**over, "effects": [e for e in over["effects"] if e != "contact"]},
         "lagged nonlocal flow": {**over, "hydrodynamics.coupling": "lagged"},
         "no hydrodynamics": {
             **over,
@@ -397,11 +400,11 @@ def stall_variants() -> dict[str, dict]:
     }
 
 
-def stall_rows() -> list[dict]:
-    """Each of :func:`stall_variants`: how far it gets, its steps and Krylov failures, and
-    the failure's cause."""
+def all_effects_rows() -> list[dict]:
+    """Each of :func:`all_effects_variants`: how far it gets, its steps, Newton and Krylov
+    iterations and failures, wall time, and a failure's cause."""
     rows = []
-    variants = stall_variants()
+    variants = all_effects_variants()
     simulate(ablation.SCENE, {**variants["as in the ablation"], "duration_s": 0.002})  # compile
     for label, over in variants.items():
         t0 = time.perf_counter()
@@ -413,12 +416,19 @@ def stall_rows() -> list[dict]:
         rows.append(
             {
                 "variant": label,
-                "duration_s": STALL_DURATION_S,
+                "duration_s": ALL_EFFECTS_DURATION_S,
                 "reached_s": reached,
                 "failure": cause,
-                "steps": counts.get("steps"),
-                "rejected_steps": counts.get("rejected_steps"),
-                "krylov_failures": counts.get("krylov_failures"),
+                **{
+                    k: counts.get(k)
+                    for k in (
+                        "steps",
+                        "rejected_steps",
+                        "newton_iterations",
+                        "krylov_iterations",
+                        "krylov_failures",
+                    )
+                },
                 "wall_s": time.perf_counter() - t0,
             }
         )
@@ -428,7 +438,7 @@ def stall_rows() -> list[dict]:
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("what", choices=("eval", "step", "coiling", "workprec", "stall", "all"))
+    ap.add_argument("what", choices=("eval", "step", "coiling", "workprec", "all_effects", "all"))
     ap.add_argument("--max-direct", type=int, default=10_000)
     ap.add_argument("--max-fmm", type=int, default=100_000)
     ap.add_argument("--max-step-n", type=int, default=3_000)
@@ -446,8 +456,8 @@ def main() -> None:
         print("wrote", write_csv("hydro_work_precision", adaptive))
     if args.what in ("coiling", "all"):
         print("wrote", write_csv("hydro_coiling", coiling_costs(args.duration, args.only)))
-    if args.what in ("stall", "all"):
-        print("wrote", write_csv("hydro_stall", stall_rows()))
+    if args.what in ("all_effects", "all"):
+        print("wrote", write_csv("hydro_all_effects", all_effects_rows()))
 
 
 if __name__ == "__main__":

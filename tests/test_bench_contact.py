@@ -343,16 +343,17 @@ def test_the_hessian_part_runs_each_scene_with_both_hessians(bench):
         assert r["min_gap_ratio"] > 0.9
 
 
-def test_the_hydrodynamics_stall_part_changes_one_thing_per_variant(bench, monkeypatch):
-    """``bench_hydrodynamics.py stall``: the ablation's "all" run at d = 0.41 mm, 0.5 ml/min
-    as planned, and with contact's dashpot off, the lagged nonlocal flow or no
-    hydrodynamics, each differing from it in that key only; on a tiny budget every variant
-    runs to its end."""
+def test_the_hydrodynamics_all_effects_part_changes_one_thing_per_variant(bench, monkeypatch):
+    """``bench_hydrodynamics.py all_effects``: the ablation's "all" run at d = 0.41 mm,
+    0.5 ml/min as planned, and with contact's dashpot off, no contact, the lagged nonlocal
+    flow or no hydrodynamics, each differing from it in that key only; on a tiny budget every
+    variant runs to its end and counts its iterations."""
     mod = bench("bench_hydrodynamics")
-    monkeypatch.setattr(mod, "STALL_DURATION_S", 0.004)
-    variants = mod.stall_variants()
+    monkeypatch.setattr(mod, "ALL_EFFECTS_DURATION_S", 0.004)
+    variants = mod.all_effects_variants()
     base = variants["as in the ablation"]
     assert base["hydrodynamics.coupling"] == "implicit" and "inertia" in base["effects"]
+    assert "contact" in base["effects"]
     changed = {
         label: {k for k in {*over, *base} if over.get(k) != base.get(k)}
         for label, over in variants.items()
@@ -360,10 +361,16 @@ def test_the_hydrodynamics_stall_part_changes_one_thing_per_variant(bench, monke
     assert changed == {
         "as in the ablation": set(),
         "no dashpot": {"contact.damping_time_s"},
+        "no contact": {"effects"},
         "lagged nonlocal flow": {"hydrodynamics.coupling"},
         "no hydrodynamics": {"effects"},
     }
-    assert "hydrodynamics" not in variants["no hydrodynamics"]["effects"]
-    rows = mod.stall_rows()
+    assert set(base["effects"]) - set(variants["no contact"]["effects"]) == {"contact"}
+    assert set(base["effects"]) - set(variants["no hydrodynamics"]["effects"]) == {"hydrodynamics"}
+    rows = mod.all_effects_rows()
     assert [r["variant"] for r in rows] == list(variants)
     assert all(r["failure"] == "" and r["reached_s"] == pytest.approx(0.004) for r in rows)
+    for r in rows:
+        assert r["steps"] > 0 and r["newton_iterations"] >= r["steps"]
+    by = {r["variant"]: r for r in rows}
+    assert by["as in the ablation"]["krylov_iterations"] > 0  # GMRES: the implicit flow

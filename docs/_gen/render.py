@@ -624,22 +624,38 @@ def contact_dashpot_overdamped() -> str:
     return _table([*head, "failure"], rows) + "\n\n" + provenance(path)
 
 
-def hydro_stall() -> str:
-    """``bench_hydrodynamics.py stall``: how far the ablation's stalling "all" run gets as
-    planned and with one thing changed."""
-    path = RESULTS / "hydro_stall.csv"
-    rows = [
-        [
-            r["variant"],
-            f"{_g(r['reached_s'], 4)} of {_g(r['duration_s'])} s",
-            r["steps"] or "–",
-            r["krylov_failures"] or "–",
-            _g(r["wall_s"]),
-            r["failure"] or "–",
-        ]
-        for r in _csv(path)
+def hydro_all_effects() -> str:
+    """``bench_hydrodynamics.py all_effects``: the ablation's "all" run on a pile as planned
+    and with one thing changed."""
+    path = RESULTS / "hydro_all_effects.csv"
+    rows = []
+    for r in _csv(path):
+        ok = not r["failure"]
+        steps, newton, krylov = (
+            float(r[k] or "nan") for k in ("steps", "newton_iterations", "krylov_iterations")
+        )
+        rows.append(
+            [
+                r["variant"],
+                f"{_g(r['reached_s'], 4)} of {_g(r['duration_s'])} s",
+                r["steps"] if ok else "–",
+                _g(newton / steps, 3) if ok else "–",
+                _g(krylov / newton, 3) if ok else "–",
+                r["krylov_failures"] if ok else "–",
+                _g(r["wall_s"]),
+                r["failure"] or "–",
+            ]
+        )
+    head = [
+        "variant",
+        "reached",
+        "steps",
+        "Newton per step",
+        "Krylov per Newton",
+        "Krylov failures",
+        "wall (s)",
+        "failure",
     ]
-    head = ["variant", "reached", "steps", "Krylov failures", "wall (s)", "failure"]
     return _table(head, rows) + "\n\n" + provenance(path)
 
 
@@ -2097,7 +2113,7 @@ TABLES: dict[str, Callable[[], str]] = {
     "freezing-onset-wide": lambda: freezing_onset("freezing_onset_wide"),
     "freezing-damping": freezing_damping,
     "contact-dashpot-overdamped": contact_dashpot_overdamped,
-    "hydro-stall": hydro_stall,
+    "hydro-all-effects": hydro_all_effects,
     "freezing-rope": freezing_rope,
     "freezing-envs": freezing_envs,
     "accuracy-presets": accuracy_presets,
