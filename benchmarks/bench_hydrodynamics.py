@@ -5,6 +5,7 @@
     python benchmarks/bench_hydrodynamics.py coiling   # drag_coiling_22G, 6 s, each drag model
     python benchmarks/bench_hydrodynamics.py workprec  # error vs step and vs wall time
     python benchmarks/bench_hydrodynamics.py all_effects  # the ablation's "all" on a pile
+    python benchmarks/bench_hydrodynamics.py mobility  # I + R M W^-1 on that pile
     python benchmarks/bench_hydrodynamics.py all
 
 (1) eval: the nonlocal flow of a coil (node spacing 0.5 mm, radius 1.5 mm, pitch 0.9 mm,
@@ -24,7 +25,11 @@ reference at tolerance 1e-9 with the implicit coupling). (5) all_effects: the ab
 nonlocal flow inside Newton, surface gelation, viscosity; its turns pile up), to
 ALL_EFFECTS_DURATION_S as planned and with one thing changed at a time: contact's dashpot
 off, no contact, the lagged nonlocal flow, no hydrodynamics; how far each gets, its steps,
-Newton and Krylov iterations and wall time. Results: benchmarks/results/hydro_*.csv.
+Newton and Krylov iterations and wall time. (6) mobility: on that run with contact and
+without it, at MOBILITY_TIMES_S, the eigenvalues of I + R M_nl W^-1 (the operator the
+implicit flow adds to the Newton matrix, which the mass term multiplies at small steps;
+dense, from its matrix-free product) and the smallest gap between turns.
+Results: benchmarks/results/hydro_*.csv.
 Single-threaded numba; the machine is shared, so wall times carry ~30% noise.
 """
 
@@ -40,7 +45,7 @@ from _common import RESULTS, SHARP_CONTACT, best_of, write_csv
 
 from bathprint import Simulation, SimulationError, simulate
 from bathprint.analysis import validation as V
-from bathprint.analysis.measure import coil_pitch, coil_radius
+from bathprint.analysis.measure import coil_pitch, coil_radius, min_gap_ratio
 from bathprint.core.effects import _stokeslet
 from bathprint.studies.reproduce import ablation
 
@@ -436,9 +441,77 @@ def all_effects_rows() -> list[dict]:
     return rows
 
 
+#: mobility: the times (s) at which I + R M W^-1 is taken on the all_effects run
+MOBILITY_TIMES_S = (0.5, 0.8, 1.1, 1.5, 1.9)
+
+
+def mobility_operator(sim: Simulation) -> np.ndarray:
+    """I + R M_nl W^-1 (dense, 3 n_free square) at ``sim``'s state: a Newton-matrix assembly
+    linearises the implicit flow, and its matrix-free product with J_other set to the
+    identity gives the columns; J_other is put back."""
+    from bathprint.core import layout as L
+    from bathprint.core.effects import hydrodynamics
+    from bathprint.core.topology import free_nodes
+
+    sim.forces(1.0, 1.0, 1.0, True)
+    hyd = sim.ws.hydro
+    nd = 3 * free_nodes(sim.n_nodes, sim.model.p)
+    saved = hyd.band_other.copy()
+    hyd.band_other[:] = 0.0
+    hyd.band_other[:nd, L.KL] = 1.0
+    op = np.eye(nd)
+    unit, col = np.zeros(nd), np.zeros(nd)
+    try:
+        for k in range(nd):
+            unit[k], col[:] = 1.0, 0.0
+            hydrodynamics.apply_nonlocal(sim.ws, nd, unit, col)
+            op[:, k] += col
+            unit[k] = 0.0
+    finally:
+        hyd.band_other[:] = saved
+    return op
+
+
+def mobility_rows() -> list[dict]:
+    """The all_effects run as planned and without contact, each advanced through
+    MOBILITY_TIMES_S: the eigenvalues of :func:`mobility_operator` (smallest and largest
+    real part, smallest singular value) and the smallest gap between non-adjacent segments
+    over the sum of the radii; a failure's time and cause where a run stops."""
+    variants = all_effects_variants()
+    rows = []
+    keys = ("free_nodes", "eig_real_min", "eig_real_max", "singular_min", "min_gap_ratio")
+    nan = dict.fromkeys(keys, math.nan)
+    for label in ("as in the ablation", "no contact"):
+        sim = Simulation(ablation.SCENE, variants[label])
+        for t in MOBILITY_TIMES_S:
+            try:
+                sim.advance(t)
+            except SimulationError as e:
+                rows.append({"variant": label, "time_s": e.time_s, "failure": e.cause, **nan})
+                print(rows[-1], flush=True)
+                break
+            op = mobility_operator(sim)
+            eig = np.linalg.eigvals(op)
+            rows.append(
+                {
+                    "variant": label,
+                    "time_s": sim.t,
+                    "failure": "",
+                    "free_nodes": op.shape[0] // 3,
+                    "eig_real_min": float(eig.real.min()),
+                    "eig_real_max": float(eig.real.max()),
+                    "singular_min": float(np.linalg.svd(op, compute_uv=False).min()),
+                    "min_gap_ratio": min_gap_ratio([sim.centerline()], float(sim.model.radius)),
+                }
+            )
+            print(rows[-1], flush=True)
+    return rows
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("what", choices=("eval", "step", "coiling", "workprec", "all_effects", "all"))
+    parts = ("eval", "step", "coiling", "workprec", "all_effects", "mobility", "all")
+    ap.add_argument("what", choices=parts)
     ap.add_argument("--max-direct", type=int, default=10_000)
     ap.add_argument("--max-fmm", type=int, default=100_000)
     ap.add_argument("--max-step-n", type=int, default=3_000)
@@ -458,6 +531,8 @@ def main() -> None:
         print("wrote", write_csv("hydro_coiling", coiling_costs(args.duration, args.only)))
     if args.what in ("all_effects", "all"):
         print("wrote", write_csv("hydro_all_effects", all_effects_rows()))
+    if args.what in ("mobility", "all"):
+        print("wrote", write_csv("hydro_mobility", mobility_rows()))
 
 
 if __name__ == "__main__":

@@ -6,7 +6,13 @@ from __future__ import annotations
 import math
 from pathlib import Path
 
+import numpy as np
 import pytest
+
+from bathprint import Simulation
+from bathprint.core import layout as L
+from bathprint.core.effects import hydrodynamics
+from bathprint.studies.reproduce import ablation
 
 BENCH = Path(__file__).resolve().parents[1] / "benchmarks"
 
@@ -374,3 +380,29 @@ def test_the_hydrodynamics_all_effects_part_changes_one_thing_per_variant(bench,
         assert r["steps"] > 0 and r["newton_iterations"] >= r["steps"]
     by = {r["variant"]: r for r in rows}
     assert by["as in the ablation"]["krylov_iterations"] > 0  # GMRES: the implicit flow
+
+
+def test_the_hydrodynamics_mobility_part_takes_the_operator_and_puts_j_other_back(bench):
+    """``bench_hydrodynamics.py mobility``: I + R M W^-1 from the matrix-free product equals
+    the nonlocal part of the Newton matrix with J_other the identity, and J_other is as it
+    was afterwards (the run goes on as it would). Stokes drag here: with finite-Re drag the
+    fast young jet screens its nonlocal flow (I + R M W^-1 is then the identity)."""
+    mod = bench("bench_hydrodynamics")
+    over = {**mod.all_effects_variants()["no contact"], "duration_s": 0.05, "drag.model": "cox"}
+    sim = Simulation(ablation.SCENE, over)
+    sim.advance(0.05)
+    sim.forces(1.0, 1.0, 1.0, True)
+    band_other = sim.ws.hydro.band_other.copy()
+    op = mod.mobility_operator(sim)
+    np.testing.assert_array_equal(sim.ws.hydro.band_other, band_other)
+    nd = op.shape[0]
+    x = np.random.default_rng(5).normal(size=nd)
+    y = np.zeros(nd)
+    hydrodynamics.apply_nonlocal(sim.ws, nd, x, y)  # R M W^-1 J_other x
+    j_other = np.zeros((nd, nd))
+    for i in range(nd):
+        for j in range(max(0, i - L.KL), min(nd, i + L.KU + 1)):
+            j_other[i, j] = band_other[i, j - i + L.KL]
+    jx = j_other @ x
+    np.testing.assert_allclose(op @ jx, jx + y, rtol=1e-9, atol=1e-9 * np.abs(jx + y).max())
+    assert np.abs(op - np.eye(nd)).max() > 1e-6  # the nonlocal flow is there

@@ -659,6 +659,38 @@ def hydro_all_effects() -> str:
     return _table(head, rows) + "\n\n" + provenance(path)
 
 
+def hydro_mobility() -> str:
+    """``bench_hydrodynamics.py mobility``: I + R M W^-1 on the all_effects run, with and
+    without contact."""
+    path = RESULTS / "hydro_mobility.csv"
+    rows = []
+    for r in _csv(path):
+        if r["failure"]:
+            rows.append([r["variant"], _g(r["time_s"], 4), "–", "–", "–", "–", r["failure"]])
+            continue
+        rows.append(
+            [
+                r["variant"],
+                _g(r["time_s"], 4),
+                r["free_nodes"],
+                f"{_g(r['eig_real_min'], 3)} to {_g(r['eig_real_max'], 3)}",
+                _g(r["singular_min"], 3),
+                _g(r["min_gap_ratio"], 3),
+                "–",
+            ]
+        )
+    head = [
+        "variant",
+        "t (s)",
+        "free nodes",
+        "real parts of the eigenvalues",
+        "smallest singular value",
+        "smallest gap / (r_A + r_B)",
+        "failure",
+    ]
+    return _table(head, rows) + "\n\n" + provenance(path)
+
+
 def freezing_rope() -> str:
     path = RESULTS / "freezing_rope.csv"
     rows = [
@@ -2114,6 +2146,7 @@ TABLES: dict[str, Callable[[], str]] = {
     "freezing-damping": freezing_damping,
     "contact-dashpot-overdamped": contact_dashpot_overdamped,
     "hydro-all-effects": hydro_all_effects,
+    "hydro-mobility": hydro_mobility,
     "freezing-rope": freezing_rope,
     "freezing-envs": freezing_envs,
     "accuracy-presets": accuracy_presets,
