@@ -37,7 +37,11 @@ law before that (SHARP_CONTACT), ``--part ratio_wide`` with the default's width 
 started at the sum of the radii (WIDE_AT_CONTACT: the two changes one at a time),
 ``--part ratio_inertia`` with ``inertia`` listed in every
 run (contact's defaults then add its 10 ms dashpot), and ``--part dashpot_overdamped`` that
-dashpot without inertia. ``--part late`` starts from the pile's state at 0.8 s, where
+dashpot without inertia. ``--part onset_buckling`` runs the ratio parts' ten seeds again
+with the onset 0.2 delta from r_A + r_B and the default's from 1.02 (r_A + r_B), frames every
+ONSET_FRAME_INTERVAL_S, and compares the buckling length at 1 s (another frame schedule
+than the ratio parts', so another path on a chaotic pile) and averaged over the frames from
+ONSET_AVERAGE_FROM_S. ``--part late`` starts from the pile's state at 0.8 s, where
 contact costs most, and changes one thing at a time for 60 ms more: the Newton policy, the
 linear solve, the soft onset. Every part but ``ratio``, ``ratio_wide`` (SHARP_CONTACT with
 the wider onset) and ``ratio_inertia`` holds
@@ -45,7 +49,7 @@ SHARP_CONTACT, the law it was measured with (``default`` in its labels means tha
 
     python benchmarks/bench_contact_newton.py
         [--part variants|sizes|scene|near_gap|seeds|onset|krylov|late|ratio|ratio_sharp|
-                ratio_wide|ratio_inertia|dashpot_overdamped]
+                ratio_wide|ratio_inertia|dashpot_overdamped|onset_buckling]
 """
 
 from __future__ import annotations
@@ -61,7 +65,7 @@ from _common import SHARP_CONTACT, write_csv
 from bench_contact import R_FIL, coil_stack, law_or_sharp
 
 from bathprint import Simulation, SimulationError, simulate
-from bathprint.analysis.measure import MEASURE_KEYS, coil_geometry, touching_gaps
+from bathprint.analysis.measure import MEASURE_KEYS, buckling_length, coil_geometry, touching_gaps
 from bathprint.core.effects._segment_geometry import PARALLEL_SIN2, SLIDING_SIN2, closest_params
 
 N_NODES = 300
@@ -660,6 +664,78 @@ def late_rows() -> list[dict]:
     return rows
 
 
+#: --part onset_buckling: frames (s) and the start of the average (s)
+ONSET_FRAME_INTERVAL_S = 0.05
+ONSET_AVERAGE_FROM_S = 0.5
+ONSET_LAWS = {"0.2 delta from r_A + r_B": WIDE_AT_CONTACT, "0.2 delta from 1.02 (r_A + r_B)": {}}
+
+
+def onset_buckling_rows() -> list[dict]:
+    """SCENE for SCENE_DURATION_S per seed of RATIO_SEEDS and law of ONSET_LAWS (the second,
+    contact's default), frames every ONSET_FRAME_INTERVAL_S: the buckling length (its
+    default definition) of the last frame and its mean over the frames from
+    ONSET_AVERAGE_FROM_S (:func:`onset_buckling_comparison` pairs them)."""
+    needle = Simulation(SCENE).model.needle[0, 1:7].copy()
+    rows = []
+    for seed in RATIO_SEEDS:
+        for label, law in ONSET_LAWS.items():
+            over = {
+                "duration_s": SCENE_DURATION_S,
+                "outputs.plot": False,
+                "outputs.frame_interval_s": ONSET_FRAME_INTERVAL_S,
+                "seed": seed,
+                **law,
+            }
+            res = simulate(SCENE, over)
+            ls = [
+                buckling_length(f, needle[:3], needle[3:])
+                for t, f in zip(res.time_s, res.frames, strict=True)
+                if t >= ONSET_AVERAGE_FROM_S - 1e-9
+            ]
+            final = ls[-1] if ls and ls[-1] is not None else math.nan
+            ls = [x for x in ls if x is not None]
+            rows.append(
+                {
+                    "seed": seed,
+                    "onset": label,
+                    "buckling_length_final_m": final,
+                    "buckling_length_mean_m": float(np.mean(ls)) if ls else math.nan,
+                    "frames_averaged": len(ls),
+                }
+            )
+            print(rows[-1], flush=True)
+    return rows
+
+
+def onset_buckling_comparison(rows: list[dict]) -> list[dict]:
+    """For the buckling length at the last frame and averaged: each law's mean over the
+    seeds and the seed-paired relative difference of the second law of ONSET_LAWS against
+    the first, with its 95% bootstrap interval."""
+    from bathprint.agents.statistics import bootstrap_ci
+
+    first, second = (
+        {int(r["seed"]): r for r in rows if r["onset"] == label} for label in ONSET_LAWS
+    )
+    seeds = sorted(set(first) & set(second))
+    out = []
+    for key in ("buckling_length_final_m", "buckling_length_mean_m"):
+        a = np.array([float(first[s][key]) for s in seeds])
+        b = np.array([float(second[s][key]) for s in seeds])
+        rel, lo, hi = bootstrap_ci(np.mean, (b / a - 1.0)[:, None])
+        out.append(
+            {
+                "quantity": key,
+                "seeds": len(seeds),
+                "mean_first_m": float(a.mean()),
+                "mean_second_m": float(b.mean()),
+                "paired_change": rel,
+                "paired_change_low": lo,
+                "paired_change_high": hi,
+            }
+        )
+    return out
+
+
 if __name__ == "__main__":
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument(
@@ -679,6 +755,7 @@ if __name__ == "__main__":
             "ratio_wide",
             "ratio_inertia",
             "dashpot_overdamped",
+            "onset_buckling",
         ),
         default="all",
     )
@@ -727,6 +804,10 @@ if __name__ == "__main__":
         "dashpot_overdamped": (
             f"{scene}, contact's dashpot {OVERDAMPED_DASHPOTS_S} s:",
             [("contact_dashpot_overdamped", dashpot_overdamped_rows)],
+        ),
+        "onset_buckling": (
+            f"{scene}, seeds {RATIO_SEEDS}, frames every {ONSET_FRAME_INTERVAL_S:g} s:",
+            [("contact_onset_buckling", onset_buckling_rows)],
         ),
     }
     for name, (title, outputs) in parts.items():

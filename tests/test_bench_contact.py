@@ -406,3 +406,36 @@ def test_the_hydrodynamics_mobility_part_takes_the_operator_and_puts_j_other_bac
     jx = j_other @ x
     np.testing.assert_allclose(op @ jx, jx + y, rtol=1e-9, atol=1e-9 * np.abs(jx + y).max())
     assert np.abs(op - np.eye(nd)).max() > 1e-6  # the nonlocal flow is there
+
+
+def test_the_onset_buckling_part_pairs_the_two_onsets_seed_by_seed(bench, monkeypatch):
+    """``bench_contact_newton.py --part onset_buckling``: per seed, the onset widened at the
+    sum of the radii and the default's (started before contact), the buckling length of the
+    last frame and its mean over the frames from the average's start; the comparison pairs
+    them seed by seed."""
+    mod = bench("bench_contact_newton")
+    monkeypatch.setattr(mod, "SCENE_DURATION_S", 0.3)
+    monkeypatch.setattr(mod, "RATIO_SEEDS", (1, 2))
+    monkeypatch.setattr(mod, "ONSET_FRAME_INTERVAL_S", 0.1)
+    monkeypatch.setattr(mod, "ONSET_AVERAGE_FROM_S", 0.1)
+    first, second = mod.ONSET_LAWS.values()
+    assert first["contact.distance_factor"] == 1.0 and first["contact.width_fraction"] == 0.2
+    assert second == {}  # contact's defaults: the onset from 1.02 (r_A + r_B)
+    rows = mod.onset_buckling_rows()
+    assert [(r["seed"], r["onset"]) for r in rows] == [
+        (s, label) for s in (1, 2) for label in mod.ONSET_LAWS
+    ]
+    for r in rows:
+        assert r["frames_averaged"] == 3  # 0.1, 0.2 and 0.3 s: the jet has buckled
+        assert 0 < r["buckling_length_final_m"] < 0.05
+        assert 0 < r["buckling_length_mean_m"] < 0.05
+    comp = {c["quantity"]: c for c in mod.onset_buckling_comparison(rows)}
+    rel = [
+        rows[2 * i + 1]["buckling_length_mean_m"] / rows[2 * i]["buckling_length_mean_m"] - 1
+        for i in range(2)
+    ]
+    assert comp["buckling_length_mean_m"]["paired_change"] == pytest.approx(np.mean(rel))
+    c = comp["buckling_length_final_m"]
+    assert (
+        c["seeds"] == 2 and c["paired_change_low"] <= c["paired_change"] <= c["paired_change_high"]
+    )

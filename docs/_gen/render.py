@@ -1714,6 +1714,33 @@ def contact_onset_split() -> str:
     return _table(head, rows) + "\n\n" + provenance(*paths)
 
 
+def contact_onset_buckling() -> str:
+    """``bench_contact_newton.py --part onset_buckling``: the buckling length with the onset
+    widened at the sum of the radii and with the default's, at 1 s and averaged over the
+    frames from ONSET_AVERAGE_FROM_S, paired seed by seed."""
+    bench = _bench_contact_newton()
+    path = RESULTS / "contact_onset_buckling.csv"
+    shown = {
+        "buckling_length_final_m": "buckling length at 1 s (mm)",
+        "buckling_length_mean_m": (
+            f"buckling length averaged from {_g(bench.ONSET_AVERAGE_FROM_S)} s to 1 s (mm)"
+        ),
+    }
+    rows = [
+        [
+            shown[c["quantity"]],
+            str(c["seeds"]),
+            _g(c["mean_first_m"] * 1e3),
+            _g(c["mean_second_m"] * 1e3),
+            _paired_change(c),
+        ]
+        for c in bench.onset_buckling_comparison(_csv(path))
+    ]
+    head = ["frames every " + f"{_g(bench.ONSET_FRAME_INTERVAL_S)} s", "seeds"]
+    head += ["0.2 δ from 2r", "0.2 δ from 1.02 (2r) (default)", "starting before contact (paired)"]
+    return _table(head, rows) + "\n\n" + provenance(path)
+
+
 def contact_newton() -> str:
     path = RESULTS / "contact_newton.csv"
     rows = [
@@ -2147,6 +2174,7 @@ TABLES: dict[str, Callable[[], str]] = {
     "contact-dashpot-overdamped": contact_dashpot_overdamped,
     "hydro-all-effects": hydro_all_effects,
     "hydro-mobility": hydro_mobility,
+    "contact-onset-buckling": contact_onset_buckling,
     "freezing-rope": freezing_rope,
     "freezing-envs": freezing_envs,
     "accuracy-presets": accuracy_presets,
