@@ -46,7 +46,9 @@ from _common import RESULTS, SHARP_CONTACT, best_of, write_csv
 from bathprint import Simulation, SimulationError, simulate
 from bathprint.analysis import validation as V
 from bathprint.analysis.measure import coil_pitch, coil_radius, min_gap_ratio
-from bathprint.core.effects import _stokeslet
+from bathprint.core import layout as L
+from bathprint.core.effects import _stokeslet, hydrodynamics
+from bathprint.core.topology import free_nodes
 from bathprint.studies.reproduce import ablation
 
 MU = 1e-3
@@ -451,10 +453,6 @@ def mobility_operator(sim: Simulation) -> np.ndarray:
     """I + R M_nl W^-1 (dense, 3 n_free square) at ``sim``'s state: a Newton-matrix assembly
     linearises the implicit flow, and its matrix-free product with J_other set to the
     identity gives the columns; J_other is put back."""
-    from bathprint.core import layout as L
-    from bathprint.core.effects import hydrodynamics
-    from bathprint.core.topology import free_nodes
-
     sim.forces(1.0, 1.0, 1.0, True)
     hyd = sim.ws.hydro
     nd = 3 * free_nodes(sim.n_nodes, sim.model.p)

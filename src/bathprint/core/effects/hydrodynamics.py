@@ -221,9 +221,8 @@ def linearise(model, rod, stage, out) -> None:
     that keeps only the band (couplings of zero capacity) keeps none, and so does the error
     filter's, which assembles the damping part alone (cx = 0)."""
     p = model.params[0]
-    if p.hydro_coupling != HYDRO_IMPLICIT or not stage.jac or stage.cx == 0.0:
-        return
-    if out.cpl.row.shape[0] == 0:
+    newton_matrix = stage.jac and stage.cx != 0.0 and out.cpl.row.shape[0] > 0
+    if p.hydro_coupling != HYDRO_IMPLICIT or not newton_matrix:
         return
     hyd = out.hydro
     mem = hyd.memory[0]
