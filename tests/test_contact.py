@@ -482,8 +482,9 @@ def _coil_with_implicit_flow() -> Simulation:
 def test_the_error_filters_assembly_keeps_the_nonlocal_flows_linearisation() -> None:
     """With the nonlocal flow inside Newton, the Newton matrix's nonlocal part is linearised
     at each Newton-matrix assembly. The error filter assembles the damping part alone
-    (cx = 0) into a room for the dashpot's blocks: that must leave the linearisation, which
-    the filter's own solve and the next Newton solves use, as it was."""
+    (cx = 0) into a room for the dashpot's blocks: that must leave the linearisation (J_other
+    and the resistances R_i), which the filter's own solve and the next Newton solves use, as
+    it was."""
     sim = _coil_with_implicit_flow()
     calls, energies = np.zeros(L.N_EFFECTS, np.int64), np.zeros(L.N_EFFECTS)
     model, rod, _, out = sim.kernel_inputs(1.0, 5e3, 0.0, True)
@@ -493,12 +494,15 @@ def test_the_error_filters_assembly_keeps_the_nonlocal_flows_linearisation() -> 
     hyd = sim.ws.hydro
     assert hyd.memory[0]["linearized"]
     band_other = hyd.band_other.copy()
-    assert np.abs(band_other).max() > 0
+    resist = hyd.resist.copy()
+    assert np.abs(band_other).max() > 0 and np.abs(resist).max() > 0
     model, rod, _, out = sim.kernel_inputs(0.0, 5e3, 0.0, True)
     filt = out._replace(band=sim.ws.band2, cpl=sim.ws.cpl_filter)
     assemble(model, rod, Stage(0.0, 0.0, 5e3, 0.0, True), filt, calls, energies)
     assert sim.ws.cpl_filter.count[0] > 0  # the filter wrote the dashpot's blocks
     np.testing.assert_array_equal(hyd.band_other, band_other)
+    # the linearised resistances R_i too: not the filter's law added on top
+    np.testing.assert_array_equal(hyd.resist, resist)
 
 
 def test_the_nonlocal_flows_newton_matrix_leaves_contact_out() -> None:

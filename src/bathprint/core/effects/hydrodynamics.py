@@ -213,6 +213,14 @@ def remember(model, hyd) -> None:
     mem.fmm_precision = p.hydro_fmm_precision
 
 
+@njit(**KERNEL, inline="always")
+def _newton_matrix(stage, out) -> bool:
+    """Whether this evaluation assembles a Newton matrix whose nonlocal part GMRES applies:
+    not one that keeps only the band (couplings of zero capacity), nor the error filter's,
+    which assembles the damping part alone (cx = 0) and solves with the Newton matrix's."""
+    return stage.jac and stage.cx != 0.0 and out.cpl.row.shape[0] > 0
+
+
 @njit(**KERNEL)
 def linearise(model, rod, stage, out) -> None:
     """With the implicit coupling, keep what GMRES needs of the Newton matrix's nonlocal part
@@ -221,8 +229,7 @@ def linearise(model, rod, stage, out) -> None:
     that keeps only the band (couplings of zero capacity) keeps none, and so does the error
     filter's, which assembles the damping part alone (cx = 0)."""
     p = model.params[0]
-    newton_matrix = stage.jac and stage.cx != 0.0 and out.cpl.row.shape[0] > 0
-    if p.hydro_coupling != HYDRO_IMPLICIT or not newton_matrix:
+    if p.hydro_coupling != HYDRO_IMPLICIT or not _newton_matrix(stage, out):
         return
     hyd = out.hydro
     mem = hyd.memory[0]
@@ -267,7 +274,7 @@ def accumulate(model, rod, stage, out) -> float:
     fx, fy, fz = p.bath_flow[0], p.bath_flow[1], p.bath_flow[2]
     sc = out.scratch
     f3, du, dt = sc.law_force, sc.law_du, sc.law_dt
-    keep = implicit and stage.jac and out.cpl.row.shape[0] > 0
+    keep = implicit and _newton_matrix(stage, out)  # (as linearise: R_i with J_other)
     cx, cv = stage.cx, stage.cv
     power = 0.0
     for j in range(n_seg):
