@@ -46,9 +46,8 @@ from _common import RESULTS, SHARP_CONTACT, best_of, write_csv
 from bathprint import Simulation, SimulationError, simulate
 from bathprint.analysis import validation as V
 from bathprint.analysis.measure import coil_pitch, coil_radius, min_gap_ratio
-from bathprint.core import layout as L
-from bathprint.core.effects import _stokeslet, hydrodynamics
-from bathprint.core.topology import free_nodes
+from bathprint.analysis.validation import mobility_operator
+from bathprint.core.effects import _stokeslet
 from bathprint.studies.reproduce import ablation
 
 MU = 1e-3
@@ -386,7 +385,8 @@ ALL_EFFECTS_DURATION_S: float | None = None  # None: the ablation's own duration
 def all_effects_variants() -> dict[str, dict]:
     """The ablation's ALL_EFFECTS_RUN overrides (to ALL_EFFECTS_DURATION_S if set), and with
     one thing changed: contact's dashpot off, no contact, the lagged nonlocal flow, no
-    hydrodynamics."""
+    hydrodynamics, Stokes drag (cox) instead of finite_re; and Stokes drag with the RPY
+    kernel (a positive-definite mobility) instead of Stokeslet segments."""
     runs, _ = ablation.plan()
     set_name, point, variant = ALL_EFFECTS_RUN
     over = next(
@@ -402,6 +402,8 @@ def all_effects_variants() -> dict[str, dict]:
         "no dashpot": {**over, "contact.damping_time_s": 0.0},
         "no contact": {**over, "effects": [e for e in over["effects"] if e != "contact"]},
         "lagged nonlocal flow": {**over, "hydrodynamics.coupling": "lagged"},
+        "Stokes drag": {**over, "drag.model": "cox"},
+        "Stokes drag, RPY kernel": {**over, "drag.model": "cox", "hydrodynamics.kernel": "rpy"},
         "no hydrodynamics": {
             **over,
             "effects": [e for e in over["effects"] if e != "hydrodynamics"],
@@ -447,41 +449,20 @@ def all_effects_rows() -> list[dict]:
 
 #: mobility: the times (s) at which I + R M W^-1 is taken on the all_effects run
 MOBILITY_TIMES_S = (0.5, 0.8, 1.1, 1.5, 1.9)
-
-
-def mobility_operator(sim: Simulation) -> np.ndarray:
-    """I + R M_nl W^-1 (dense, 3 n_free square) at ``sim``'s state: a Newton-matrix assembly
-    linearises the implicit flow, and its matrix-free product with J_other set to the
-    identity gives the columns; J_other is put back."""
-    sim.forces(1.0, 1.0, 1.0, True)
-    hyd = sim.ws.hydro
-    nd = 3 * free_nodes(sim.n_nodes, sim.model.p)
-    saved = hyd.band_other.copy()
-    hyd.band_other[:] = 0.0
-    hyd.band_other[:nd, L.KL] = 1.0
-    op = np.eye(nd)
-    unit, col = np.zeros(nd), np.zeros(nd)
-    try:
-        for k in range(nd):
-            unit[k], col[:] = 1.0, 0.0
-            hydrodynamics.apply_nonlocal(sim.ws, nd, unit, col)
-            op[:, k] += col
-            unit[k] = 0.0
-    finally:
-        hyd.band_other[:] = saved
-    return op
+#: ... and the all_effects variants it is taken on
+MOBILITY_VARIANTS = ("as in the ablation", "no contact", "Stokes drag", "Stokes drag, RPY kernel")
 
 
 def mobility_rows() -> list[dict]:
-    """The all_effects run as planned and without contact, each advanced through
-    MOBILITY_TIMES_S: the eigenvalues of :func:`mobility_operator` (smallest and largest
-    real part, smallest singular value) and the smallest gap between non-adjacent segments
-    over the sum of the radii; a failure's time and cause where a run stops."""
+    """The all_effects variants MOBILITY_VARIANTS, each advanced through MOBILITY_TIMES_S:
+    the eigenvalues of :func:`mobility_operator` (smallest and largest real part, smallest
+    singular value) and the smallest gap between non-adjacent segments over the sum of the
+    radii; a failure's time and cause where a run stops."""
     variants = all_effects_variants()
     rows = []
     keys = ("free_nodes", "eig_real_min", "eig_real_max", "singular_min", "min_gap_ratio")
     nan = dict.fromkeys(keys, math.nan)
-    for label in ("as in the ablation", "no contact"):
+    for label in MOBILITY_VARIANTS:
         sim = Simulation(ablation.SCENE, variants[label])
         for t in MOBILITY_TIMES_S:
             try:

@@ -352,8 +352,9 @@ def test_the_hessian_part_runs_each_scene_with_both_hessians(bench):
 def test_the_hydrodynamics_all_effects_part_changes_one_thing_per_variant(bench, monkeypatch):
     """``bench_hydrodynamics.py all_effects``: the ablation's "all" run at d = 0.41 mm,
     0.5 ml/min as planned, and with contact's dashpot off, no contact, the lagged nonlocal
-    flow or no hydrodynamics, each differing from it in that key only; on a tiny budget every
-    variant runs to its end and counts its iterations."""
+    flow, no hydrodynamics or Stokes drag, each differing from it in that key only, and Stokes
+    drag with the RPY kernel; on a tiny budget every variant runs to its end and counts its
+    iterations."""
     mod = bench("bench_hydrodynamics")
     monkeypatch.setattr(mod, "ALL_EFFECTS_DURATION_S", 0.004)
     variants = mod.all_effects_variants()
@@ -370,7 +371,10 @@ def test_the_hydrodynamics_all_effects_part_changes_one_thing_per_variant(bench,
         "no contact": {"effects"},
         "lagged nonlocal flow": {"hydrodynamics.coupling"},
         "no hydrodynamics": {"effects"},
+        "Stokes drag": {"drag.model"},
+        "Stokes drag, RPY kernel": {"drag.model", "hydrodynamics.kernel"},
     }
+    assert variants["Stokes drag, RPY kernel"]["hydrodynamics.kernel"] == "rpy"
     assert set(base["effects"]) - set(variants["no contact"]["effects"]) == {"contact"}
     assert set(base["effects"]) - set(variants["no hydrodynamics"]["effects"]) == {"hydrodynamics"}
     rows = mod.all_effects_rows()
@@ -393,7 +397,7 @@ def test_the_hydrodynamics_mobility_part_takes_the_operator_and_puts_j_other_bac
     sim.advance(0.05)
     sim.forces(1.0, 1.0, 1.0, True)
     band_other = sim.ws.hydro.band_other.copy()
-    op = mod.mobility_operator(sim)
+    op = mod.mobility_operator(sim)  # (the bench imports it from analysis.validation)
     np.testing.assert_array_equal(sim.ws.hydro.band_other, band_other)
     nd = op.shape[0]
     x = np.random.default_rng(5).normal(size=nd)

@@ -342,6 +342,17 @@ def test_unlisted_hydrodynamics_costs_nothing() -> None:
         ),
         ({"bath.viscosity_pa_s": -1.0}, "bath.viscosity_pa_s"),
         ({"bath.density_kg_m3": 0.0}, "bath.density_kg_m3"),
+        ({"hydrodynamics.kernel": "oseen"}, "hydrodynamics.kernel"),
+        ({"hydrodynamics.rpy_radii": 0.1}, "hydrodynamics.rpy_radii"),
+        ({"hydrodynamics.kernel": "rpy", "drag.model": "finite_re"}, "drag.model"),
+        (
+            {"hydrodynamics.kernel": "rpy", "hydrodynamics.rpy_radii": 0.6},
+            "hydrodynamics.rpy_radii",
+        ),
+        (
+            {"hydrodynamics.kernel": "rpy", "hydrodynamics.regularization_radii": 1.0},
+            "hydrodynamics.regularization_radii",
+        ),
     ],
 )
 def test_bad_hydrodynamics_input_is_one_scene_error_naming_the_key(overrides, key) -> None:

@@ -597,9 +597,11 @@ def hydro_rod(
     diameter_mm: float = 0.2,
     cutoff_radii: float = 3.0,
     drag_model: str = "cox",
+    kernel: str = "slender_body",
 ) -> Simulation:
     """A free straight rod of length ``aspect`` x its diameter along z, with the
-    hydrodynamics effect (Stokes with drag.model = 'cox'), bath viscosity 1e-3 Pa s."""
+    hydrodynamics effect (Stokes with drag.model = 'cox'; its nonlocal ``kernel``), bath
+    viscosity 1e-3 Pa s."""
     length_mm = aspect * diameter_mm
     sim = Simulation(
         "paper_simulation",
@@ -614,6 +616,7 @@ def hydro_rod(
             "hydrodynamics.coupling": "implicit",  # (rigid_body_drag evaluates its kernel)
             "bath.viscosity_pa_s": 1e-3,
             "drag.model": drag_model,
+            "hydrodynamics.kernel": kernel,
         },
     )
     sim.release()
@@ -737,7 +740,7 @@ def ring_drag(
     tang = seg / lengths[:, None]
     node_s = np.concatenate([[0.0], np.cumsum(lengths)[:-1]])
     period = float(lengths.sum())
-    xp, xn = window_coefficients(a_cut, a_cut, r, mu)
+    xp, xn = window_coefficients(a_cut, a_cut, r, mu, 0.0, 0.0)
     # R_i = sum over its two segments of (l/2) Xi(t_j); W_i = (l_{i-1} + l_i)/2
     resist = np.zeros((n, 3, 3))
     weight = np.zeros(n)
@@ -919,3 +922,43 @@ def hydro_fixed_step_errors(
             )
             out[coupling].append(float(np.max(np.linalg.norm(x - ref, axis=1))))
     return out
+
+
+def mobility_operator(sim: Simulation) -> np.ndarray:
+    """I + R M_nl W^-1 (dense, 3 n_free square) at ``sim``'s state, with the implicit
+    nonlocal flow: a Newton-matrix assembly linearises it, and its matrix-free product with
+    J_other set to the identity gives the columns; J_other is put back. Its eigenvalues have
+    positive real parts when the filament's mobility is positive definite."""
+    from bathprint.core import layout as L
+    from bathprint.core.effects import hydrodynamics
+    from bathprint.core.topology import free_nodes
+
+    sim.forces(1.0, 1.0, 1.0, True)
+    hyd = sim.ws.hydro
+    nd = 3 * free_nodes(sim.n_nodes, sim.model.p)
+    saved = hyd.band_other.copy()
+    hyd.band_other[:] = 0.0
+    hyd.band_other[:nd, L.KL] = 1.0
+    op = np.eye(nd)
+    unit, col = np.zeros(nd), np.zeros(nd)
+    try:
+        for k in range(nd):
+            unit[k], col[:] = 1.0, 0.0
+            hydrodynamics.apply_nonlocal(sim.ws, nd, unit, col)
+            op[:, k] += col
+            unit[k] = 0.0
+    finally:
+        hyd.band_other[:] = saved
+    return op
+
+
+def filament_mobility(sim: Simulation) -> np.ndarray:
+    """The filament's total mobility R^-1 + M_nl W^-1 (m/(N s), dense, 3 n_free square) at
+    ``sim``'s state: :func:`mobility_operator` with each node's linearised resistance R_i
+    divided out. Symmetric and positive definite for a physical (dissipative) flow."""
+    op = mobility_operator(sim)
+    nf = op.shape[0] // 3
+    resist = np.zeros_like(op)
+    for i in range(nf):
+        resist[3 * i : 3 * i + 3, 3 * i : 3 * i + 3] = sim.ws.hydro.resist[i]
+    return np.linalg.solve(resist, op)

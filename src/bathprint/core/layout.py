@@ -119,6 +119,10 @@ PARAMS_FIELDS: tuple[tuple[str, str, str], ...] = (
     ("hydro_screening", "?", "nonlocal Stokeslets screened beyond the Oseen length (finite_re)"),
     ("hydro_fmm_nodes", "i8", "-, active nodes from which the FMM sums the far field (0: never)"),
     ("hydro_fmm_precision", "f8", "-, requested relative precision of the FMM"),
+    ("hydro_kernel", "i8", "-, HYDRO_SLENDER_BODY or HYDRO_RPY: the nonlocal flow's kernel"),
+    ("hydro_rpy_radii", "f8", "-, RPY kernel: each node's blob radius over its radius"),
+    ("hydro_rpy_shift_par", "f8", "-, RPY kernel: a full window side's shift of Lam along"),
+    ("hydro_rpy_shift_perp", "f8", "-, ... and across the filament (effects._rpy.window_shift)"),
     ("solution_viscosity", "f8", "Pa s, shear viscosity eta of the alginate solution"),
     ("trouton_ratio", "f8", "-, extensional / shear viscosity of the solution (3: Newtonian)"),
     ("line_search", "?", "Newton updates backtrack until the force residual decreases"),
@@ -164,6 +168,9 @@ DRAG_MODELS = ("cox", "constant", "finite_re")
 HYDRO_IMPLICIT = 0  # the nonlocal flow inside Newton: its Jacobian's action in the GMRES solve
 HYDRO_LAGGED = 1  # the nonlocal flow from the step's start (Tornberg & Shelley 2004)
 HYDRO_COUPLINGS = ("implicit", "lagged")
+HYDRO_SLENDER_BODY = 0  # Lighthill's Stokeslet segments beyond the window (effects._stokeslet)
+HYDRO_RPY = 1  # Rotne-Prager-Yamakawa blobs at the nodes (effects._rpy): positive definite
+HYDRO_KERNELS = ("slender_body", "rpy")
 
 # --- integrators ----------------------------------------------------------------------
 INTEGRATOR_IMPLICIT = 0  # SDIRK2, Newton on the banded Jacobian
@@ -281,6 +288,8 @@ HYDRO_FIELDS: tuple[tuple[str, str, str], ...] = (
     ("screening", "?", "the Stokeslets are screened beyond the Oseen length (finite_re)"),
     ("fmm_nodes", "i8", "-, segments from which the FMM sums (0: never)"),
     ("fmm_precision", "f8", "-"),
+    ("kernel", "i8", "-, HYDRO_SLENDER_BODY or HYDRO_RPY"),
+    ("rpy_radii", "f8", "-, RPY kernel: blob radius over the node's radius"),
     ("evaluations", "i8", "-, evaluations of the nonlocal flow (direct: O(N^2) each)"),
     ("u_valid", "?", "lagged: u_nl is the flow at the state of u_time with u_nodes nodes"),
     ("u_time", "f8", "s"),

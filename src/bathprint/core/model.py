@@ -16,6 +16,7 @@ import numpy as np
 from bathprint.core import layout as L
 from bathprint.core import records
 from bathprint.core.composite import INNER_FLUIDS
+from bathprint.core.effects._rpy import GATE_MARGIN, window_margin, window_shift
 from bathprint.core.scene import ACCURACY_PRESETS, Scene, flow_rows
 from bathprint.errors import SceneError
 
@@ -233,6 +234,42 @@ def contact_damping_time(scene: Scene) -> float:
     return float(value)
 
 
+def _check_rpy(h, drag_model: str, spacing: float, radius: float) -> None:
+    """The RPY kernel: Stokes drag, direct sums of point blobs (no FMM, no Cortez blob), and
+    blobs large enough that a straight filament's windows keep GATE_MARGIN of their mobility
+    beyond the blobs' share (:func:`window_margin`: its gates are then 1)."""
+    if drag_model != "cox":
+        raise SceneError(
+            f"drag.model = {drag_model!r} with hydrodynamics.kernel = 'rpy': the RPY kernel's "
+            "mobility is positive definite for a drag law whose resistance does not depend on "
+            "the speed (Stokes); the finite-Reynolds law's grows with it, beyond what the blobs "
+            "allow; allowed: drag.model = 'cox' with 'rpy' (or kernel 'slender_body')"
+        )
+    if h.fmm_min_nodes > 0 or h.regularization_radii > 0.0:
+        key, value = (
+            ("fmm_min_nodes", h.fmm_min_nodes)
+            if h.fmm_min_nodes > 0
+            else ("regularization_radii", h.regularization_radii)
+        )
+        raise SceneError(
+            f"hydrodynamics.{key} = {value!r} with hydrodynamics.kernel = 'rpy': it applies to "
+            "the slender_body kernel's Stokeslet segments; allowed: 0 with 'rpy'"
+        )
+    cutoff = h.cutoff_radii * radius
+    if window_margin(spacing, cutoff, radius, h.rpy_radii * radius) > GATE_MARGIN:
+        return
+    ratio = h.rpy_radii
+    while ratio < 20.0 and window_margin(spacing, cutoff, radius, ratio * radius) <= GATE_MARGIN:
+        ratio = round(ratio + 0.05, 2)
+    raise SceneError(
+        f"hydrodynamics.rpy_radii = {h.rpy_radii!r}: with node spacing {spacing * 1e3:g} mm, "
+        f"cutoff {cutoff * 1e3:g} mm and radius {radius * 1e3:g} mm the blobs' share of a "
+        f"straight filament's window leaves it less than {GATE_MARGIN:g} of its own mobility, "
+        "so the gates that keep the mobility positive definite would cut even a straight "
+        f"filament's flow; allowed: hydrodynamics.rpy_radii >= {ratio:g} here"
+    )
+
+
 def _hydrodynamics(scene: Scene, p: np.record, radius: float) -> None:
     """The hydrodynamics parameters (cutoff, coupling, regularisation, FMM)."""
     h = scene.hydrodynamics
@@ -242,6 +279,13 @@ def _hydrodynamics(scene: Scene, p: np.record, radius: float) -> None:
     p.hydro_screening = scene.drag.model == "finite_re"
     p.hydro_fmm_nodes = h.fmm_min_nodes
     p.hydro_fmm_precision = h.fmm_precision
+    p.hydro_kernel = L.HYDRO_KERNELS.index(h.kernel)
+    p.hydro_rpy_radii = h.rpy_radii
+    p.hydro_rpy_shift_par, p.hydro_rpy_shift_perp = window_shift(
+        h.cutoff_radii * radius, h.rpy_radii * radius
+    )
+    if "hydrodynamics" in scene.effects and h.kernel == "rpy":
+        _check_rpy(h, scene.drag.model, p.node_spacing, radius)
     if "hydrodynamics" in scene.effects and h.fmm_min_nodes > 0:
         if scene.drag.model == "finite_re":
             raise SceneError(

@@ -152,6 +152,11 @@ class Hydro(NamedTuple):
     f_seg: np.ndarray  # (3 cap,) N/m: ... on each segment (the mean of its two nodes')
     weight: np.ndarray  # (cap,) m: each node's share of the filament's length
     sides: np.ndarray  # (2, cap) m: the local window a_-, a_+ of each node
+    blob: np.ndarray  # (cap,) m: RPY kernel: each node's blob radius
+    f_blob: np.ndarray  # (3 cap,) N: RPY kernel: the force each node's blob pushes
+    beyond: np.ndarray  # (cap,) -: RPY kernel: sides of each node's window with blobs beyond
+    gate: np.ndarray  # (cap,) -: RPY kernel: each node's gate g_i in [0, 1] (effects._rpy)
+    resist_window: np.ndarray  # (cap, 3, 3) N s/m: RPY kernel: its window law's resistance
     screen: np.ndarray  # (cap,) m: each segment's Oseen screening length (inf: none)
     resist: np.ndarray  # (cap, 3, 3) N s/m: -dF_drag/du of each node (the linearisation)
     band_other: np.ndarray  # (3 cap, BAND_WIDTH): the Newton matrix of the other effects
@@ -171,6 +176,11 @@ def new_hydro(capacity: int) -> Hydro:
         f_seg=np.zeros(3 * n),
         weight=np.zeros(n),
         sides=np.zeros((2, n)),
+        blob=np.zeros(n),
+        f_blob=np.zeros(3 * n),
+        beyond=np.zeros(n),
+        gate=np.ones(n),
+        resist_window=np.zeros((n, 3, 3)),
         screen=np.full(n, np.inf),
         resist=np.zeros((n, 3, 3)),
         band_other=np.zeros((3 * n, BAND_WIDTH)),

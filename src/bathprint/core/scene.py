@@ -27,6 +27,7 @@ from bathprint.core.layout import (
     EFFECT_NAMES,
     GEL_MODEL_NAMES,
     HYDRO_COUPLINGS,
+    HYDRO_KERNELS,
     INTEGRATOR_NAMES,
 )
 from bathprint.errors import SceneError
@@ -300,7 +301,26 @@ class Contact:
 class Hydrodynamics:
     """Nonlocal slender-body flow (effect 'hydrodynamics'): Lighthill's slender-body theory
     split at an arclength a = cutoff_radii x the filament radius into the local drag (the
-    drag law on the window |s' - s| < a) and the flow of the Stokeslet segments beyond it."""
+    drag law on the window |s' - s| < a) and the flow of the rest of the filament: Stokeslet
+    segments beyond the window (kernel 'slender_body') or Rotne-Prager-Yamakawa blobs at the
+    nodes less their share of the window (kernel 'rpy', positive definite on touching turns;
+    docs/physics/index.md#hydrodynamics)."""
+
+    kernel: str = field(
+        default="slender_body",
+        metadata={
+            "choices": HYDRO_KERNELS,
+            "doc": "slender_body: Lighthill's Stokeslet segments; rpy: Rotne-Prager-Yamakawa "
+            "blobs at the nodes, a mobility positive definite for any configuration",
+        },
+    )
+    rpy_radii: float = _num(
+        2.0,
+        0.5,
+        20.0,
+        doc="rpy: each node's blob radius over its radius (its window's "
+        "mobility must exceed the blobs' share: checked when the scene compiles)",
+    )
 
     coupling: str = field(
         default="lagged",

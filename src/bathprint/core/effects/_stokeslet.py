@@ -238,20 +238,30 @@ def window_log(a_minus: float, a_plus: float, r: float) -> float:
 
 
 @njit(**KERNEL, inline="always")
-def window_coefficients(a_minus: float, a_plus: float, r: float, mu: float):
+def window_coefficients(
+    a_minus: float, a_plus: float, r: float, mu: float, shift_par: float, shift_perp: float
+):
     """(xi_par, xi_perp) in Pa s: the local resistance of the straight window (a_-, a_+) of a
-    filament of radius r, f = xi_par (u.t) t + xi_perp (u - (u.t) t)."""
+    filament of radius r, f = xi_par (u.t) t + xi_perp (u - (u.t) t): 4 pi mu / Lam_par and
+    8 pi mu / (Lam_perp + 2), Lam_par = Lam + ``shift_par``, Lam_perp = Lam + ``shift_perp``
+    (the RPY kernel's, :func:`._rpy.window_shift`; 0 for Stokeslet segments), each at least
+    LAM_MIN."""
     lam = window_log(a_minus, a_plus, r)
-    return 4.0 * math.pi * mu / lam, 8.0 * math.pi * mu / (lam + 2.0)
+    lam_par = max(lam + shift_par, LAM_MIN)
+    lam_perp = max(lam + shift_perp, LAM_MIN)
+    return 4.0 * math.pi * mu / lam_par, 8.0 * math.pi * mu / (lam_perp + 2.0)
 
 
 @njit(**KERNEL, inline="always")
-def window_lengths(a_minus: float, a_plus: float, r: float):
+def window_lengths(a_minus: float, a_plus: float, r: float, shift_par: float, shift_perp: float):
     """(L_n, L_t): the lengths of the finite_re law's normal and tangential logarithms
     ln(L/r) that make its zero-speed limit the window's resistance: xi_perp = 4 pi mu /
-    ln(L_n/r), xi_par = 2 pi mu / ln(L_t/r), i.e. L_n = r e^(Lam/2 + 1), L_t = r e^(Lam/2)."""
+    ln(L_n/r), xi_par = 2 pi mu / ln(L_t/r), i.e. L_n = r e^(Lam_perp/2 + 1), L_t =
+    r e^(Lam_par/2) (shifts as in :func:`window_coefficients`)."""
     lam = window_log(a_minus, a_plus, r)
-    return r * math.exp(0.5 * lam + 1.0), r * math.exp(0.5 * lam)
+    lam_par = max(lam + shift_par, LAM_MIN)
+    lam_perp = max(lam + shift_perp, LAM_MIN)
+    return r * math.exp(0.5 * lam_perp + 1.0), r * math.exp(0.5 * lam_par)
 
 
 # ---- the fast multipole method (fmm3dpy, outside numba) ----------------------------------

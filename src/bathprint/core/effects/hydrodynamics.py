@@ -62,6 +62,7 @@ from numba import njit, objmode
 
 from bathprint.core.banded import band_matvec
 from bathprint.core.effects._drag_laws import law
+from bathprint.core.effects._rpy import rpy_flow, rpy_gates
 from bathprint.core.effects._stokeslet import (
     fmm_flow,
     nonlocal_flow,
@@ -70,7 +71,7 @@ from bathprint.core.effects._stokeslet import (
 )
 from bathprint.core.effects.drag import add_law_share
 from bathprint.core.jit import KERNEL, kernel
-from bathprint.core.layout import DRAG_FINITE_RE, HYDRO_IMPLICIT, KL, KU, MAT_RADIUS
+from bathprint.core.layout import DRAG_FINITE_RE, HYDRO_IMPLICIT, HYDRO_RPY, KL, KU, MAT_RADIUS
 from bathprint.core.topology import filament_segments, free_nodes
 
 # l_O = OSEEN_FACTOR nu / |u|: with it the window (Lam = 2 ln(a/delta)) and the screened
@@ -81,25 +82,82 @@ OSEEN_FACTOR = 2.0
 
 
 @kernel
-def geometry(rod, n_seg: int, a_cut: float, hyd) -> None:
+def geometry(p, rod, n_seg: int, hyd, sc) -> None:
     """Each filament node's share of the length (``hyd.weight``) and its window sides
-    (``hyd.sides``: a_-, a_+, clipped at the ends; arclength is the material coordinate)."""
+    (``hyd.sides``: a_-, a_+, clipped at the ends; arclength is the material coordinate);
+    for the RPY kernel also its blob radius (``hyd.blob``: ``rpy_radii`` x the mean radius
+    of its segments), its window law's resistance (``hyd.resist_window``, N s/m: Stokes', so
+    at any velocity) and its gate (:func:`._rpy.rpy_gates`)."""
     pos, node_s = rod.pos, rod.node_s
-    w = hyd.weight
+    a_cut = p.hydro_cutoff
+    rpy = p.hydro_kernel == HYDRO_RPY
+    if rpy:
+        _discrete_sides(node_s, n_seg, a_cut, hyd)
+    else:
+        s0 = node_s[0]
+        s1 = node_s[n_seg]
+        for i in range(n_seg + 1):
+            hyd.sides[0, i] = min(a_cut, node_s[i] - s0)
+            hyd.sides[1, i] = min(a_cut, s1 - node_s[i])
+    w, blob, rw = hyd.weight, hyd.blob, hyd.resist_window
+    ratio = 0.5 * p.hydro_rpy_radii
     for i in range(n_seg + 1):
         w[i] = 0.0
+        blob[i] = 0.0
+        for a in range(3):
+            for b in range(3):
+                rw[i, a, b] = 0.0
     for j in range(n_seg):
         ex = pos[3 * j + 3] - pos[3 * j]
         ey = pos[3 * j + 4] - pos[3 * j + 1]
         ez = pos[3 * j + 5] - pos[3 * j + 2]
-        half = 0.5 * math.sqrt(ex * ex + ey * ey + ez * ez)
-        w[j] += half
-        w[j + 1] += half
-    s0 = node_s[0]
-    s1 = node_s[n_seg]
+        length = math.sqrt(ex * ex + ey * ey + ez * ez)
+        w[j] += 0.5 * length
+        w[j + 1] += 0.5 * length
+        if not rpy:
+            continue
+        r = rod.seg_mat[j, MAT_RADIUS]
+        tt = (ex / length, ey / length, ez / length)
+        for i in range(j, j + 2):
+            blob[i] += ratio * r
+            _window_law(p, hyd, i, r, 0.0, 0.0, 0.0, tt, sc.law_force, sc.law_du, sc.law_dt)
+            for a in range(3):
+                for b in range(3):
+                    rw[i, a, b] -= 0.5 * length * sc.law_du[a, b]
+    if not rpy:
+        return
+    if n_seg > 0:  # the end nodes have one segment
+        blob[0] *= 2.0
+        blob[n_seg] *= 2.0
+    rpy_gates(pos, node_s, n_seg + 1, blob, rw, a_cut, p.bath_viscosity, hyd.gate)
+
+
+@kernel
+def _discrete_sides(node_s, n_seg: int, a_cut: float, hyd) -> None:
+    """The RPY kernel's windows: each side ends halfway between the last node within
+    arclength a of node i and the next one (so the law's window and the blobs beyond it
+    share the filament without gap or overlap, whichever side of a a node falls on), or at
+    the filament's end; ``hyd.beyond`` counts the sides with blobs beyond them."""
     for i in range(n_seg + 1):
-        hyd.sides[0, i] = min(a_cut, node_s[i] - s0)
-        hyd.sides[1, i] = min(a_cut, s1 - node_s[i])
+        si = node_s[i]
+        j = i
+        while j > 0 and si - node_s[j - 1] < a_cut:
+            j -= 1
+        full = 0.0
+        if j > 0:
+            hyd.sides[0, i] = si - 0.5 * (node_s[j] + node_s[j - 1])
+            full += 1.0
+        else:
+            hyd.sides[0, i] = si - node_s[0]
+        j = i
+        while j < n_seg and node_s[j + 1] - si < a_cut:
+            j += 1
+        if j < n_seg:
+            hyd.sides[1, i] = 0.5 * (node_s[j] + node_s[j + 1]) - si
+            full += 1.0
+        else:
+            hyd.sides[1, i] = node_s[n_seg] - si
+        hyd.beyond[i] = full
 
 
 @njit(**KERNEL, inline="always")
@@ -108,13 +166,17 @@ def _window_law(p, hyd, i: int, r: float, u0, u1, u2, tt, f3, du, dt) -> float:
     velocity u: force per length into f3, dF/du, dF/dt into du, dt; returns -F.u (W/m)."""
     am = hyd.sides[0, i]
     ap = hyd.sides[1, i]
+    shift_par = shift_perp = 0.0
+    if p.hydro_kernel == HYDRO_RPY:  # each side with blobs beyond it (not clipped at an end)
+        shift_par = hyd.beyond[i] * p.hydro_rpy_shift_par
+        shift_perp = hyd.beyond[i] * p.hydro_rpy_shift_perp
     if p.drag_model == DRAG_FINITE_RE:
-        len_n, len_t = window_lengths(am, ap, r)
+        len_n, len_t = window_lengths(am, ap, r, shift_par, shift_perp)
         return law(
             u0, u1, u2, tt[0], tt[1], tt[2], 2.0 * r, p.bath_viscosity, p.bath_density_top,
             len_n, len_t, f3, du, dt,
         )  # fmt: skip
-    xp, xn = window_coefficients(am, ap, r, p.bath_viscosity)
+    xp, xn = window_coefficients(am, ap, r, p.bath_viscosity, shift_par, shift_perp)
     s = u0 * tt[0] + u1 * tt[1] + u2 * tt[2]
     u = (u0, u1, u2)
     power = 0.0
@@ -185,9 +247,20 @@ def sources(model, rod, out, n_free: int, n_seg: int) -> None:
 def flow(pos, node_s, n_targets: int, n_seg: int, hyd, out_vel) -> None:
     """The nonlocal flow of the segment forces ``hyd.f_seg`` at nodes 0..n_targets-1 into
     ``out_vel``: the direct sum, or fmm3dpy's FMM from ``fmm_nodes`` segments on (without
-    screening; one Python call in objmode). Counts the evaluation."""
+    screening; one Python call in objmode); with the RPY kernel the blobs' flow of the node
+    forces ``hyd.f_node`` x ``hyd.weight`` (:mod:`._rpy`). Counts the evaluation."""
     mem = hyd.memory[0]
     mem.evaluations += 1
+    if mem.kernel == HYDRO_RPY:
+        f_blob = hyd.f_blob
+        for i in range(n_seg + 1):
+            for a in range(3):
+                f_blob[3 * i + a] = hyd.f_node[3 * i + a] * hyd.weight[i]
+        rpy_flow(
+            pos, node_s, n_targets, pos, node_s, n_seg + 1, f_blob, hyd.blob, hyd.gate, mem.mu,
+            mem.cutoff, out_vel,
+        )  # fmt: skip
+        return
     if 0 < mem.fmm_nodes <= n_seg and not mem.screening:
         mu, eps, a_cut, prec = mem.mu, mem.blob, mem.cutoff, mem.fmm_precision
         f_seg = hyd.f_seg
@@ -211,6 +284,8 @@ def remember(model, hyd) -> None:
     mem.screening = p.hydro_screening
     mem.fmm_nodes = p.hydro_fmm_nodes
     mem.fmm_precision = p.hydro_fmm_precision
+    mem.kernel = p.hydro_kernel
+    mem.rpy_radii = p.hydro_rpy_radii
 
 
 @njit(**KERNEL, inline="always")
@@ -265,7 +340,7 @@ def accumulate(model, rod, stage, out) -> float:
     n_free = free_nodes(rod.n_nodes, p)
     n_seg = filament_segments(rod.n_nodes, p)
     remember(model, hyd)
-    geometry(rod, n_seg, p.hydro_cutoff, hyd)
+    geometry(p, rod, n_seg, hyd, out.scratch)
     sources(model, rod, out, n_free, n_seg)
     implicit = p.hydro_coupling == HYDRO_IMPLICIT
     u_nl = hyd.u_nl

@@ -1,0 +1,199 @@
+"""The hydrodynamics effect's RPY kernel (``hydrodynamics.kernel = "rpy"``): the tensor
+against Zuk et al. (2014) and its limits, its positive definiteness where Lighthill's
+Stokeslet segments lose it (turns pressed onto and through each other), its gates, and a
+straight rod's drag against Tirado's cylinder."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from bathprint import Simulation
+from bathprint.analysis import validation as V
+from bathprint.core.effects import _rpy
+
+MM = 1e-3
+MU = 1e-3
+
+
+def _rpy_matrix(points: np.ndarray, radii: np.ndarray) -> np.ndarray:
+    """8 pi mu x the RPY mobility of blobs at ``points`` (dense 3n square)."""
+    n = len(points)
+    out = np.zeros((3 * n, 3 * n))
+    for i in range(n):
+        for j in range(n):
+            r = points[i] - points[j]
+            dist = float(np.linalg.norm(r))
+            c_iso, c_rr = _rpy.rpy_coefficients(dist, radii[i], radii[j])
+            rr = np.outer(r, r) / dist**2 if dist > 0 else np.zeros((3, 3))
+            out[3 * i : 3 * i + 3, 3 * j : 3 * j + 3] = c_iso * np.eye(3) + c_rr * rr
+    return out
+
+
+def test_the_rpy_tensor_is_continuous_and_has_its_limits() -> None:
+    """Zuk et al.'s three regimes meet: at R = b_i + b_j and at R = |b_i - b_j| (then the
+    larger blob's self-mobility, isotropic); equal blobs give Rotne-Prager's overlapping
+    form (1 - 9R/(32b)) I + (3R/(32b)) RR over 6 pi mu b; far away the Stokeslet."""
+    bi, bj = 1.0, 0.6
+    for dist in (bi + bj, bi - bj):
+        below = _rpy.rpy_coefficients(dist * (1 - 1e-9), bi, bj)
+        above = _rpy.rpy_coefficients(dist * (1 + 1e-9), bi, bj)
+        np.testing.assert_allclose(below, above, rtol=1e-6, atol=1e-9)
+    iso, rr = _rpy.rpy_coefficients(0.99 * (bi - bj), bi, bj)
+    assert iso == pytest.approx(4.0 / (3.0 * bi), rel=1e-12) and abs(rr) < 1e-15
+    b, dist = 0.7, 0.9
+    iso, rr = _rpy.rpy_coefficients(dist, b, b)
+    assert iso == pytest.approx(4.0 / (3.0 * b) * (1 - 9 * dist / (32 * b)), rel=1e-12)
+    assert rr == pytest.approx(4.0 / (3.0 * b) * 3 * dist / (32 * b), rel=1e-12)
+    far = 1e4
+    iso, rr = _rpy.rpy_coefficients(far, bi, bj)
+    assert iso * far == pytest.approx(1.0, rel=1e-7) and rr * far == pytest.approx(1.0, rel=1e-7)
+
+
+def test_the_rpy_matrix_is_positive_semi_definite_for_overlapping_clusters() -> None:
+    """Forty blobs of unequal radii packed so that many overlap, some inside others: the
+    RPY mobility is symmetric and positive semi-definite (Zuk et al. 2014)."""
+    rng = np.random.default_rng(11)
+    for _ in range(20):
+        points = rng.normal(size=(40, 3)) * rng.uniform(0.3, 3.0)
+        radii = rng.uniform(0.2, 1.5, size=40)
+        mob = _rpy_matrix(points, radii)
+        np.testing.assert_allclose(mob, mob.T, rtol=0, atol=1e-14 * np.abs(mob).max())
+        eig = np.linalg.eigvalsh(mob)
+        assert eig.min() > -1e-12 * eig.max()
+
+
+@pytest.mark.parametrize("aspect", [20, 50, 100])
+def test_straight_cylinder_drag_with_the_rpy_kernel_against_tirado(aspect: int) -> None:
+    """A rigid cylinder along and across its axis with the RPY kernel (blobs of twice the
+    radius, two segments per diameter): within 5% of Tirado's drags, and within 1.5% from
+    aspect 50 (the slender-body kernel: 3%, its own test)."""
+    sim = V.hydro_rod(aspect, 2 * aspect, kernel="rpy")
+    length = aspect * 0.2e-3
+    f_par, f_perp = V.cylinder_drag_tirado(aspect, MU, length)
+    along = V.rigid_body_drag(sim, (0.0, 0.0, 1e-3))
+    across = V.rigid_body_drag(sim, (1e-3, 0.0, 0.0))
+    tol = 0.05 if aspect < 50 else 0.015
+    assert abs(-along[2] / (f_par * 1e-3) - 1.0) < tol
+    assert abs(-across[0] / (f_perp * 1e-3) - 1.0) < tol
+    assert sim.ws.hydro.gate[: sim.n_nodes].min() == 1.0  # a straight rod: gates open
+
+
+def _coil(pitch_mm: float, n: int = 60) -> np.ndarray:
+    """Three turns of radius 3 mm at ``pitch_mm`` (r = 0.5 mm: 0.85 presses the turns onto
+    each other, 0 puts them through each other)."""
+    phi = np.linspace(0.0, 2 * math.pi * 3, n)
+    return np.column_stack(
+        [3 * MM * np.cos(phi), 3 * MM * np.sin(phi), pitch_mm * MM * phi / (2 * math.pi)]
+    )
+
+
+@pytest.mark.parametrize("pitch_mm", [0.85, 0.0])
+def test_the_rpy_mobility_is_positive_definite_on_turns_the_slender_body_one_is_not(
+    pitch_mm: float,
+) -> None:
+    """Three turns pressed onto each other (pitch 0.85 (2r)) and through each other (pitch
+    0), Stokes drag, the implicit flow: with Stokeslet segments the filament's mobility
+    R^-1 + M W^-1 is not symmetric and has negative eigenvalues, and I + R M W^-1, which
+    multiplies J_other in the Newton matrix, has eigenvalues of negative real part; with the
+    RPY kernel the mobility is symmetric and positive definite and those real parts stay
+    above 0.2."""
+    results = {}
+    for kernel in ("slender_body", "rpy"):
+        sim = Simulation.from_points(
+            _coil(pitch_mm),
+            "paper_simulation",
+            {
+                "effects": ["elasticity", "drag", "hydrodynamics"],
+                "hydrodynamics.coupling": "implicit",
+                "needle.inner_diameter_mm": 1.0,
+                "drag.model": "cox",
+                "hydrodynamics.kernel": kernel,
+            },
+        )
+        op = V.mobility_operator(sim)
+        mob = V.filament_mobility(sim)
+        sym = np.linalg.eigvalsh(0.5 * (mob + mob.T))
+        results[kernel] = (
+            np.linalg.eigvals(op).real.min(),
+            sym.min() / sym.max(),
+            np.linalg.norm(mob - mob.T) / np.linalg.norm(mob),
+        )
+    op_min, sym_min, asym = results["slender_body"]
+    assert op_min < 0 and sym_min < 0 and asym > 1e-2
+    op_min, sym_min, asym = results["rpy"]
+    assert op_min > 0.2 and sym_min > 0 and asym < 1e-12
+
+
+def test_the_gates_keep_the_mobility_positive_definite_where_the_law_resists_more() -> None:
+    """Where a node's drag law resists more than the Stokes window (ten times here, as the
+    finite-Re law does at speed), the blobs' share of its window would exceed its mobility:
+    with the gates open (g = 1) the mobility R^-1 + M W^-1 of the pressed coil is
+    indefinite; with the gates rpy_gates sets, the flow G S G less its window sums, it is
+    positive definite, every gate below 1."""
+    pts = _coil(0.85)
+    n = len(pts)
+    r = 0.5 * MM
+    seg = np.linalg.norm(np.diff(pts, axis=0), axis=1)
+    node_s = np.concatenate([[0.0], np.cumsum(seg)])
+    weight = np.zeros(n)
+    weight[:-1] += 0.5 * seg
+    weight[1:] += 0.5 * seg
+    a_cut = 3 * r
+    blob = np.full(n, 2 * r)
+    xi_par, xi_perp = 4 * math.pi * MU / 2.58, 8 * math.pi * MU / (2.58 + 2)  # Stokes window
+    tang = np.gradient(pts, axis=0)
+    tang /= np.linalg.norm(tang, axis=1)[:, None]
+    resist = np.array(
+        [
+            10 * weight[i] * (xi_par * np.outer(t, t) + xi_perp * (np.eye(3) - np.outer(t, t)))
+            for i, t in enumerate(tang)
+        ]
+    )
+    pos = pts.ravel().copy()
+
+    def mobility(gate: np.ndarray) -> np.ndarray:
+        flow = np.zeros((3 * n, 3 * n))
+        unit, out = np.zeros(3 * n), np.zeros(3 * n)
+        for k in range(3 * n):
+            unit[:] = 0.0
+            unit[k] = 1.0
+            _rpy.rpy_flow(pos, node_s, n, pos, node_s, n, unit, blob, gate, MU, a_cut, out)
+            flow[:, k] = out
+        return flow + np.linalg.inv(_block_diag(resist))
+
+    opened = mobility(np.ones(n))
+    assert np.linalg.eigvalsh(0.5 * (opened + opened.T)).min() < 0
+    gate = np.ones(n)
+    _rpy.rpy_gates(pos, node_s, n, blob, resist, a_cut, MU, gate)
+    assert gate.max() < 1.0 and gate.min() > 0.0
+    gated = mobility(gate)
+    np.testing.assert_allclose(gated, gated.T, rtol=0, atol=1e-12 * np.abs(gated).max())
+    assert np.linalg.eigvalsh(gated).min() > 0
+
+
+def _block_diag(blocks: np.ndarray) -> np.ndarray:
+    n = len(blocks)
+    out = np.zeros((3 * n, 3 * n))
+    for i in range(n):
+        out[3 * i : 3 * i + 3, 3 * i : 3 * i + 3] = blocks[i]
+    return out
+
+
+def test_window_margin_and_shift() -> None:
+    """The window's margin over the blobs' share grows with the blob radius and, at the
+    default (blobs of twice the radius, window 3 r), stays above the gates' 5% for node
+    spacings from 0.2 to 5 radii; the shift that matches the Stokeslet beyond the window
+    lengthens the window along the filament and shortens it across (the blobs' flow is
+    smoother there)."""
+    margins = [_rpy.window_margin(s, 3.0, 1.0, 2.0) for s in (0.2, 0.5, 1.0, 1.9, 2.5, 5.0)]
+    assert min(margins) > _rpy.GATE_MARGIN
+    assert _rpy.window_margin(1.0, 3.0, 1.0, 3.0) > _rpy.window_margin(1.0, 3.0, 1.0, 2.0)
+    along, across = _rpy.window_shift(3.0, 2.0)
+    assert along > 0 > across
+    # beyond 2b the closed form: 2b^2/(3x^2) along (halved in Lam), -b^2/(3x^2) across
+    along, across = _rpy.window_shift(5.0, 2.0)
+    assert along == pytest.approx(4.0 / 75.0, rel=1e-12)
+    assert across == pytest.approx(-4.0 / 75.0, rel=1e-12)
