@@ -6,6 +6,8 @@
     python benchmarks/bench_hydrodynamics.py workprec  # error vs step and vs wall time
     python benchmarks/bench_hydrodynamics.py all_effects  # the ablation's "all" on a pile
     python benchmarks/bench_hydrodynamics.py mobility  # I + R M W^-1 on that pile
+    python benchmarks/bench_hydrodynamics.py failing_solve  # at the first failed GMRES solve
+    python benchmarks/bench_hydrodynamics.py kernels   # Stokeslet segments vs RPY blobs
     python benchmarks/bench_hydrodynamics.py all
 
 (1) eval: the nonlocal flow of a coil (node spacing 0.5 mm, radius 1.5 mm, pitch 0.9 mm,
@@ -41,13 +43,15 @@ import math
 import time
 
 import numpy as np
+import scipy.linalg
 from _common import RESULTS, SHARP_CONTACT, best_of, write_csv
 
 from bathprint import Simulation, SimulationError, simulate
 from bathprint.analysis import validation as V
 from bathprint.analysis.measure import coil_pitch, coil_radius, min_gap_ratio
 from bathprint.analysis.validation import mobility_operator
-from bathprint.core.effects import _stokeslet
+from bathprint.core import layout as L
+from bathprint.core.effects import _rpy, _stokeslet
 from bathprint.studies.reproduce import ablation
 
 MU = 1e-3
@@ -489,9 +493,231 @@ def mobility_rows() -> list[dict]:
     return rows
 
 
+#: failing_solve: each all_effects variant replayed to its first failed GMRES solve, from the
+#: last frame (of the all_effects run's schedule) before this time (s)
+FAILING_SOLVE_FROM_S = {"as in the ablation": 1.7, "no contact": 1.9}
+
+
+def _stokes_window_resistance(sim: Simulation, nf: int) -> np.ndarray:
+    """Each free node's window resistance at zero speed (N s/m, (nf, 3, 3)): Lighthill's
+    window coefficients on its segments' halves, the finite_re law's Stokes limit."""
+    hyd, x = sim.ws.hydro, sim.pos[: 3 * sim.n_nodes].reshape(-1, 3)
+    mu = float(sim.model.p["bath_viscosity"])
+    out = np.zeros((nf, 3, 3))
+    for j in range(min(nf, sim.n_nodes - 1)):
+        e = x[j + 1] - x[j]
+        length = float(np.linalg.norm(e))
+        tt = np.outer(e, e) / length**2
+        r = float(sim.seg_mat[j, L.MAT_RADIUS])
+        for i in (j, j + 1):
+            if i < nf:
+                xp, xn = _stokeslet.window_coefficients(
+                    hyd.sides[0, i], hyd.sides[1, i], r, mu, 0.0, 0.0
+                )
+                out[i] += 0.5 * length * (xp * tt + xn * (np.eye(3) - tt))
+    return out
+
+
+def failing_solve_row(label: str, start_s: float) -> dict:
+    """The all_effects variant ``label`` advanced (compiled) through its frames to the last
+    before ``start_s``, then replayed from the integrator's Python source (as bench_profile
+    replays it) until a GMRES solve fails; at that solve: the time, whether Newton's or the
+    error filter's, the smallest real part of eig(I + R M W^-1), the smallest and largest
+    eigenvalue of the filament's mobility R^-1 + M W^-1 (symmetric part), and the largest
+    eigenvalue of each node's linearised resistance R_i over its Stokes window's (the
+    finite_re law at the velocity relative to the flow against its zero-speed limit)."""
+    from types import SimpleNamespace
+
+    import bench_profile
+
+    import bathprint.core.integrators as integ
+    from bathprint.core import solver
+
+    over = all_effects_variants()[label]
+    sim = Simulation(ablation.SCENE, over)
+    frame = over["outputs.frame_interval_s"]
+    k = 1
+    while (k + 1) * frame <= start_s:
+        k += 1
+    for j in range(1, k + 1):
+        sim.advance(j * frame)
+    caught: dict = {}
+    where = {"filter": False}
+
+    def solve(ws, nd, rhs, counters, rtol) -> bool:
+        ok = solver.solve(ws, nd, rhs, counters, rtol)
+        if not ok and not caught:
+            op = V.mobility_operator(sim, assemble=False)
+            nf = nd // 3
+            resist = sim.ws.hydro.resist[:nf]
+            mob = np.linalg.solve(scipy.linalg.block_diag(*resist), op)
+            sym = np.linalg.eigvalsh(0.5 * (mob + mob.T))
+            stokes = _stokes_window_resistance(sim, nf)
+            ratio = max(
+                np.linalg.eigvalsh(0.5 * (resist[i] + resist[i].T)).max()
+                / np.linalg.eigvalsh(stokes[i]).max()
+                for i in range(nf)
+            )
+            caught.update(
+                time_s=sim.t,
+                solve="error filter" if where["filter"] else "Newton",
+                free_nodes=nf,
+                eig_real_min=float(np.linalg.eigvals(op).real.min()),
+                mobility_min=float(sym.min()),
+                mobility_max=float(sym.max()),
+                resistance_over_stokes_max=float(ratio),
+                min_gap_ratio=min_gap_ratio([sim.centerline()], float(sim.model.radius)),
+            )
+        return ok
+
+    real = {name: getattr(integ, name) for name in bench_profile.REPLAYED}
+
+    def filtered(*args):
+        where["filter"] = True
+        try:
+            return real["_filtered_norm"].py_func(*args)
+        finally:
+            where["filter"] = False
+
+    real_solver = integ.solver
+    model, named_ws = bench_profile.replay_records(sim)
+    wrapper = SimpleNamespace(
+        solve=solve,
+        factor=solver.factor,
+        damping_times=solver.damping_times,
+        off_band=solver.off_band,
+    )
+    try:
+        integ.solver = wrapper
+        for name, fn in real.items():
+            setattr(integ, name, fn.py_func)
+        integ._filtered_norm = filtered
+        while not caught and sim.t < over["duration_s"]:
+            k += 1
+            target = min(k * frame, over["duration_s"])
+            while sim.t < target and not caught:
+                status = integ.advance.py_func(model, sim.state, named_ws(), target, 10**9)
+                if status == L.STATUS_CAPACITY:
+                    if sim.n_nodes + 2 > sim.capacity:
+                        sim._grow()
+                    else:
+                        sim._grow_off_band()
+                    model, named_ws = bench_profile.replay_records(sim)
+                elif status != L.STATUS_OK:
+                    break
+            if not caught and sim.t < target:
+                break
+    finally:
+        integ.solver = real_solver
+        for name, fn in real.items():
+            setattr(integ, name, fn)
+    return {"variant": label, "from_s": k * frame, **caught} if caught else {"variant": label}
+
+
+def failing_solve_rows() -> list[dict]:
+    """:func:`failing_solve_row` for each of FAILING_SOLVE_FROM_S."""
+    rows = []
+    for label, start in FAILING_SOLVE_FROM_S.items():
+        rows.append(failing_solve_row(label, start))
+        print(rows[-1], flush=True)
+    return rows
+
+
+#: kernels: the straight rods (aspect L/d, segments per diameter) and the coils' pitches (mm;
+#: three turns of radius 3 mm, r = 0.5 mm: 0.85 presses the turns together, 0 puts them
+#: through each other) on which both kernels are compared, and the sizes of the timed flows
+KERNEL_RODS = ((20, 2), (50, 2), (100, 2), (50, 1), (50, 0.5))
+KERNEL_PITCHES_MM = (0.85, 0.5, 0.2, 0.0)
+KERNEL_COST_N = (300, 1_000, 3_000)
+
+
+def kernel_drag_rows() -> list[dict]:
+    """A rigid cylinder's drag along and across its axis with each nonlocal kernel, over
+    Tirado's (validation.cylinder_drag_tirado)."""
+    rows = []
+    for kernel in L.HYDRO_KERNELS:
+        for aspect, per_d in KERNEL_RODS:
+            sim = V.hydro_rod(aspect, int(per_d * aspect), kernel=kernel)
+            f_par, f_perp = V.cylinder_drag_tirado(aspect, MU, aspect * 0.2e-3)
+            along = V.rigid_body_drag(sim, (0.0, 0.0, 1e-3))
+            across = V.rigid_body_drag(sim, (1e-3, 0.0, 0.0))
+            rows.append(
+                {
+                    "kernel": kernel,
+                    "aspect": aspect,
+                    "segments_per_diameter": per_d,
+                    "along_over_tirado": -along[2] / (f_par * 1e-3),
+                    "across_over_tirado": -across[0] / (f_perp * 1e-3),
+                }
+            )
+            print(rows[-1], flush=True)
+    return rows
+
+
+def kernel_mobility_rows() -> list[dict]:
+    """On three turns at each of KERNEL_PITCHES_MM, Stokes drag, each kernel: the smallest
+    real part of eig(I + R M W^-1), the smallest eigenvalue of the filament's mobility's
+    symmetric part over its largest, its asymmetry, and the smallest gate (RPY)."""
+    rows = []
+    for pitch in KERNEL_PITCHES_MM:
+        for kernel in L.HYDRO_KERNELS:
+            rows.append({"pitch_mm": pitch, "kernel": kernel, **V.turns_mobility(pitch, kernel)})
+            print(rows[-1], flush=True)
+    return rows
+
+
+def kernel_cost_rows() -> list[dict]:
+    """One nonlocal evaluation on a coil of N nodes (:func:`coil`) with each kernel: the
+    Stokeslet segments' direct sum; the RPY blobs' sum and their gates (an O(N x window)
+    pass); the RPY sum's time over the segments' in the same run."""
+    rows = []
+    for n in KERNEL_COST_N:
+        pos, s = coil(n)
+        f = np.random.default_rng(1).normal(size=3 * n)
+        out = np.zeros(3 * n)
+        screen = np.full(n, np.inf)
+        blob = np.full(n, 2 * A_CUT / 3)  # blobs of 2 r (A_CUT = 3 r)
+        gate = np.ones(n)
+        resist = np.tile(np.eye(3) * 1e-6, (n, 1, 1))
+
+        def segments(pos=pos, s=s, n=n, f=f, screen=screen, out=out) -> None:
+            _stokeslet.nonlocal_flow(pos, s, n, pos, s, n - 1, f, screen, MU, 0.0, A_CUT, 0.0, out)
+
+        def blobs(pos=pos, s=s, n=n, f=f, blob=blob, gate=gate, out=out) -> None:
+            _rpy.rpy_flow(pos, s, n, pos, s, n, f, blob, gate, MU, A_CUT, out)
+
+        def gates(pos=pos, s=s, n=n, blob=blob, resist=resist, gate=gate) -> None:
+            _rpy.rpy_gates(pos, s, n, blob, resist, A_CUT, MU, gate)
+
+        for call in (segments, blobs, gates):
+            call()  # compiled
+        t_seg, t_rpy, t_gate = (best_of(c, 3) for c in (segments, blobs, gates))
+        rows.append(
+            {
+                "N": n,
+                "slender_body_s": t_seg,
+                "rpy_s": t_rpy,
+                "rpy_gates_s": t_gate,
+                "rpy_over_slender_body": (t_rpy + t_gate) / t_seg,
+            }
+        )
+        print(rows[-1], flush=True)
+    return rows
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parts = ("eval", "step", "coiling", "workprec", "all_effects", "mobility", "all")
+    parts = (
+        "eval",
+        "step",
+        "coiling",
+        "workprec",
+        "all_effects",
+        "mobility",
+        "failing_solve",
+        "kernels",
+        "all",
+    )
     ap.add_argument("what", choices=parts)
     ap.add_argument("--max-direct", type=int, default=10_000)
     ap.add_argument("--max-fmm", type=int, default=100_000)
@@ -514,6 +740,12 @@ def main() -> None:
         print("wrote", write_csv("hydro_all_effects", all_effects_rows()))
     if args.what in ("mobility", "all"):
         print("wrote", write_csv("hydro_mobility", mobility_rows()))
+    if args.what in ("failing_solve", "all"):
+        print("wrote", write_csv("hydro_failing_solve", failing_solve_rows()))
+    if args.what in ("kernels", "all"):
+        print("wrote", write_csv("hydro_kernel_drag", kernel_drag_rows()))
+        print("wrote", write_csv("hydro_kernel_mobility", kernel_mobility_rows()))
+        print("wrote", write_csv("hydro_kernel_cost", kernel_cost_rows()))
 
 
 if __name__ == "__main__":

@@ -443,3 +443,51 @@ def test_the_onset_buckling_part_pairs_the_two_onsets_seed_by_seed(bench, monkey
     assert (
         c["seeds"] == 2 and c["paired_change_low"] <= c["paired_change"] <= c["paired_change_high"]
     )
+
+
+def test_the_hydrodynamics_kernels_part_compares_both_kernels(bench, monkeypatch):
+    """``bench_hydrodynamics.py kernels`` on a tiny budget: a rod's drags over Tirado's and
+    the coil's mobility for each kernel (turns through each other: the Stokeslet segments'
+    operator has an eigenvalue of negative real part, the RPY blobs' does not), and the
+    times of one evaluation of each."""
+    mod = bench("bench_hydrodynamics")
+    monkeypatch.setattr(mod, "KERNEL_RODS", ((20, 1),))
+    monkeypatch.setattr(mod, "KERNEL_PITCHES_MM", (0.0,))
+    monkeypatch.setattr(mod, "KERNEL_COST_N", (100,))
+    drag = mod.kernel_drag_rows()
+    assert [r["kernel"] for r in drag] == ["slender_body", "rpy"]
+    for r in drag:
+        assert abs(r["along_over_tirado"] - 1) < 0.1 and abs(r["across_over_tirado"] - 1) < 0.1
+    mob = {r["kernel"]: r for r in mod.kernel_mobility_rows()}
+    assert mob["slender_body"]["eig_real_min"] < 0 < mob["rpy"]["eig_real_min"]
+    assert mob["rpy"]["mobility_min_over_max"] > 0 and mob["rpy"]["asymmetry"] < 1e-12
+    (cost,) = mod.kernel_cost_rows()
+    assert cost["N"] == 100 and min(cost["slender_body_s"], cost["rpy_s"]) > 0
+    assert cost["rpy_over_slender_body"] == pytest.approx(
+        (cost["rpy_s"] + cost["rpy_gates_s"]) / cost["slender_body_s"]
+    )
+
+
+def test_the_failing_solve_parts_stokes_window_is_the_finite_re_law_at_rest(bench):
+    """``bench_hydrodynamics.py failing_solve`` compares each node's linearised resistance
+    with its Stokes window's: at rest (relative velocity zero) the finite_re law's
+    linearisation is that window's resistance, node by node."""
+    mod = bench("bench_hydrodynamics")
+    phi = np.linspace(0.0, 4 * math.pi, 40)
+    points = np.column_stack([3e-3 * np.cos(phi), 3e-3 * np.sin(phi), 0.5e-3 * phi])
+    sim = Simulation.from_points(
+        points,
+        "paper_simulation",
+        {
+            "effects": ["elasticity", "drag", "hydrodynamics"],
+            "hydrodynamics.coupling": "implicit",
+            "drag.model": "finite_re",
+        },
+    )
+    sim.model.enabled[L.E_ELASTICITY] = 0  # no force: no flow, nothing moves relative to it
+    sim.vel[:] = 0.0
+    sim.forces(1.0, 1.0, 1.0, True)
+    nf = int(sim.ws.hydro.memory[0]["lin_free"])
+    stokes = mod._stokes_window_resistance(sim, nf)
+    resist = sim.ws.hydro.resist[:nf]
+    np.testing.assert_allclose(resist, stokes, rtol=1e-6, atol=1e-9 * np.abs(stokes).max())

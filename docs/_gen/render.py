@@ -691,6 +691,76 @@ def hydro_mobility() -> str:
     return _table(head, rows) + "\n\n" + provenance(path)
 
 
+def hydro_kernel_drag() -> str:
+    """``bench_hydrodynamics.py kernels``: a rigid cylinder's drags over Tirado's, each kernel."""
+    path = RESULTS / "hydro_kernel_drag.csv"
+    by: dict[tuple[str, str], dict] = {}
+    for r in _csv(path):
+        by[(r["aspect"], r["segments_per_diameter"])] = {
+            **by.get((r["aspect"], r["segments_per_diameter"]), {}),
+            r["kernel"]: r,
+        }
+    rows = []
+    for (aspect, per_d), k in by.items():
+        cells = [aspect, per_d]
+        for kernel in ("slender_body", "rpy"):
+            r = k[kernel]
+            along = float(r["along_over_tirado"]) - 1
+            across = float(r["across_over_tirado"]) - 1
+            cells.append(f"{along:+.1%} / {across:+.1%}")
+        rows.append(cells)
+    head = ["L/d", "segments per diameter", "Stokeslet segments (along / across)", "RPY blobs"]
+    return _table(head, rows) + "\n\n" + provenance(path)
+
+
+def hydro_kernel_mobility() -> str:
+    """``bench_hydrodynamics.py kernels``: the pressed coils' mobility, each kernel."""
+    path = RESULTS / "hydro_kernel_mobility.csv"
+    rows = [
+        [
+            r["pitch_mm"],
+            "Stokeslet segments" if r["kernel"] == "slender_body" else "RPY blobs",
+            _g(r["eig_real_min"], 3),
+            _g(r["mobility_min_over_max"], 3),
+            _g(r["asymmetry"], 2),
+            _g(r["gate_min"], 3) if r["gate_min"] else "–",
+        ]
+        for r in _csv(path)
+    ]
+    head = [
+        "pitch (mm)",
+        "kernel",
+        "smallest real part of eig(I + R M W^-1)",
+        "mobility: smallest / largest eigenvalue",
+        "asymmetry",
+        "smallest gate",
+    ]
+    return _table(head, rows) + "\n\n" + provenance(path)
+
+
+def hydro_kernel_cost() -> str:
+    """``bench_hydrodynamics.py kernels``: one nonlocal evaluation, each kernel."""
+    path = RESULTS / "hydro_kernel_cost.csv"
+    rows = [
+        [
+            r["N"],
+            _g(float(r["slender_body_s"]) * 1e3, 3),
+            _g(float(r["rpy_s"]) * 1e3, 3),
+            _g(float(r["rpy_gates_s"]) * 1e3, 3),
+            f"{_g(r['rpy_over_slender_body'], 3)}×",
+        ]
+        for r in _csv(path)
+    ]
+    head = [
+        "nodes",
+        "Stokeslet segments (ms)",
+        "RPY blobs (ms)",
+        "their gates (ms)",
+        "RPY with gates / segments",
+    ]
+    return _table(head, rows) + "\n\n" + provenance(path)
+
+
 def freezing_rope() -> str:
     path = RESULTS / "freezing_rope.csv"
     rows = [
@@ -2174,6 +2244,9 @@ TABLES: dict[str, Callable[[], str]] = {
     "contact-dashpot-overdamped": contact_dashpot_overdamped,
     "hydro-all-effects": hydro_all_effects,
     "hydro-mobility": hydro_mobility,
+    "hydro-kernel-drag": hydro_kernel_drag,
+    "hydro-kernel-mobility": hydro_kernel_mobility,
+    "hydro-kernel-cost": hydro_kernel_cost,
     "contact-onset-buckling": contact_onset_buckling,
     "freezing-rope": freezing_rope,
     "freezing-envs": freezing_envs,

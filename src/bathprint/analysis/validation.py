@@ -924,18 +924,19 @@ def hydro_fixed_step_errors(
     return out
 
 
-def mobility_operator(sim: Simulation) -> np.ndarray:
+def mobility_operator(sim: Simulation, assemble: bool = True) -> np.ndarray:
     """I + R M_nl W^-1 (dense, 3 n_free square) at ``sim``'s state, with the implicit
-    nonlocal flow: a Newton-matrix assembly linearises it, and its matrix-free product with
-    J_other set to the identity gives the columns; J_other is put back. Its eigenvalues have
-    positive real parts when the filament's mobility is positive definite."""
+    nonlocal flow: a Newton-matrix assembly linearises it (``assemble``; else the last
+    linearisation, as a solve in progress uses it), and its matrix-free product with J_other
+    set to the identity gives the columns; J_other is put back. Its eigenvalues have positive
+    real parts when the filament's mobility is positive definite."""
     from bathprint.core import layout as L
     from bathprint.core.effects import hydrodynamics
-    from bathprint.core.topology import free_nodes
 
-    sim.forces(1.0, 1.0, 1.0, True)
+    if assemble:
+        sim.forces(1.0, 1.0, 1.0, True)
     hyd = sim.ws.hydro
-    nd = 3 * free_nodes(sim.n_nodes, sim.model.p)
+    nd = 3 * int(hyd.memory[0]["lin_free"])
     saved = hyd.band_other.copy()
     hyd.band_other[:] = 0.0
     hyd.band_other[:nd, L.KL] = 1.0
@@ -957,8 +958,42 @@ def filament_mobility(sim: Simulation) -> np.ndarray:
     ``sim``'s state: :func:`mobility_operator` with each node's linearised resistance R_i
     divided out. Symmetric and positive definite for a physical (dissipative) flow."""
     op = mobility_operator(sim)
-    nf = op.shape[0] // 3
-    resist = np.zeros_like(op)
-    for i in range(nf):
-        resist[3 * i : 3 * i + 3, 3 * i : 3 * i + 3] = sim.ws.hydro.resist[i]
+    resist = scipy.linalg.block_diag(*sim.ws.hydro.resist[: op.shape[0] // 3])
     return np.linalg.solve(resist, op)
+
+
+def pressed_turns(pitch_mm: float, n: int = 60) -> np.ndarray:
+    """Three turns of radius 3 mm at ``pitch_mm`` (m, (n, 3)): for a filament of radius
+    0.5 mm, 0.85 presses the turns onto each other and 0 puts them through each other."""
+    phi = np.linspace(0.0, 2 * math.pi * 3, n)
+    return np.column_stack(
+        [3e-3 * np.cos(phi), 3e-3 * np.sin(phi), pitch_mm * 1e-3 * phi / (2 * math.pi)]
+    )
+
+
+def turns_mobility(pitch_mm: float, kernel: str) -> dict[str, float]:
+    """On :func:`pressed_turns` (r = 0.5 mm) with Stokes drag and the implicit flow of the
+    nonlocal ``kernel``: the smallest real part of eig(I + R M W^-1), the filament mobility's
+    symmetric part's smallest over largest eigenvalue, its asymmetry |M - M^T| / |M| and the
+    smallest gate (the RPY kernel's, else 1)."""
+    sim = Simulation.from_points(
+        pressed_turns(pitch_mm),
+        "paper_simulation",
+        {
+            "effects": ["elasticity", "drag", "hydrodynamics"],
+            "hydrodynamics.coupling": "implicit",
+            "needle.inner_diameter_mm": 1.0,
+            "drag.model": "cox",
+            "hydrodynamics.kernel": kernel,
+        },
+    )
+    op = mobility_operator(sim)
+    mob = filament_mobility(sim)
+    sym = np.linalg.eigvalsh(0.5 * (mob + mob.T))
+    nf = op.shape[0] // 3
+    return {
+        "eig_real_min": float(np.linalg.eigvals(op).real.min()),
+        "mobility_min_over_max": float(sym.min() / sym.max()),
+        "asymmetry": float(np.linalg.norm(mob - mob.T) / np.linalg.norm(mob)),
+        "gate_min": float(sim.ws.hydro.gate[:nf].min()) if kernel == "rpy" else 1.0,
+    }

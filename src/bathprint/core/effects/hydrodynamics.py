@@ -21,6 +21,12 @@ a prescribed node (the needle tip) pushes with its local drag; the segment insid
 pushes nothing. At convergence F_drag = -F_other node by node, so the forces on the fluid
 total minus the net drag (momentum balance).
 
+**Kernel** (``hydrodynamics.kernel``). ``slender_body``: u_nl from Lighthill's Stokeslet
+segments beyond each node's window (:mod:`._stokeslet`). ``rpy``: from Rotne-Prager-Yamakawa
+blobs at the nodes, less the blobs' share of each window, with gates that keep the
+filament's mobility positive definite for any shape (:mod:`._rpy`; Stokes drag only), where
+the Stokeslet segments' is not once turns touch.
+
 **What drag does when hydrodynamics is listed.** The drag kernel is not called; this effect
 evaluates the scene's drag law on its windows instead (``calls`` counts both):
 ``drag.model = "cox"``: Lighthill's window resistance xi_par = 4 pi mu / Lam, xi_perp =
