@@ -541,6 +541,7 @@ def failing_solve_row(label: str, start_s: float) -> dict:
         k += 1
     for j in range(1, k + 1):
         sim.advance(j * frame)
+    start = sim.t
     caught: dict = {}
     where = {"filter": False}
 
@@ -611,7 +612,7 @@ def failing_solve_row(label: str, start_s: float) -> dict:
         integ.solver = real_solver
         for name, fn in real.items():
             setattr(integ, name, fn)
-    return {"variant": label, "from_s": k * frame, **caught} if caught else {"variant": label}
+    return {"variant": label, "replayed_from_s": start, **caught} if caught else {"variant": label}
 
 
 def failing_solve_rows() -> list[dict]:

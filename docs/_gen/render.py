@@ -691,6 +691,39 @@ def hydro_mobility() -> str:
     return _table(head, rows) + "\n\n" + provenance(path)
 
 
+def hydro_failing_solve() -> str:
+    """``bench_hydrodynamics.py failing_solve``: at each variant's first failed GMRES solve."""
+    path = RESULTS / "hydro_failing_solve.csv"
+    rows = []
+    for r in _csv(path):
+        if not r.get("time_s"):
+            rows.append([r["variant"], "no failed solve"] + ["–"] * 6)
+            continue
+        rows.append(
+            [
+                r["variant"],
+                _g(r["time_s"], 5),
+                r["solve"],
+                r["free_nodes"],
+                _g(r["eig_real_min"], 3),
+                f"{_g(r['mobility_min'], 3)} to {_g(r['mobility_max'], 3)}",
+                _g(r["resistance_over_stokes_max"], 3),
+                _g(r["min_gap_ratio"], 3),
+            ]
+        )
+    head = [
+        "variant",
+        "failed at (s)",
+        "solve",
+        "free nodes",
+        "smallest real part of eig(I + R M W^-1)",
+        "mobility's eigenvalues (m/(N s))",
+        "largest R_i / Stokes window's",
+        "smallest gap / (r_A + r_B)",
+    ]
+    return _table(head, rows) + "\n\n" + provenance(path)
+
+
 def hydro_kernel_drag() -> str:
     """``bench_hydrodynamics.py kernels``: a rigid cylinder's drags over Tirado's, each kernel."""
     path = RESULTS / "hydro_kernel_drag.csv"
@@ -723,7 +756,7 @@ def hydro_kernel_mobility() -> str:
             _g(r["eig_real_min"], 3),
             _g(r["mobility_min_over_max"], 3),
             _g(r["asymmetry"], 2),
-            _g(r["gate_min"], 3) if r["gate_min"] else "–",
+            _g(r["gate_min"], 3) if r["kernel"] == "rpy" else "–",
         ]
         for r in _csv(path)
     ]
@@ -2244,6 +2277,7 @@ TABLES: dict[str, Callable[[], str]] = {
     "contact-dashpot-overdamped": contact_dashpot_overdamped,
     "hydro-all-effects": hydro_all_effects,
     "hydro-mobility": hydro_mobility,
+    "hydro-failing-solve": hydro_failing_solve,
     "hydro-kernel-drag": hydro_kernel_drag,
     "hydro-kernel-mobility": hydro_kernel_mobility,
     "hydro-kernel-cost": hydro_kernel_cost,
