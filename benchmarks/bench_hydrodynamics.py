@@ -416,34 +416,37 @@ def all_effects_variants() -> dict[str, dict]:
 
 
 def all_effects_rows() -> list[dict]:
-    """Each of :func:`all_effects_variants`: how far it gets, its steps, Newton and Krylov
-    iterations and failures, wall time, and a failure's cause."""
+    """Each of :func:`all_effects_variants`, advanced through its frames as ``simulate``
+    advances it: how far it gets, its steps, Newton and Krylov iterations and failures,
+    the smallest gap between non-adjacent segments over the sum of the radii at any frame
+    (whether it piled), wall time, and a failure's cause."""
     rows = []
     variants = all_effects_variants()
     simulate(ablation.SCENE, {**variants["as in the ablation"], "duration_s": 0.002})  # compile
     for label, over in variants.items():
         t0 = time.perf_counter()
-        try:
-            s = simulate(ablation.SCENE, over).summary
-            reached, cause, counts = s["time_s"], "", s
-        except SimulationError as e:
-            reached, cause, counts = e.time_s, e.cause, {}
+        sim = Simulation(ablation.SCENE, over)
+        frame, end = over["outputs.frame_interval_s"], over["duration_s"]
+        n_frames = max(1, int(math.ceil(end / frame - 1e-9)))
+        gap, cause, reached = math.inf, "", end
+        for t in np.minimum(np.arange(1, n_frames + 1) * frame, end):
+            try:
+                sim.advance(float(t))
+            except SimulationError as e:
+                cause, reached = e.cause, e.time_s
+                break
+            near = min_gap_ratio([sim.centerline()], float(sim.model.radius))
+            gap = gap if near is None else min(gap, near)  # (None: no two segments near)
+        counts = sim.counts()
+        keys = ("steps", "rejected_steps", "newton_iterations", "krylov_iterations")
         rows.append(
             {
                 "variant": label,
-                "duration_s": over["duration_s"],
+                "duration_s": end,
                 "reached_s": reached,
                 "failure": cause,
-                **{
-                    k: counts.get(k)
-                    for k in (
-                        "steps",
-                        "rejected_steps",
-                        "newton_iterations",
-                        "krylov_iterations",
-                        "krylov_failures",
-                    )
-                },
+                **{k: counts[k] for k in (*keys, "krylov_failures")},
+                "smallest_gap_ratio": gap,
                 "wall_s": time.perf_counter() - t0,
             }
         )

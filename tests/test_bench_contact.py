@@ -346,6 +346,7 @@ def test_the_hessian_part_runs_each_scene_with_both_hessians(bench):
     assert rows[1]["wall_ratio"] == pytest.approx(rows[1]["wall_s"] / rows[0]["wall_s"])
     for r in rows:
         assert r["steps"] > 0 and r["newton_iterations"] >= r["steps"]
+        assert r["smallest_gap_ratio"] > 1.0  # a straight young jet: nothing near itself
         assert r["min_gap_ratio"] > 0.9
 
 
@@ -382,6 +383,7 @@ def test_the_hydrodynamics_all_effects_part_changes_one_thing_per_variant(bench,
     assert all(r["failure"] == "" and r["reached_s"] == pytest.approx(0.004) for r in rows)
     for r in rows:
         assert r["steps"] > 0 and r["newton_iterations"] >= r["steps"]
+        assert r["smallest_gap_ratio"] > 1.0  # a straight young jet: nothing near itself
     by = {r["variant"]: r for r in rows}
     assert by["as in the ablation"]["krylov_iterations"] > 0  # GMRES: the implicit flow
 

@@ -642,6 +642,7 @@ def hydro_all_effects() -> str:
                 _g(newton / steps, 3) if ok else "–",
                 _g(krylov / newton, 3) if ok else "–",
                 r["krylov_failures"] if ok else "–",
+                _g(r["smallest_gap_ratio"], 3),
                 _g(r["wall_s"]),
                 r["failure"] or "–",
             ]
@@ -653,6 +654,7 @@ def hydro_all_effects() -> str:
         "Newton per step",
         "Krylov per Newton",
         "Krylov failures",
+        "smallest gap / (r_A + r_B), any frame",
         "wall (s)",
         "failure",
     ]
