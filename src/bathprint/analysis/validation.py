@@ -806,6 +806,7 @@ def sedimenting_filament(
     duration_relaxations: float = 6.0,
     tolerance: float = 1e-6,
     hydrodynamics: bool = True,
+    kernel: str = "slender_body",
 ) -> dict[str, Any]:
     """A free filament of length 2l = 20 mm and aspect l/r = ``aspect`` sedimenting broadside
     under its net weight, with hydrodynamics (Stokes): run for ``duration_relaxations``
@@ -814,7 +815,7 @@ def sedimenting_filament(
     (E I ln^2 kappa). The modulus is set so that D = ``deflection_scale`` x l (small: a
     weakly flexible filament). Returns speed, D, xi, lag (m), and the rigid-rod speed of
     Tirado & Garcia de la Torre's cylinder drag for comparison. ``hydrodynamics=False``: the
-    same with local drag only (Cox's mu_s)."""
+    same with local drag only (Cox's mu_s); ``kernel``: the nonlocal flow's."""
     half = 10e-3
     r = half / aspect
     mu = 1e-3
@@ -848,6 +849,7 @@ def sedimenting_filament(
             "numerics.tolerance": tolerance,
             "numerics.max_step_s": relax / 5.0,
             "hydrodynamics.coupling": coupling,
+            "hydrodynamics.kernel": kernel,
             "duration_s": duration,
         },
     )
