@@ -346,7 +346,6 @@ def test_the_hessian_part_runs_each_scene_with_both_hessians(bench):
     assert rows[1]["wall_ratio"] == pytest.approx(rows[1]["wall_s"] / rows[0]["wall_s"])
     for r in rows:
         assert r["steps"] > 0 and r["newton_iterations"] >= r["steps"]
-        assert r["smallest_gap_ratio"] > 1.0  # a straight young jet: nothing near itself
         assert r["min_gap_ratio"] > 0.9
 
 
