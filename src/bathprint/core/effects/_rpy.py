@@ -38,6 +38,7 @@ import math
 import numpy as np
 from numba import njit
 
+from bathprint.core.effects._stokeslet import window_coefficients
 from bathprint.core.jit import KERNEL
 
 #: the smallest share of a node's window mobility its gate leaves beyond the blobs' share
@@ -142,15 +143,19 @@ def rpy_gates(pos, node_s, n_src, blob, resist, a_cut, mu, gate) -> None:
     (``resist``, N s/m, its symmetric part) its drag law's resistance. With the blobs' forces
     and flows scaled by g (the flow G S G, a congruence: still positive semi-definite), a
     node's window keeps more mobility than the blobs' share of it: the total mobility stays
-    positive definite where the law resists more than Stokes' window (finite_re at speed).
-    1 wherever the Stokes window's margin holds (:func:`window_margin`)."""
+    positive definite where a bend brings the window's blobs closer than a straight line
+    does, or a law resists more than Stokes' window. 1 wherever a straight window's margin
+    holds (:func:`window_margin`). O(N x the window's nodes)."""
     c = 1.0 / (8.0 * math.pi * mu)
     for i in range(n_src):
         d00 = d11 = d22 = d01 = d02 = d12 = 0.0
         si = node_s[i]
-        for j in range(n_src):
-            if abs(node_s[j] - si) >= a_cut:
-                continue
+        lo = hi = i  # the window's nodes are contiguous (arclength increases with index)
+        while lo > 0 and si - node_s[lo - 1] < a_cut:
+            lo -= 1
+        while hi < n_src - 1 and node_s[hi + 1] - si < a_cut:
+            hi += 1
+        for j in range(lo, hi + 1):
             r0 = pos[3 * i] - pos[3 * j]
             r1 = pos[3 * i + 1] - pos[3 * j + 1]
             r2 = pos[3 * i + 2] - pos[3 * j + 2]
@@ -229,8 +234,6 @@ def window_margin(spacing: float, cutoff: float, radius: float, blob: float) -> 
     window law's zero-speed resistance (Lighthill's, shifted by :func:`window_shift`) times
     the node's length ``spacing`` and D_i the RPY sum over the window's blobs; positive: the
     total mobility is positive definite (see the module). Lengths in m."""
-    from bathprint.core.effects._stokeslet import window_coefficients
-
     mu = 1.0 / (8.0 * math.pi)  # 8 pi mu = 1
     shift_par, shift_perp = window_shift(cutoff, blob)
     worst = math.inf
