@@ -387,10 +387,11 @@ ALL_EFFECTS_DURATION_S: float | None = None  # None: the ablation's own duration
 
 
 def all_effects_variants() -> dict[str, dict]:
-    """The ablation's ALL_EFFECTS_RUN overrides (to ALL_EFFECTS_DURATION_S if set), and with
-    one thing changed: contact's dashpot off, no contact, the lagged nonlocal flow, no
-    hydrodynamics, Stokes drag (cox) instead of finite_re; and Stokes drag with the RPY
-    kernel (a positive-definite mobility) instead of Stokeslet segments."""
+    """The ablation's ALL_EFFECTS_RUN overrides (to ALL_EFFECTS_DURATION_S if set; the RPY
+    kernel, finite-Re drag), and with one thing changed: contact's dashpot off, no contact,
+    the lagged nonlocal flow, Stokes drag (cox), no hydrodynamics; and Lighthill's Stokeslet
+    segments instead of the RPY blobs (an indefinite mobility on piles), as planned, without
+    contact and with Stokes drag."""
     runs, _ = ablation.plan()
     set_name, point, variant = ALL_EFFECTS_RUN
     over = next(
@@ -401,13 +402,17 @@ def all_effects_variants() -> dict[str, dict]:
     over = {**over, "outputs.plot": False}
     if ALL_EFFECTS_DURATION_S is not None:
         over["duration_s"] = ALL_EFFECTS_DURATION_S
+    no_contact = [e for e in over["effects"] if e != "contact"]
+    segments = {**over, "hydrodynamics.kernel": "slender_body"}
     return {
         "as in the ablation": over,
         "no dashpot": {**over, "contact.damping_time_s": 0.0},
-        "no contact": {**over, "effects": [e for e in over["effects"] if e != "contact"]},
+        "no contact": {**over, "effects": no_contact},
         "lagged nonlocal flow": {**over, "hydrodynamics.coupling": "lagged"},
         "Stokes drag": {**over, "drag.model": "cox"},
-        "Stokes drag, RPY kernel": {**over, "drag.model": "cox", "hydrodynamics.kernel": "rpy"},
+        "Stokeslet segments": segments,
+        "Stokeslet segments, no contact": {**segments, "effects": no_contact},
+        "Stokeslet segments, Stokes drag": {**segments, "drag.model": "cox"},
         "no hydrodynamics": {
             **over,
             "effects": [e for e in over["effects"] if e != "hydrodynamics"],
@@ -457,7 +462,13 @@ def all_effects_rows() -> list[dict]:
 #: mobility: the times (s) at which I + R M W^-1 is taken on the all_effects run
 MOBILITY_TIMES_S = (0.5, 0.8, 1.1, 1.5, 1.9)
 #: ... and the all_effects variants it is taken on
-MOBILITY_VARIANTS = ("as in the ablation", "no contact", "Stokes drag", "Stokes drag, RPY kernel")
+MOBILITY_VARIANTS = (
+    "as in the ablation",
+    "Stokes drag",
+    "Stokeslet segments",
+    "Stokeslet segments, no contact",
+    "Stokeslet segments, Stokes drag",
+)
 
 
 def mobility_rows() -> list[dict]:
@@ -498,7 +509,7 @@ def mobility_rows() -> list[dict]:
 
 #: failing_solve: each all_effects variant replayed to its first failed GMRES solve, from the
 #: last frame (of the all_effects run's schedule) before this time (s)
-FAILING_SOLVE_FROM_S = {"as in the ablation": 1.7, "no contact": 1.9}
+FAILING_SOLVE_FROM_S = {"Stokeslet segments": 1.7, "Stokeslet segments, no contact": 1.9}
 
 
 def _stokes_window_resistance(sim: Simulation, nf: int) -> np.ndarray:
@@ -687,11 +698,11 @@ def kernel_cost_rows() -> list[dict]:
         def segments(pos=pos, s=s, n=n, f=f, screen=screen, out=out) -> None:
             _stokeslet.nonlocal_flow(pos, s, n, pos, s, n - 1, f, screen, MU, 0.0, A_CUT, 0.0, out)
 
-        def blobs(pos=pos, s=s, n=n, f=f, blob=blob, gate=gate, out=out) -> None:
-            _rpy.rpy_flow(pos, s, n, pos, s, n, f, blob, gate, MU, A_CUT, out)
+        def blobs(pos=pos, s=s, n=n, f=f, blob=blob, gate=gate, screen=screen, out=out) -> None:
+            _rpy.rpy_flow(pos, s, n, pos, s, n, f, blob, gate, screen, MU, A_CUT, out)
 
-        def gates(pos=pos, s=s, n=n, blob=blob, resist=resist, gate=gate) -> None:
-            _rpy.rpy_gates(pos, s, n, blob, resist, A_CUT, MU, gate)
+        def gates(pos=pos, s=s, n=n, blob=blob, resist=resist, screen=screen, gate=gate) -> None:
+            _rpy.rpy_gates(pos, s, n, blob, resist, screen, A_CUT, MU, gate)
 
         for call in (segments, blobs, gates):
             call()  # compiled

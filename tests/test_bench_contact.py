@@ -351,16 +351,18 @@ def test_the_hessian_part_runs_each_scene_with_both_hessians(bench):
 
 def test_the_hydrodynamics_all_effects_part_changes_one_thing_per_variant(bench, monkeypatch):
     """``bench_hydrodynamics.py all_effects``: the ablation's "all" run at d = 0.41 mm,
-    0.5 ml/min as planned, and with contact's dashpot off, no contact, the lagged nonlocal
-    flow, no hydrodynamics or Stokes drag, each differing from it in that key only, and Stokes
-    drag with the RPY kernel; on a tiny budget every variant runs to its end and counts its
-    iterations."""
+    0.5 ml/min as planned (the RPY kernel, finite-Re drag), and with contact's dashpot off,
+    no contact, the lagged nonlocal flow, no hydrodynamics, Stokes drag or Stokeslet
+    segments, each differing from it in that key only, and the Stokeslet segments without
+    contact and with Stokes drag; on a tiny budget every variant runs to its end and counts
+    its iterations."""
     mod = bench("bench_hydrodynamics")
     monkeypatch.setattr(mod, "ALL_EFFECTS_DURATION_S", 0.004)
     variants = mod.all_effects_variants()
     base = variants["as in the ablation"]
     assert base["hydrodynamics.coupling"] == "implicit" and "inertia" in base["effects"]
-    assert "contact" in base["effects"]
+    assert "contact" in base["effects"] and base["drag.model"] == "finite_re"
+    assert base["hydrodynamics.kernel"] == "rpy"
     changed = {
         label: {k for k in {*over, *base} if over.get(k) != base.get(k)}
         for label, over in variants.items()
@@ -372,9 +374,11 @@ def test_the_hydrodynamics_all_effects_part_changes_one_thing_per_variant(bench,
         "lagged nonlocal flow": {"hydrodynamics.coupling"},
         "no hydrodynamics": {"effects"},
         "Stokes drag": {"drag.model"},
-        "Stokes drag, RPY kernel": {"drag.model", "hydrodynamics.kernel"},
+        "Stokeslet segments": {"hydrodynamics.kernel"},
+        "Stokeslet segments, no contact": {"hydrodynamics.kernel", "effects"},
+        "Stokeslet segments, Stokes drag": {"hydrodynamics.kernel", "drag.model"},
     }
-    assert variants["Stokes drag, RPY kernel"]["hydrodynamics.kernel"] == "rpy"
+    assert variants["Stokeslet segments"]["hydrodynamics.kernel"] == "slender_body"
     assert set(base["effects"]) - set(variants["no contact"]["effects"]) == {"contact"}
     assert set(base["effects"]) - set(variants["no hydrodynamics"]["effects"]) == {"hydrodynamics"}
     rows = mod.all_effects_rows()
@@ -393,7 +397,11 @@ def test_the_hydrodynamics_mobility_part_takes_the_operator_and_puts_j_other_bac
     was afterwards (the run goes on as it would). Stokes drag here: with finite-Re drag the
     fast young jet screens its nonlocal flow (I + R M W^-1 is then the identity)."""
     mod = bench("bench_hydrodynamics")
-    over = {**mod.all_effects_variants()["no contact"], "duration_s": 0.05, "drag.model": "cox"}
+    over = {
+        **mod.all_effects_variants()["Stokeslet segments, no contact"],
+        "duration_s": 0.05,
+        "drag.model": "cox",
+    }
     sim = Simulation(ablation.SCENE, over)
     sim.advance(0.05)
     sim.forces(1.0, 1.0, 1.0, True)

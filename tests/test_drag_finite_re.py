@@ -133,6 +133,67 @@ def test_law_jacobians_match_central_differences(case) -> None:
     assert np.max(np.abs(dt - fd_t)) < 1e-6 * np.max(np.abs(dt))
 
 
+def _oseen(b, u, t, d):
+    force, du, dt, xi = np.zeros(3), np.zeros((3, 3)), np.zeros((3, 3)), np.zeros((3, 3))
+    power = C.oseen_law(*b, *u, *t, d, MU, RHO, LENGTH, LENGTH, force, du, dt, xi)
+    return force, du, dt, xi, power
+
+
+def _clamped(b, u, t) -> bool:
+    """Whether oseen_law's Jacobian clamps a component ratio of u to b."""
+    sb, su = b @ t, u @ t
+    wb, wu = b - sb * t, u - su * t
+    top = C.OSEEN_JAC_RATIO_MAX
+    return np.linalg.norm(wu) > top * np.linalg.norm(wb) or abs(su) > top * abs(sb)
+
+
+def test_oseen_law_is_the_law_without_a_flow_and_linear_in_the_flow() -> None:
+    """The law linearised about the motion relative to the bath: with no local flow (u = b)
+    exactly :func:`law` (force and Jacobians); its resistance to a flow is
+    g_n (I - t t^T) + g_t t t^T at b's speeds (symmetric, positive definite), and the force
+    is affine in the flow with that slope."""
+    worst = 0.0
+    for b, t, d in _cases(20, seed=4):
+        f_law, du_law, dt_law, p_law = _law(b, t, d)
+        f, du, dt, xi, power = _oseen(b, b, t, d)
+        np.testing.assert_array_equal(f, f_law)
+        np.testing.assert_allclose(du, du_law, rtol=0, atol=1e-12 * np.abs(du_law).max())
+        np.testing.assert_allclose(dt, dt_law, rtol=0, atol=1e-12 * np.abs(dt_law).max())
+        assert power == pytest.approx(p_law, rel=1e-12)
+        np.testing.assert_allclose(xi, xi.T, rtol=0, atol=1e-14 * np.abs(xi).max())
+        assert np.linalg.eigvalsh(xi).min() > 0.0
+        flow = np.random.default_rng(5).normal(size=3) * np.linalg.norm(b)
+        f_flow = _oseen(b, b - flow, t, d)[0]
+        worst = max(worst, np.abs(f_flow - (f + xi @ flow)).max() / np.abs(f).max())
+    assert worst < 1e-12
+
+
+def _oseen_cases(n: int, seed: int) -> list:
+    """(b, u, t, d): _cases' velocities b with a random flow of b's size, where the
+    Jacobian's component ratio is not clamped (most of them)."""
+    out = []
+    for b, t, d in _cases(n, seed):
+        flow = np.random.default_rng(int(1e6 * d)).normal(size=3) * np.linalg.norm(b)
+        if not _clamped(b, b - flow, t):
+            out.append((b, b - flow, t, d))
+    assert len(out) > 0.8 * n
+    return out
+
+
+@pytest.mark.parametrize("case", _oseen_cases(40, seed=2))
+def test_oseen_law_jacobians_match_central_differences(case) -> None:
+    """dF/dv (b and u move together, the flow held) and dF/dt against central differences
+    (the cases where the Jacobian's component ratio is not clamped)."""
+    b, u, t, d = case
+    flow = b - u
+    force, du, dt, xi, power = _oseen(b, u, t, d)
+    assert power == pytest.approx(-np.dot(force, u), rel=1e-12)
+    fd_u = _central(lambda x: _oseen(x, x - flow, t, d)[0], b, 1e-6 * np.linalg.norm(b))
+    fd_t = _central(lambda x: _oseen(b, u, x, d)[0], t, 1e-6)
+    assert np.max(np.abs(du - fd_u)) < 1e-5 * np.max(np.abs(du))
+    assert np.max(np.abs(dt - fd_t)) < 1e-5 * np.max(np.abs(dt))
+
+
 def test_law_is_linear_and_stokes_at_rest() -> None:
     t = np.array([0.0, 0.6, 0.8])
     d = 0.41e-3

@@ -65,21 +65,49 @@ def test_the_rpy_matrix_is_positive_semi_definite_for_overlapping_clusters() -> 
         assert eig.min() > -1e-12 * eig.max()
 
 
-def test_screening_by_each_pairs_shorter_oseen_length_is_not_positive_semi_definite() -> None:
-    """Why the RPY kernel refuses finite_re: screening each pair by exp(-R / min(l_i, l_j)),
-    the symmetric form of Oseen lengths that differ from node to node, makes some clusters'
-    mobility indefinite, though the unscreened one is positive semi-definite."""
+def test_screening_by_paciorek_kernel_keeps_the_mobility_positive_semi_definite() -> None:
+    """Why the RPY kernel screens each pair with Paciorek & Schervish's nonstationary kernel
+    (:func:`_rpy.screening_factor`): on clusters of blobs with Oseen lengths that differ from
+    node to node by up to 1000 times (some unscreened), the screened mobility stays positive
+    semi-definite, while screening each pair by exp(-R / min(l_i, l_j)), the symmetric form
+    closest to the slender-body kernel's, makes some of the same clusters indefinite."""
     rng = np.random.default_rng(1)
-    worst = np.inf
-    for _ in range(10):
+    worst_min, worst_paciorek = np.inf, np.inf
+    for trial in range(10):
         points = rng.normal(size=(40, 3)) * rng.uniform(0.5, 5.0)
         lengths = np.exp(rng.uniform(math.log(0.05), math.log(50.0), size=40))
+        if trial % 2:
+            lengths[rng.uniform(size=40) < 0.3] = np.inf
         mob = _rpy_matrix(points, np.ones(40))
         dist = np.linalg.norm(points[:, None] - points[None], axis=2)
-        screen = np.exp(-dist / np.minimum(lengths[:, None], lengths[None]))
-        eig = np.linalg.eigvalsh(mob * np.kron(screen, np.ones((3, 3))))
-        worst = min(worst, eig.min() / eig.max())
-    assert worst < -1e-3
+        shorter = np.exp(-dist / np.minimum(lengths[:, None], lengths[None]))
+        paciorek = np.array(
+            [
+                [_rpy.screening_factor(dist[i, j], lengths[i], lengths[j]) for j in range(40)]
+                for i in range(40)
+            ]
+        )
+        for screen in (shorter, paciorek):
+            eig = np.linalg.eigvalsh(mob * np.kron(screen, np.ones((3, 3))))
+            ratio = eig.min() / eig.max()
+            if screen is shorter:
+                worst_min = min(worst_min, ratio)
+            else:
+                worst_paciorek = min(worst_paciorek, ratio)
+    assert worst_min < -1e-3
+    assert worst_paciorek > -1e-12
+
+
+def test_paciorek_screening_is_the_slender_body_kernels_for_equal_lengths() -> None:
+    """Equal Oseen lengths: exp(-R / l) (the slender_body kernel's screening, which makes a
+    long rod feel Lamb's drag); unequal ones weaken the pair by (2 q / (1 + q^2))^(3/2) at
+    R = 0 (q their ratio); unscreened pairs 1; a screened node and an unscreened one 0."""
+    assert _rpy.screening_factor(2.0, 3.0, 3.0) == pytest.approx(math.exp(-2.0 / 3.0), rel=1e-14)
+    q = 0.25
+    assert _rpy.screening_factor(0.0, 1.0, 4.0) == pytest.approx((2 * q / (1 + q * q)) ** 1.5)
+    assert _rpy.screening_factor(5.0, math.inf, math.inf) == 1.0
+    assert _rpy.screening_factor(5.0, 1.0, math.inf) == 0.0
+    assert _rpy.screening_factor(1.0, 2.0, 2.000001) == pytest.approx(math.exp(-0.5), rel=1e-6)
 
 
 @pytest.mark.parametrize("aspect", [20, 50, 100])
@@ -115,14 +143,20 @@ def test_the_rpy_mobility_is_positive_definite_on_turns_the_slender_body_one_is_
     assert rpy["asymmetry"] < 1e-12
 
 
-def test_the_gates_keep_the_mobility_positive_definite_where_the_law_resists_more() -> None:
+@pytest.mark.parametrize("screened", [False, True])
+def test_the_gates_keep_the_mobility_positive_definite_where_the_law_resists_more(
+    screened: bool,
+) -> None:
     """Where a node's drag law resists more than the Stokes window (ten times here, as the
     finite-Re law does at speed), the blobs' share of its window would exceed its mobility:
     with the gates open (g = 1) the mobility R^-1 + M W^-1 of the pressed coil is
     indefinite; with the gates rpy_gates sets, the flow G S G less its window sums, it is
-    positive definite, every gate below 1."""
+    positive definite, every gate below 1; unscreened, and screened with Oseen lengths from
+    0.2 to 20 radii that differ from node to node."""
     pts = V.pressed_turns(0.85)
     n = len(pts)
+    lengths = np.exp(np.random.default_rng(3).uniform(math.log(0.1), math.log(10.0), size=n))
+    free = lengths * MM if screened else np.full(n, np.inf)
     r = 0.5 * MM
     seg = np.linalg.norm(np.diff(pts, axis=0), axis=1)
     node_s = np.concatenate([[0.0], np.cumsum(seg)])
@@ -148,14 +182,14 @@ def test_the_gates_keep_the_mobility_positive_definite_where_the_law_resists_mor
         for k in range(3 * n):
             unit[:] = 0.0
             unit[k] = 1.0
-            _rpy.rpy_flow(pos, node_s, n, pos, node_s, n, unit, blob, gate, MU, a_cut, out)
+            _rpy.rpy_flow(pos, node_s, n, pos, node_s, n, unit, blob, gate, free, MU, a_cut, out)
             flow[:, k] = out
         return flow + np.linalg.inv(scipy.linalg.block_diag(*resist))
 
     opened = mobility(np.ones(n))
     assert np.linalg.eigvalsh(0.5 * (opened + opened.T)).min() < 0
     gate = np.ones(n)
-    _rpy.rpy_gates(pos, node_s, n, blob, resist, a_cut, MU, gate)
+    _rpy.rpy_gates(pos, node_s, n, blob, resist, free, a_cut, MU, gate)
     assert gate.max() < 1.0 and gate.min() > 0.0
     gated = mobility(gate)
     np.testing.assert_allclose(gated, gated.T, rtol=0, atol=1e-12 * np.abs(gated).max())

@@ -234,17 +234,10 @@ def contact_damping_time(scene: Scene) -> float:
     return float(value)
 
 
-def _check_rpy(h, drag_model: str, spacing: float, radius: float) -> None:
-    """The RPY kernel: Stokes drag, direct sums of point blobs (no FMM, no Cortez blob), and
+def _check_rpy(h, spacing: float, radius: float) -> None:
+    """The RPY kernel: direct sums of point blobs (no FMM, no Cortez blob), and
     blobs large enough that a straight filament's windows keep GATE_MARGIN of their mobility
     beyond the blobs' share (:func:`window_margin`: its gates are then 1)."""
-    if drag_model != "cox":
-        raise SceneError(
-            f"drag.model = {drag_model!r} with hydrodynamics.kernel = 'rpy': the RPY kernel's "
-            "mobility is positive definite for a drag law whose resistance does not depend on "
-            "the speed (Stokes); the finite-Reynolds law's grows with it, beyond what the blobs "
-            "allow; allowed: drag.model = 'cox' with 'rpy' (or kernel 'slender_body')"
-        )
     if h.fmm_min_nodes > 0 or h.regularization_radii > 0.0:
         key, value = (
             ("fmm_min_nodes", h.fmm_min_nodes)
@@ -285,7 +278,7 @@ def _hydrodynamics(scene: Scene, p: np.record, radius: float) -> None:
         h.cutoff_radii * radius, h.rpy_radii * radius
     )
     if "hydrodynamics" in scene.effects and h.kernel == "rpy":
-        _check_rpy(h, scene.drag.model, p.node_spacing, radius)
+        _check_rpy(h, p.node_spacing, radius)
     if "hydrodynamics" in scene.effects and h.fmm_min_nodes > 0:
         if scene.drag.model == "finite_re":
             raise SceneError(

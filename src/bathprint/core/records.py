@@ -72,6 +72,7 @@ class Scratch(NamedTuple):
     law_force: np.ndarray  # (3,) force per length of a drag law (drag, hydrodynamics)
     law_du: np.ndarray  # (3, 3) its derivative in the relative velocity
     law_dt: np.ndarray  # (3, 3) ... and in the tangent
+    law_xi: np.ndarray  # (3, 3) its resistance to the local flow (hydrodynamics)
     edge_rates: np.ndarray  # (2, 3) edge velocities of a bending stencil (viscosity)
 
 
@@ -157,7 +158,7 @@ class Hydro(NamedTuple):
     beyond: np.ndarray  # (cap,) -: RPY kernel: sides of each node's window with blobs beyond
     gate: np.ndarray  # (cap,) -: RPY kernel: each node's gate g_i in [0, 1] (effects._rpy)
     resist_window: np.ndarray  # (cap, 3, 3) N s/m: RPY kernel: its window law's resistance
-    screen: np.ndarray  # (cap,) m: each segment's Oseen screening length (inf: none)
+    screen: np.ndarray  # (cap,) m: each segment's (RPY: node's) Oseen length (inf: none)
     resist: np.ndarray  # (cap, 3, 3) N s/m: -dF_drag/du of each node (the linearisation)
     band_other: np.ndarray  # (3 cap, BAND_WIDTH): the Newton matrix of the other effects
     lin_pos: np.ndarray  # (3 cap,) m: node positions of the linearisation
@@ -280,6 +281,7 @@ def new_scratch() -> Scratch:
         law_force=np.zeros(3),
         law_du=np.zeros((3, 3)),
         law_dt=np.zeros((3, 3)),
+        law_xi=np.zeros((3, 3)),
         edge_rates=np.zeros((2, 3)),
     )
 

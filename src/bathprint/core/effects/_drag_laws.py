@@ -277,6 +277,73 @@ def law(ux, uy, uz, tx, ty, tz, d, mu, rho, len_n, len_t, force, jac_u, jac_t) -
     return power
 
 
+#: :func:`oseen_law`'s Jacobian: the largest ratio of a relative speed component to the same
+#: component of the speed relative to the bath with which the coefficients' derivative enters
+OSEEN_JAC_RATIO_MAX = 10.0
+
+
+@njit(**KERNEL)
+def oseen_law(bx, by, bz, ux, uy, uz, tx, ty, tz, d, mu, rho, len_n, len_t, force, jac_u,
+              jac_t, resist) -> float:  # fmt: skip
+    """The finite_re law linearised about the motion relative to the bath, as Oseen's
+    equations are (Oseen 1910; Lamb 1911): its coefficients g_n, g_t at the velocity b (m/s)
+    relative to the bath, applied to the velocity u relative to the local flow,
+
+        F = -g_n(|b_n|) u_n - g_t(|b.t|) (u.t) t,
+
+    so that F is linear in the flow (the flows of distant forces superpose) and its
+    resistance to that flow, Xi = g_n (I - t t^T) + g_t t t^T (Pa s, into ``resist``), is
+    symmetric and known before the flow is. With u = b it is :func:`law`. F (N/m) into
+    ``force``; dF/dv (b and u both move with the filament's velocity v; Pa s) into
+    ``jac_u`` and dF/dt into ``jac_t``: the coefficients' derivatives enter with the ratio of
+    u's component to b's, clamped to OSEEN_JAC_RATIO_MAX (the exact derivative is unbounded
+    where b's component vanishes and u's does not: tangentially g_t' ~ U^-1/2). Returns -F.u
+    (W/m). Other arguments as :func:`law`'s. No allocation."""
+    t = (tx, ty, tz)
+    sb = bx * tx + by * ty + bz * tz
+    wb = (bx - sb * tx, by - sb * ty, bz - sb * tz)
+    su = ux * tx + uy * ty + uz * tz
+    wu = (ux - su * tx, uy - su * ty, uz - su * tz)
+    u = (ux, uy, uz)
+    b = (bx, by, bz)
+    un = math.sqrt(wb[0] * wb[0] + wb[1] * wb[1] + wb[2] * wb[2])
+    ut = abs(sb)
+    gn, fpn = normal_coefficients(un, d, mu, rho, len_n)
+    gt, fpt = tangential_coefficients(ut, d, mu, rho, len_t)
+    extra_n = fpn - gn  # U g'(U): vanishes at U = 0
+    extra_t = fpt - gt
+    top = OSEEN_JAC_RATIO_MAX
+    wh = (0.0, 0.0, 0.0)
+    rho_n = (0.0, 0.0, 0.0)
+    if un > 0.0:
+        wh = (wb[0] / un, wb[1] / un, wb[2] / un)
+        size = math.sqrt(wu[0] * wu[0] + wu[1] * wu[1] + wu[2] * wu[2]) / un
+        cut = top / size if size > top else 1.0
+        rho_n = (cut * wu[0] / un, cut * wu[1] / un, cut * wu[2] / un)
+    sign_t = 0.0
+    rho_t = 0.0
+    if ut > 0.0:
+        sign_t = 1.0 if sb > 0.0 else -1.0
+        rho_t = min(max(su / ut, -top), top)
+    power = 0.0
+    for a in range(3):
+        fa = -gn * wu[a] - gt * su * t[a]
+        force[a] = fa
+        power -= fa * u[a]
+        for c in range(3):
+            delta = 1.0 if a == c else 0.0
+            resist[a, c] = gn * (delta - t[a] * t[c]) + gt * t[a] * t[c]
+            jac_u[a, c] = (
+                -resist[a, c] - extra_n * rho_n[a] * wh[c] - extra_t * sign_t * rho_t * t[a] * t[c]
+            )
+            jac_t[a, c] = (
+                (gn - gt) * (su * delta + t[a] * u[c])
+                + extra_n * sb * rho_n[a] * wh[c]
+                - extra_t * sign_t * rho_t * t[a] * b[c]
+            )
+    return power
+
+
 # ---- plain numpy helpers (tests, docs, validation) ---------------------------------------
 
 

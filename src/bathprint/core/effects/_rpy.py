@@ -23,8 +23,11 @@ blobs' share of it:
 S the RPY tensor, g_i in [0, 1] each node's gate (:func:`rpy_gates`). The total mobility is
 Xi^-1 + G S G - D', D' the block diagonal of the gated window sums: G S G is positive
 semi-definite, and the gates keep each node's window mobility Xi_i^-1 above D'_i, so the total
-is positive definite for any configuration (with a law whose resistance does not depend on
-the velocity: Stokes drag, ``drag.model = "cox"``). Where the Stokes window's mobility
+is positive definite for any configuration. Xi_i is the law's resistance to the flow: Stokes'
+(``drag.model = "cox"``), or the finite_re law linearised about the motion relative to the
+bath (:func:`._drag_laws.oseen_law`: symmetric, and known before the flow is); with finite_re
+each pair is screened by :func:`screening_factor`, which keeps S positive semi-definite
+whatever the nodes' Oseen lengths. Where the Stokes window's mobility
 exceeds the blobs' share with room (:func:`window_margin`, checked when the scene compiles)
 the gates are 1; on a straight filament the window law is shifted by the RPY tensor's
 difference from the Stokeslet beyond the window (:func:`window_shift`), so that far from the
@@ -65,14 +68,35 @@ def rpy_coefficients(dist: float, bi: float, bj: float):
     return scale * c_iso, scale * c_rr
 
 
+@njit(**KERNEL, inline="always")
+def screening_factor(dist: float, li: float, lj: float) -> float:
+    """The factor (-) on the RPY tensor between blobs at distance ``dist`` (m) with Oseen
+    lengths ``li``, ``lj`` (m; inf: not screened): Paciorek & Schervish's (2006,
+    Environmetrics 17, 483) nonstationary exponential kernel in three dimensions,
+    (l_i l_j / m^2)^(3/2) exp(-R / m), m^2 = (l_i^2 + l_j^2) / 2. Positive definite for any
+    lengths, so the screened tensor (a Schur product) stays positive semi-definite; with equal
+    lengths it is exp(-R / l), the slender_body kernel's screening; with unequal ones it also
+    weakens the pair, by (2 q / (1 + q^2))^(3/2) at length ratio q."""
+    big = max(li, lj)
+    small = min(li, lj)
+    if small == big:
+        return 1.0 if big == math.inf else math.exp(-dist / big)
+    if big == math.inf:
+        return 0.0
+    q = small / big
+    amp = 2.0 * q / (1.0 + q * q)
+    return amp * math.sqrt(amp) * math.exp(-dist / (big * math.sqrt(0.5 * (1.0 + q * q))))
+
+
 @njit(**KERNEL)
-def rpy_flow(targets, target_s, n_targets, pos, node_s, n_src, force, blob, gate, mu,
-             a_cut, out_vel):  # fmt: skip
+def rpy_flow(targets, target_s, n_targets, pos, node_s, n_src, force, blob, gate, screen,
+             mu, a_cut, out_vel):  # fmt: skip
     """Velocities (m/s) at nodes 0..n_targets-1 (positions ``targets``, material arclengths
     ``target_s``, m) from the forces ``force`` (N, per node) of nodes 0..n_src-1 of the same
     filament at ``pos`` (m, arclengths ``node_s``; segment j joins nodes j and j + 1), the
     blobs' share of each target's window |s_j - s_i| < ``a_cut`` left out (see the module).
-    ``blob``: each node's blob radius (m); ``gate``: each node's g_i (:func:`rpy_gates`).
+    ``blob``: each node's blob radius (m); ``gate``: each node's g_i (:func:`rpy_gates`);
+    ``screen``: each node's Oseen length (m, inf: none; :func:`screening_factor`).
     Direct O(N M) sum into ``out_vel`` (overwritten); allocates nothing."""
     c = 1.0 / (8.0 * math.pi * mu)
     for i in range(n_targets):
@@ -102,7 +126,7 @@ def rpy_flow(targets, target_s, n_targets, pos, node_s, n_src, force, blob, gate
             r1 = y1 - pos[3 * j + 1]
             r2 = y2 - pos[3 * j + 2]
             dist = math.sqrt(r0 * r0 + r1 * r1 + r2 * r2)
-            scale = gate[i] * gate[j]
+            scale = gate[i] * gate[j] * screening_factor(dist, screen[i], screen[j])
             c_iso, c_rr = rpy_coefficients(dist, blob[i], blob[j])
             if dist > 0.0:
                 rf = c_rr * (r0 * f0 + r1 * f1 + r2 * f2) / (dist * dist)
@@ -137,15 +161,15 @@ def _sym3_max_eig(a00, a01, a02, a11, a12, a22) -> float:
 
 
 @njit(**KERNEL)
-def rpy_gates(pos, node_s, n_src, blob, resist, a_cut, mu, gate) -> None:
+def rpy_gates(pos, node_s, n_src, blob, resist, screen, a_cut, mu, gate) -> None:
     """Each node's gate g_i = min(1, (1 - GATE_MARGIN) / lambda_max(R_i D_i)) into ``gate``:
-    D_i the unscreened RPY sum over its window's blobs (its own included, m/(N s)), R_i
-    (``resist``, N s/m, its symmetric part) its drag law's resistance. With the blobs' forces
-    and flows scaled by g (the flow G S G, a congruence: still positive semi-definite), a
-    node's window keeps more mobility than the blobs' share of it: the total mobility stays
-    positive definite where a bend brings the window's blobs closer than a straight line
-    does, or a law resists more than Stokes' window. 1 wherever a straight window's margin
-    holds (:func:`window_margin`). O(N x the window's nodes)."""
+    D_i the RPY sum over its window's blobs (its own included, screened as ``screen`` says,
+    m/(N s)), R_i (``resist``, N s/m, its symmetric part) its drag law's resistance to the
+    flow. With the blobs' forces and flows scaled by g (the flow G S G, a congruence: still
+    positive semi-definite), a node's window keeps more mobility than the blobs' share of
+    it: the total mobility stays positive definite where a bend brings the window's blobs
+    closer than a straight line does, or a law resists more than Stokes' window. 1 wherever
+    a straight window's margin holds (:func:`window_margin`). O(N x the window's nodes)."""
     c = 1.0 / (8.0 * math.pi * mu)
     for i in range(n_src):
         d00 = d11 = d22 = d01 = d02 = d12 = 0.0
@@ -161,10 +185,11 @@ def rpy_gates(pos, node_s, n_src, blob, resist, a_cut, mu, gate) -> None:
             r2 = pos[3 * i + 2] - pos[3 * j + 2]
             dist = math.sqrt(r0 * r0 + r1 * r1 + r2 * r2)
             c_iso, c_rr = rpy_coefficients(dist, blob[i], blob[j])
-            k = c * c_rr / (dist * dist) if dist > 0.0 else 0.0
-            d00 += c * c_iso + k * r0 * r0
-            d11 += c * c_iso + k * r1 * r1
-            d22 += c * c_iso + k * r2 * r2
+            cs = c * screening_factor(dist, screen[i], screen[j])
+            k = cs * c_rr / (dist * dist) if dist > 0.0 else 0.0
+            d00 += cs * c_iso + k * r0 * r0
+            d11 += cs * c_iso + k * r1 * r1
+            d22 += cs * c_iso + k * r2 * r2
             d01 += k * r0 * r1
             d02 += k * r0 * r2
             d12 += k * r1 * r2

@@ -24,8 +24,8 @@ total minus the net drag (momentum balance).
 **Kernel** (``hydrodynamics.kernel``). ``slender_body``: u_nl from Lighthill's Stokeslet
 segments beyond each node's window (:mod:`._stokeslet`). ``rpy``: from Rotne-Prager-Yamakawa
 blobs at the nodes, less the blobs' share of each window, with gates that keep the
-filament's mobility positive definite for any shape (:mod:`._rpy`; Stokes drag only), where
-the Stokeslet segments' is not once turns touch.
+filament's mobility positive definite for any shape (:mod:`._rpy`), where the Stokeslet
+segments' is not once turns touch.
 
 **What drag does when hydrodynamics is listed.** The drag kernel is not called; this effect
 evaluates the scene's drag law on its windows instead (``calls`` counts both):
@@ -37,8 +37,14 @@ law with the window's lengths L_n = r e^(Lam/2 + 1), L_t = r e^(Lam/2) in its lo
 zero-speed limit is then the same window resistance), and the Stokeslets screened beyond the
 Oseen length l_O = 2 nu / |u| of each source segment (a factor exp(-R / l_O); the constant
 makes a long straight rod in cross-flow at Re_d << 1 feel Lamb's drag). Where
-l_O < a the nonlocal part vanishes and the local finite_re law is what remains. ``constant``
-is refused.
+l_O < a the nonlocal part vanishes and the local finite_re law is what remains. With the RPY
+kernel, two things differ so that the mobility stays positive definite: each pair of blobs
+is screened by Paciorek & Schervish's kernel of the two nodes' Oseen lengths
+(:func:`._rpy.screening_factor`: exp(-R / l_O) where they are equal), and the law is
+linearised about the motion relative to the bath, as Oseen's equations are (its
+coefficients at the velocity relative to the bath, applied to the velocity relative to the
+flow: :func:`._drag_laws.oseen_law`), so that its resistance to the flow, which the gates
+need, is known before the flow is. ``constant`` is refused.
 
 **Coupling** (``hydrodynamics.coupling``). ``implicit``: u_nl is a function of the stage's
 positions, evaluated at every Newton iterate; the Newton matrix gains the dense part
@@ -67,7 +73,7 @@ import numpy as np
 from numba import njit, objmode
 
 from bathprint.core.banded import band_matvec
-from bathprint.core.effects._drag_laws import law
+from bathprint.core.effects._drag_laws import law, oseen_law
 from bathprint.core.effects._rpy import rpy_flow, rpy_gates
 from bathprint.core.effects._stokeslet import (
     fmm_flow,
@@ -92,9 +98,10 @@ def geometry(p, rod, n_seg: int, hyd, sc) -> None:
     """Each filament node's share of the length (``hyd.weight``) and its window sides
     (``hyd.sides``: a_-, a_+, clipped at the ends; arclength is the material coordinate);
     for the RPY kernel also its blob radius (``hyd.blob``: ``rpy_radii`` x the mean radius
-    of its segments), its window law's resistance (``hyd.resist_window``, N s/m: Stokes', so
-    at any velocity) and its gate (:func:`._rpy.rpy_gates`)."""
-    pos, node_s = rod.pos, rod.node_s
+    of its segments), its Oseen length (``hyd.screen``, with screening; inf: none), its window
+    law's resistance at its velocity relative to the bath (``hyd.resist_window``, N s/m) and
+    its gate (:func:`._rpy.rpy_gates`)."""
+    pos, vel, node_s = rod.pos, rod.vel, rod.node_s
     a_cut = p.hydro_cutoff
     rpy = p.hydro_kernel == HYDRO_RPY
     if rpy:
@@ -107,12 +114,19 @@ def geometry(p, rod, n_seg: int, hyd, sc) -> None:
             hyd.sides[1, i] = min(a_cut, s1 - node_s[i])
     w, blob, rw = hyd.weight, hyd.blob, hyd.resist_window
     ratio = 0.5 * p.hydro_rpy_radii
+    fx, fy, fz = p.bath_flow[0], p.bath_flow[1], p.bath_flow[2]
+    nu = p.bath_viscosity / p.bath_density_top
     for i in range(n_seg + 1):
         w[i] = 0.0
         blob[i] = 0.0
         for a in range(3):
             for b in range(3):
                 rw[i, a, b] = 0.0
+        if rpy:
+            u0, u1, u2 = vel[3 * i] - fx, vel[3 * i + 1] - fy, vel[3 * i + 2] - fz
+            speed = math.sqrt(u0 * u0 + u1 * u1 + u2 * u2)
+            screened = p.hydro_screening and speed > 0.0
+            hyd.screen[i] = OSEEN_FACTOR * nu / speed if screened else np.inf
     for j in range(n_seg):
         ex = pos[3 * j + 3] - pos[3 * j]
         ey = pos[3 * j + 4] - pos[3 * j + 1]
@@ -126,16 +140,17 @@ def geometry(p, rod, n_seg: int, hyd, sc) -> None:
         tt = (ex / length, ey / length, ez / length)
         for i in range(j, j + 2):
             blob[i] += ratio * r
-            _window_law(p, hyd, i, r, 0.0, 0.0, 0.0, tt, sc.law_force, sc.law_du, sc.law_dt)
+            rel = (vel[3 * i] - fx, vel[3 * i + 1] - fy, vel[3 * i + 2] - fz)
+            _window_law(p, hyd, i, r, rel, rel[0], rel[1], rel[2], tt, sc)
             for a in range(3):
                 for b in range(3):
-                    rw[i, a, b] -= 0.5 * length * sc.law_du[a, b]
+                    rw[i, a, b] += 0.5 * length * sc.law_xi[a, b]
     if not rpy:
         return
     if n_seg > 0:  # the end nodes have one segment
         blob[0] *= 2.0
         blob[n_seg] *= 2.0
-    rpy_gates(pos, node_s, n_seg + 1, blob, rw, a_cut, p.bath_viscosity, hyd.gate)
+    rpy_gates(pos, node_s, n_seg + 1, blob, rw, hyd.screen, a_cut, p.bath_viscosity, hyd.gate)
 
 
 @kernel
@@ -167,9 +182,15 @@ def _discrete_sides(node_s, n_seg: int, a_cut: float, hyd) -> None:
 
 
 @njit(**KERNEL, inline="always")
-def _window_law(p, hyd, i: int, r: float, u0, u1, u2, tt, f3, du, dt) -> float:
-    """The drag law on node i's window for a segment of radius r and tangent tt at relative
-    velocity u: force per length into f3, dF/du, dF/dt into du, dt; returns -F.u (W/m)."""
+def _window_law(p, hyd, i: int, r: float, b, u0, u1, u2, tt, sc) -> float:
+    """The drag law on node i's window for a segment of radius r and tangent tt, the node
+    moving at b relative to the bath and at u relative to the local flow: force per length
+    into ``sc.law_force``, dF/dv, dF/dt into ``sc.law_du``, ``sc.law_dt``, the resistance to
+    the flow -dF/du_nl into ``sc.law_xi``; returns -F.u (W/m). finite_re with the RPY
+    kernel: the law linearised about the motion relative to the bath
+    (:func:`._drag_laws.oseen_law`, so that its resistance is known before the flow is, as
+    the gates need); otherwise the law at u."""
+    f3, du, dt, xi = sc.law_force, sc.law_du, sc.law_dt, sc.law_xi
     am = hyd.sides[0, i]
     ap = hyd.sides[1, i]
     shift_par = shift_perp = 0.0
@@ -178,10 +199,19 @@ def _window_law(p, hyd, i: int, r: float, u0, u1, u2, tt, f3, du, dt) -> float:
         shift_perp = hyd.beyond[i] * p.hydro_rpy_shift_perp
     if p.drag_model == DRAG_FINITE_RE:
         len_n, len_t = window_lengths(am, ap, r, shift_par, shift_perp)
-        return law(
+        if p.hydro_kernel == HYDRO_RPY:
+            return oseen_law(
+                b[0], b[1], b[2], u0, u1, u2, tt[0], tt[1], tt[2], 2.0 * r, p.bath_viscosity,
+                p.bath_density_top, len_n, len_t, f3, du, dt, xi,
+            )  # fmt: skip
+        power = law(
             u0, u1, u2, tt[0], tt[1], tt[2], 2.0 * r, p.bath_viscosity, p.bath_density_top,
             len_n, len_t, f3, du, dt,
         )  # fmt: skip
+        for a in range(3):
+            for c in range(3):
+                xi[a, c] = -du[a, c]
+        return power
     xp, xn = window_coefficients(am, ap, r, p.bath_viscosity, shift_par, shift_perp)
     s = u0 * tt[0] + u1 * tt[1] + u2 * tt[2]
     u = (u0, u1, u2)
@@ -194,6 +224,7 @@ def _window_law(p, hyd, i: int, r: float, u0, u1, u2, tt, f3, du, dt) -> float:
             delta = 1.0 if a == b else 0.0
             du[a, b] = -xn * delta - (xp - xn) * tt[a] * tt[b]
             dt[a, b] = -(xp - xn) * (s * delta + tt[a] * u[b])
+            xi[a, b] = -du[a, b]
     return power
 
 
@@ -224,7 +255,7 @@ def sources(model, rod, out, n_free: int, n_seg: int) -> None:
             tt = (ex / seg_len, ey / seg_len, ez / seg_len)
             u = (vel[3 * i] - fx, vel[3 * i + 1] - fy, vel[3 * i + 2] - fz)
             r = seg_mat[j, MAT_RADIUS]
-            _window_law(p, hyd, i, r, u[0], u[1], u[2], tt, sc.law_force, sc.law_du, sc.law_dt)
+            _window_law(p, hyd, i, r, u, u[0], u[1], u[2], tt, sc)
             for a in range(3):
                 f_node[3 * i + a] -= 0.5 * seg_len * sc.law_force[a] / w[i]
     mem = hyd.memory[0]
@@ -242,7 +273,8 @@ def sources(model, rod, out, n_free: int, n_seg: int) -> None:
         re_max = max(re_max, 2.0 * seg_mat[j, MAT_RADIUS] * speed / nu)
         oseen = OSEEN_FACTOR * nu / speed if speed > 0.0 else np.inf
         oseen_min = min(oseen_min, oseen)
-        hyd.screen[j] = oseen if p.hydro_screening else np.inf
+        if p.hydro_kernel != HYDRO_RPY:  # (the RPY kernel's are the nodes', from geometry)
+            hyd.screen[j] = oseen if p.hydro_screening else np.inf
     for a in range(3):  # the segment inside the needle pushes nothing
         f_seg[3 * n_seg + a] = 0.0
     mem.reynolds_max = re_max
@@ -263,8 +295,8 @@ def flow(pos, node_s, n_targets: int, n_seg: int, hyd, out_vel) -> None:
             for a in range(3):
                 f_blob[3 * i + a] = hyd.f_node[3 * i + a] * hyd.weight[i]
         rpy_flow(
-            pos, node_s, n_targets, pos, node_s, n_seg + 1, f_blob, hyd.blob, hyd.gate, mem.mu,
-            mem.cutoff, out_vel,
+            pos, node_s, n_targets, pos, node_s, n_seg + 1, f_blob, hyd.blob, hyd.gate,
+            hyd.screen, mem.mu, mem.cutoff, out_vel,
         )  # fmt: skip
         return
     if 0 < mem.fmm_nodes <= n_seg and not mem.screening:
@@ -368,10 +400,11 @@ def accumulate(model, rod, stage, out) -> float:
         r = seg_mat[j, MAT_RADIUS]
         for side in range(2):
             i = j + side
-            u0 = vel[3 * i] - fx - u_nl[3 * i]
-            u1 = vel[3 * i + 1] - fy - u_nl[3 * i + 1]
-            u2 = vel[3 * i + 2] - fz - u_nl[3 * i + 2]
-            power += half * _window_law(p, hyd, i, r, u0, u1, u2, tt, f3, du, dt)
+            rel = (vel[3 * i] - fx, vel[3 * i + 1] - fy, vel[3 * i + 2] - fz)
+            u0 = rel[0] - u_nl[3 * i]
+            u1 = rel[1] - u_nl[3 * i + 1]
+            u2 = rel[2] - u_nl[3 * i + 2]
+            power += half * _window_law(p, hyd, i, r, rel, u0, u1, u2, tt, sc)
             for a in range(3):
                 force[3 * i + a] += half * f3[a]
             if stage.jac:
@@ -379,7 +412,7 @@ def accumulate(model, rod, stage, out) -> float:
             if keep:
                 for a in range(3):
                     for b in range(3):
-                        hyd.resist[i, a, b] -= half * du[a, b]
+                        hyd.resist[i, a, b] += half * sc.law_xi[a, b]
     return power
 
 
