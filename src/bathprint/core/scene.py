@@ -311,7 +311,8 @@ class Hydrodynamics:
         metadata={
             "choices": HYDRO_KERNELS,
             "doc": "slender_body: Lighthill's Stokeslet segments; rpy: Rotne-Prager-Yamakawa "
-            "blobs at the nodes, a mobility positive definite for any configuration",
+            "blobs at the nodes, a mobility positive definite for any configuration (with "
+            "finite_re: the law linearised about the motion relative to the bath)",
         },
     )
     rpy_radii: float = _num(
