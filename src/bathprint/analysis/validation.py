@@ -973,22 +973,29 @@ def pressed_turns(pitch_mm: float, n: int = 60) -> np.ndarray:
     )
 
 
-def turns_mobility(pitch_mm: float, kernel: str) -> dict[str, float]:
-    """On :func:`pressed_turns` (r = 0.5 mm) with Stokes drag and the implicit flow of the
-    nonlocal ``kernel``: the smallest real part of eig(I + R M W^-1), the filament mobility's
-    symmetric part's smallest over largest eigenvalue, its asymmetry |M - M^T| / |M| and the
-    smallest gate (the RPY kernel's, else 1)."""
+def turns_mobility(
+    pitch_mm: float, kernel: str, drag_model: str = "cox", speed_m_s: float = 0.0
+) -> dict[str, float]:
+    """On :func:`pressed_turns` (r = 0.5 mm) with the scene's ``drag_model`` and the implicit
+    flow of the nonlocal ``kernel``, the turns rotating about their axis at ``speed_m_s``:
+    the smallest real part of eig(I + R M W^-1), the filament mobility's symmetric part's
+    smallest over largest eigenvalue, its asymmetry |M - M^T| / |M| and the smallest gate
+    (the RPY kernel's, else 1)."""
+    points = pressed_turns(pitch_mm)
     sim = Simulation.from_points(
-        pressed_turns(pitch_mm),
+        points,
         "paper_simulation",
         {
             "effects": ["elasticity", "drag", "hydrodynamics"],
             "hydrodynamics.coupling": "implicit",
             "needle.inner_diameter_mm": 1.0,
-            "drag.model": "cox",
+            "drag.model": drag_model,
             "hydrodynamics.kernel": kernel,
         },
     )
+    phi = np.arctan2(points[:, 1], points[:, 0])
+    spin = np.column_stack([-np.sin(phi), np.cos(phi), np.zeros(len(phi))]) * speed_m_s
+    sim.vel[: spin.size] = spin.ravel()
     op = mobility_operator(sim)
     mob = filament_mobility(sim)
     sym = np.linalg.eigvalsh(0.5 * (mob + mob.T))
