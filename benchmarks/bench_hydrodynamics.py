@@ -8,6 +8,7 @@
     python benchmarks/bench_hydrodynamics.py mobility  # I + R M W^-1 on that pile
     python benchmarks/bench_hydrodynamics.py failing_solve  # at the first failed GMRES solve
     python benchmarks/bench_hydrodynamics.py kernels   # Stokeslet segments vs RPY blobs
+    python benchmarks/bench_hydrodynamics.py kernel_coils  # the coil each kernel gives
     python benchmarks/bench_hydrodynamics.py all
 
 (1) eval: the nonlocal flow of a coil (node spacing 0.5 mm, radius 1.5 mm, pitch 0.9 mm,
@@ -24,13 +25,17 @@ lagging against the step size (fixed steps), and error against wall time for bot
 at adaptive tolerances (the relaxing filament and drag_coiling_22G for 0.5 s, against a
 reference at tolerance 1e-9 with the implicit coupling). (5) all_effects: the ablation's
 "all" run at d = 0.41 mm, 0.5 ml/min (Fig. 2's set: inertia, contact with its dashpot, the
-nonlocal flow inside Newton, surface gelation, viscosity; its turns pile up) for its
-planned 5.2 s, as planned and with one thing changed at a time: contact's dashpot off, no
-contact, the lagged nonlocal flow, no hydrodynamics; how far each gets, its steps,
-Newton and Krylov iterations and wall time. (6) mobility: on that run with contact and
-without it, at MOBILITY_TIMES_S, the eigenvalues of I + R M_nl W^-1 (the operator the
-implicit flow adds to the Newton matrix, which the mass term multiplies at small steps;
-dense, from its matrix-free product) and the smallest gap between turns.
+nonlocal flow of the RPY kernel inside Newton, finite-Re drag, surface gelation, viscosity;
+its turns pile up) for its planned 5.2 s, as planned and with one thing changed at a time
+(:func:`all_effects_variants`); how far each gets, its steps, Newton and Krylov iterations
+and wall time. (6) mobility: on some of those, at MOBILITY_TIMES_S, the eigenvalues of
+I + R M_nl W^-1 (the operator the implicit flow adds to the Newton matrix, which the mass
+term multiplies at small steps; dense, from its matrix-free product) and the smallest gap
+between turns. (7) failing_solve: the Stokeslet segments' runs at their first failed GMRES
+solve. (8) kernels: a cylinder's drag, pressed turns' mobility and one evaluation's cost
+with each kernel. (9) kernel_coils: the ablation's contact + finite-Re + nonlocal runs at
+d = 0.41 mm, 0.5 and 1 ml/min (no inertia: the segments run there) with each kernel, the
+coil each measures.
 Results: benchmarks/results/hydro_*.csv.
 Single-threaded numba; the machine is shared, so wall times carry ~30% noise.
 """
@@ -720,6 +725,53 @@ def kernel_cost_rows() -> list[dict]:
     return rows
 
 
+#: kernel_coils: the ablation's contact + finite-Re + nonlocal combination (no inertia, where
+#: the Stokeslet segments run) at these Fig. 2 points (d mm, Q ml/min), with each kernel
+KERNEL_COIL_VARIANT = "contact_finite_re_hydrodynamics"
+KERNEL_COIL_POINTS = ((0.41, 0.5), (0.41, 1.0))
+KERNEL_COIL_DURATION_S: float | None = None  # None: the ablation's own duration
+
+
+def kernel_coil_rows() -> list[dict]:
+    """Each KERNEL_COIL_POINTS run of KERNEL_COIL_VARIANT with the Stokeslet segments and
+    with the RPY blobs (the law linearised about the motion relative to the bath, the pairs
+    screened by Paciorek's kernel): the measured coil (regime, l, R, pitch, omega, smallest
+    gap), steps and wall time, to read what the kernel changes where both run."""
+    runs, _ = ablation.plan()
+    rows = []
+    for point in KERNEL_COIL_POINTS:
+        over = next(
+            r["overrides"]
+            for r in runs
+            if r["set"] == "fig2" and r["point"] == point and r["variant"] == KERNEL_COIL_VARIANT
+        )
+        over = {**over, "outputs.plot": False}
+        if KERNEL_COIL_DURATION_S is not None:
+            over["duration_s"] = KERNEL_COIL_DURATION_S
+        for kernel in ("slender_body", "rpy"):
+            t0 = time.perf_counter()
+            summary = simulate(ablation.SCENE, {**over, "hydrodynamics.kernel": kernel}).summary
+            m = summary["measurements"]
+            rows.append(
+                {
+                    "diameter_mm": point[0],
+                    "q_outer_ml_min": point[1],
+                    "kernel": kernel,
+                    "duration_s": over["duration_s"],
+                    "regime": m.get("regime"),
+                    "buckling_length_m": m.get("buckling_length_m"),
+                    "coil_radius_m": m.get("coil_radius_m"),
+                    "coil_pitch_m": m.get("coil_pitch_m"),
+                    "coil_frequency_rad_s": m.get("coil_frequency_rad_s"),
+                    "min_gap_ratio": m.get("min_gap_ratio"),
+                    "steps": summary["steps"],
+                    "wall_s": time.perf_counter() - t0,
+                }
+            )
+            print(rows[-1], flush=True)
+    return rows
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parts = (
@@ -731,6 +783,7 @@ def main() -> None:
         "mobility",
         "failing_solve",
         "kernels",
+        "kernel_coils",
         "all",
     )
     ap.add_argument("what", choices=parts)
@@ -761,6 +814,8 @@ def main() -> None:
         print("wrote", write_csv("hydro_kernel_drag", kernel_drag_rows()))
         print("wrote", write_csv("hydro_kernel_mobility", kernel_mobility_rows()))
         print("wrote", write_csv("hydro_kernel_cost", kernel_cost_rows()))
+    if args.what in ("kernel_coils", "all"):
+        print("wrote", write_csv("hydro_kernel_coils", kernel_coil_rows()))
 
 
 if __name__ == "__main__":

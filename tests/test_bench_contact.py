@@ -500,3 +500,17 @@ def test_the_failing_solve_parts_stokes_window_is_the_finite_re_law_at_rest(benc
     stokes = mod._stokes_window_resistance(sim, nf)
     resist = sim.ws.hydro.resist[:nf]
     np.testing.assert_allclose(resist, stokes, rtol=1e-6, atol=1e-9 * np.abs(stokes).max())
+
+
+def test_the_hydrodynamics_kernel_coils_part_runs_each_kernel_at_each_point(bench, monkeypatch):
+    """``bench_hydrodynamics.py kernel_coils`` on a tiny budget: the ablation's contact +
+    finite-Re + nonlocal run at one point, with each kernel (differing in the kernel only),
+    records its steps and measurements."""
+    mod = bench("bench_hydrodynamics")
+    monkeypatch.setattr(mod, "KERNEL_COIL_POINTS", ((0.41, 1.0),))
+    monkeypatch.setattr(mod, "KERNEL_COIL_DURATION_S", 0.004)
+    rows = mod.kernel_coil_rows()
+    assert [r["kernel"] for r in rows] == ["slender_body", "rpy"]
+    for r in rows:
+        assert r["duration_s"] == 0.004 and r["steps"] > 0 and r["wall_s"] > 0
+        assert r["regime"] is not None

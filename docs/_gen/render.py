@@ -796,6 +796,49 @@ def hydro_kernel_cost() -> str:
     return _table(head, rows) + "\n\n" + provenance(path)
 
 
+def hydro_kernel_coils() -> str:
+    """``bench_hydrodynamics.py kernel_coils``: the coil each kernel measures."""
+    path = RESULTS / "hydro_kernel_coils.csv"
+    keys = ("buckling_length_m", "coil_radius_m", "coil_pitch_m", "coil_frequency_rad_s")
+    by = {(r["diameter_mm"], r["q_outer_ml_min"], r["kernel"]): r for r in _csv(path)}
+    rows = []
+    for (d, q, kernel), r in by.items():
+        base = by.get((d, q, "slender_body"))
+        change = "–"
+        if kernel != "slender_body" and base is not None:
+            change = " / ".join(
+                f"{float(r[k]) / float(base[k]) - 1:+.1%}" if r[k] and base[k] else "–"
+                for k in keys
+            )
+        rows.append(
+            [
+                d,
+                q,
+                "Stokeslet segments" if kernel == "slender_body" else "RPY blobs",
+                r["regime"],
+                *(_g(float(r[k]) * 1e3, 3) if r[k] else "–" for k in keys[:3]),
+                _g(r["coil_frequency_rad_s"], 3),
+                change,
+                _g(r["min_gap_ratio"], 3),
+                _g(r["wall_s"], 3),
+            ]
+        )
+    head = [
+        "d (mm)",
+        "Q (ml/min)",
+        "kernel",
+        "regime",
+        "l (mm)",
+        "R (mm)",
+        "pitch (mm)",
+        "omega (rad/s)",
+        "against the segments (l / R / pitch / omega)",
+        "smallest gap / (r_A + r_B)",
+        "wall (s)",
+    ]
+    return _table(head, rows) + "\n\n" + provenance(path)
+
+
 def freezing_rope() -> str:
     path = RESULTS / "freezing_rope.csv"
     rows = [
@@ -2283,6 +2326,7 @@ TABLES: dict[str, Callable[[], str]] = {
     "hydro-kernel-drag": hydro_kernel_drag,
     "hydro-kernel-mobility": hydro_kernel_mobility,
     "hydro-kernel-cost": hydro_kernel_cost,
+    "hydro-kernel-coils": hydro_kernel_coils,
     "contact-onset-buckling": contact_onset_buckling,
     "freezing-rope": freezing_rope,
     "freezing-envs": freezing_envs,
