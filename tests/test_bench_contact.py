@@ -512,5 +512,5 @@ def test_the_hydrodynamics_kernel_coils_part_runs_each_kernel_at_each_point(benc
     rows = mod.kernel_coil_rows()
     assert [r["kernel"] for r in rows] == ["slender_body", "rpy"]
     for r in rows:
-        assert r["duration_s"] == 0.004 and r["steps"] > 0 and r["wall_s"] > 0
-        assert r["regime"] is not None
+        assert r["steps"] > 0 and r["wall_s"] > 0
+        assert r["regime"] == "straight" and r["coil_radius_m"] is None  # a young jet

@@ -194,6 +194,32 @@ def test_oseen_law_jacobians_match_central_differences(case) -> None:
     assert np.max(np.abs(dt - fd_t)) < 1e-5 * np.max(np.abs(dt))
 
 
+def test_oseen_law_where_the_jacobian_is_clamped_or_a_component_of_b_vanishes() -> None:
+    """Where u's component is more than OSEEN_JAC_RATIO_MAX times b's, the coefficients'
+    derivative enters as if it were that many times (finite, bounded by the clamp); where
+    b's normal or tangential component is zero, it drops out (the exact derivative does not
+    exist there) and dF/dv is -Xi on that component. The force is the linearised law
+    throughout."""
+    t = np.array([0.0, 0.6, 0.8])
+    d = 0.41e-3
+    n = np.array([1.0, 0.0, 0.0])  # normal to t
+    top = C.OSEEN_JAC_RATIO_MAX
+    b = 0.01 * n + 1e-6 * t  # tangential speed 1e-6 m/s
+    u = 0.01 * n + 0.05 * t  # tangential ratio 5e4: clamped
+    force, du, dt, xi, _ = _oseen(b, u, t, d)
+    assert np.all(np.isfinite(du)) and np.all(np.isfinite(dt))
+    np.testing.assert_allclose(force, -xi @ u, rtol=1e-12, atol=0)
+    gt, fpt = C.tangential_coefficients(1e-6, d, MU, RHO, LENGTH)
+    along = t @ du @ t  # -g_t - (f_t' - g_t) x the clamped ratio
+    assert along == pytest.approx(-gt - (fpt - gt) * top, rel=1e-9)
+    for b0 in (0.02 * t, 0.02 * n):  # no normal, then no tangential component
+        force, du, dt, xi, _ = _oseen(b0, u, t, d)
+        assert np.all(np.isfinite(du)) and np.all(np.isfinite(dt))
+        np.testing.assert_allclose(force, -xi @ u, rtol=1e-12, atol=0)
+        gone = n if b0 @ n == 0.0 else t  # the component whose derivative drops out
+        assert gone @ du @ gone == pytest.approx(-(gone @ xi @ gone), rel=1e-12)
+
+
 def test_law_is_linear_and_stokes_at_rest() -> None:
     t = np.array([0.0, 0.6, 0.8])
     d = 0.41e-3

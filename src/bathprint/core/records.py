@@ -159,7 +159,7 @@ class Hydro(NamedTuple):
     gate: np.ndarray  # (cap,) -: RPY kernel: each node's gate g_i in [0, 1] (effects._rpy)
     resist_window: np.ndarray  # (cap, 3, 3) N s/m: RPY kernel: its window law's resistance
     screen: np.ndarray  # (cap,) m: each segment's (RPY: node's) Oseen length (inf: none)
-    resist: np.ndarray  # (cap, 3, 3) N s/m: -dF_drag/du of each node (the linearisation)
+    resist: np.ndarray  # (cap, 3, 3) N s/m: each node's resistance to the flow, -dF_drag/du_nl
     band_other: np.ndarray  # (3 cap, BAND_WIDTH): the Newton matrix of the other effects
     lin_pos: np.ndarray  # (3 cap,) m: node positions of the linearisation
     lin_s: np.ndarray  # (cap,) m: their material arclengths

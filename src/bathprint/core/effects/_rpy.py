@@ -76,9 +76,13 @@ def screening_factor(dist: float, li: float, lj: float) -> float:
     (l_i l_j / m^2)^(3/2) exp(-R / m), m^2 = (l_i^2 + l_j^2) / 2. Positive definite for any
     lengths, so the screened tensor (a Schur product) stays positive semi-definite; with equal
     lengths it is exp(-R / l), the slender_body kernel's screening; with unequal ones it also
-    weakens the pair, by (2 q / (1 + q^2))^(3/2) at length ratio q."""
+    weakens the pair, by (2 q / (1 + q^2))^(3/2) at length ratio q, however long both are
+    (so a node at rest relative to the bath, l = inf, is cut off from every moving one, and
+    slow nodes of different speeds are not coupled as Stokes flow would couple them)."""
     big = max(li, lj)
     small = min(li, lj)
+    if big <= 0.0:  # (both fully screened: a node's own blob only)
+        return 1.0 if dist <= 0.0 else 0.0
     if small == big:
         return 1.0 if big == math.inf else math.exp(-dist / big)
     if big == math.inf:

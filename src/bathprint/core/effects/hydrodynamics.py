@@ -233,7 +233,8 @@ def sources(model, rod, out, n_free: int, n_seg: int) -> None:
     """The force per length on the fluid: at free nodes the other effects' force (in
     ``out.force`` when this runs, after them) over the node's share of the length; at a
     prescribed node its local drag at the velocity relative to the bath; each segment the
-    mean of its nodes'. With screening, each segment's Oseen length from its mean velocity."""
+    mean of its nodes'. With screening, each segment's Oseen length from its mean velocity
+    (the slender_body kernel's; the RPY kernel's are its nodes', from :func:`geometry`)."""
     p = model.params[0]
     hyd = out.hydro
     pos, vel, seg_mat = rod.pos, rod.vel, rod.seg_mat
