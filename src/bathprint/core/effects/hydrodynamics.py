@@ -93,6 +93,12 @@ from bathprint.core.topology import filament_segments, free_nodes
 OSEEN_FACTOR = 2.0
 
 
+@njit(**KERNEL, inline="always")
+def _oseen_length(nu: float, speed: float) -> float:
+    """The Oseen length OSEEN_FACTOR nu / |u| (m) at relative speed ``speed`` (inf at rest)."""
+    return OSEEN_FACTOR * nu / speed if speed > 0.0 else np.inf
+
+
 @kernel
 def geometry(p, rod, n_seg: int, hyd, sc) -> None:
     """Each filament node's share of the length (``hyd.weight``) and its window sides
@@ -125,8 +131,7 @@ def geometry(p, rod, n_seg: int, hyd, sc) -> None:
         if rpy:
             u0, u1, u2 = vel[3 * i] - fx, vel[3 * i + 1] - fy, vel[3 * i + 2] - fz
             speed = math.sqrt(u0 * u0 + u1 * u1 + u2 * u2)
-            screened = p.hydro_screening and speed > 0.0
-            hyd.screen[i] = OSEEN_FACTOR * nu / speed if screened else np.inf
+            hyd.screen[i] = _oseen_length(nu, speed) if p.hydro_screening else np.inf
     for j in range(n_seg):
         ex = pos[3 * j + 3] - pos[3 * j]
         ey = pos[3 * j + 4] - pos[3 * j + 1]
@@ -272,7 +277,7 @@ def sources(model, rod, out, n_free: int, n_seg: int) -> None:
             speed += uj * uj
         speed = math.sqrt(speed)
         re_max = max(re_max, 2.0 * seg_mat[j, MAT_RADIUS] * speed / nu)
-        oseen = OSEEN_FACTOR * nu / speed if speed > 0.0 else np.inf
+        oseen = _oseen_length(nu, speed)
         oseen_min = min(oseen_min, oseen)
         if p.hydro_kernel != HYDRO_RPY:  # (the RPY kernel's are the nodes', from geometry)
             hyd.screen[j] = oseen if p.hydro_screening else np.inf
