@@ -310,7 +310,7 @@ def settled_part(quick: bool, law: dict | None = None) -> None:
     write_csv("contact_scaling_settled" + ("" if law is None else "_default"), rows)
 
 
-SATURATION_SIZES = (300, 1000, 3000, 10000, 30000)
+SATURATION_SIZES = (300, 1000, 3000, 10000, 30000, 100000)
 SATURATION_STEPS_S = (2.5e-4, 6.25e-5)  # the window's largest step: the settled one, and 1/4
 SATURATION_WINDOW_S = 5e-3
 SATURATION_REPEATS = 2  # windows timed per variant (the best counts), from copies of one state

@@ -62,6 +62,19 @@ of an algebraic multigrid hierarchy (pyamg) of the axial problem (every node's z
 factor, and its time and set-up time against the banded solve and LU
 (results/preconditioner_amg.csv).
 
+``--part settled``: consecutive Newton solves (``--solves``, 30) of the pressed stacks after
+they have relaxed (``coil_stack(N, True, 0.98)`` with contact's default law, 20 ms at steps
+of at most 0.25 ms, as bench_contact.py's settled parts), N = 300 to 10^4, each solved again
+by flexible GMRES to the simulator's tolerance with ``band``, ``axial`` and ``hat_4_z`` (as
+above, multiplicative), ``lines`` (after the band, the axial problem with its couplings a
+turn apart lumped onto each node's strongest partner up the stack and those along the
+filament onto the diagonal: the lines of contacts up the stack, a forest solved exactly in
+O(N)), and ``recycled_K`` (the band, each solve started from the best point in the span of
+the last K preconditioned directions of earlier solves of the same matrix: Fischer 1998,
+"Projection techniques for iterative solution of Ax = b with successive right-hand sides",
+Comput. Methods Appl. Mech. Eng. 163), K = 10 and 40: mean and largest iterations per solve
+(results/preconditioner_settled.csv), and the work each adds to the band's per iteration.
+
 ``--part backsub``: what one application of the preconditioner costs, by the order of the
 back-substitution: ``band_solve`` (each row sums its 16 terms of U: the banded path's
 solve) against ``band_solve_by_columns`` (each solved unknown is subtracted from the rows
@@ -91,6 +104,7 @@ rows partial pivoting swaps and whether every diagonal pivot passes the threshol
     python benchmarks/bench_preconditioner.py --part newton --sizes 100,1000 --solves 1
     python benchmarks/bench_preconditioner.py --part random --out /tmp/results  # CSV dir
     python benchmarks/bench_preconditioner.py --part amg                       # pyamg
+    python benchmarks/bench_preconditioner.py --part settled   # consecutive solves, recycling
     python benchmarks/bench_preconditioner.py --part backsub   # the two back-substitutions
     python benchmarks/bench_preconditioner.py --part diagonal  # LU without row swaps
     python benchmarks/bench_preconditioner.py --part blocks    # the stack's two kernels
@@ -406,6 +420,7 @@ class Captured(NamedTuple):
     rtol: float  # the simulator's krylov_tolerance
     iterations: int  # the simulator's GMRES iterations for it
     converged: bool
+    factorisation: int = 0  # which factorisation (matrix) of the run it was solved with
 
     def matrix(self) -> sp.csr_matrix:
         return assemble_matrix(self.band, self.rows, self.cols, self.blocks, self.nd)
@@ -415,23 +430,26 @@ class Captured(NamedTuple):
         return assemble_matrix(z, self.rows, self.cols, self.blocks, self.nd)
 
 
-def capture(sim: Simulation, n_solves: int, max_rounds: int = 200) -> list[Captured]:
+def capture(
+    sim: Simulation, n_solves: int, max_rounds: int = 200, every: bool = False
+) -> list[Captured]:
     """The first Newton solve (with blocks off the band) after each of the next ``n_solves``
-    factorisations of ``sim``, advancing it by replaying the integrator's Python source in
-    rounds of 0.2 ms. The compiled record builders (``active_rod``, ``_out``) run as Python
-    too: Python must never hold the views a kernel compiled without reference counting
-    builds."""
+    factorisations of ``sim`` (``every``: each of its next ``n_solves`` Newton solves),
+    advancing it by replaying the integrator's Python source in rounds of 0.2 ms. The
+    compiled record builders (``active_rod``, ``_out``) run as Python too: Python must never
+    hold the views a kernel compiled without reference counting builds."""
     caps: list[Captured] = []
-    ctx = {"filter": False, "fresh": False}
+    ctx = {"filter": False, "fresh": False, "factorisations": 0}
     real_solver, real_filtered = integ.solver, integ._filtered_norm
     real_replayed = {name: getattr(integ, name) for name in REPLAYED}
 
     def capturing_factor(ws, nd: int) -> bool:
         ctx["fresh"] = True
+        ctx["factorisations"] += 1
         return solver.factor(ws, nd)
 
     def capturing_solve(ws, nd: int, rhs: np.ndarray, counters: np.ndarray, rtol: float):
-        take = ctx["fresh"] and not ctx["filter"] and len(caps) < n_solves
+        take = (ctx["fresh"] or every) and not ctx["filter"] and len(caps) < n_solves
         take = take and bool(solver.off_band(ws))
         ctx["fresh"] = False
         if not take:
@@ -451,6 +469,7 @@ def capture(sim: Simulation, n_solves: int, max_rounds: int = 200) -> list[Captu
                 rtol=float(rtol),
                 iterations=int(counters[L.C_KRYLOV_ITERATIONS]) - before,
                 converged=bool(ok),
+                factorisation=ctx["factorisations"],
             )
         )
         return ok
@@ -662,6 +681,200 @@ def newton_part(sizes: Sequence[int], n_solves: int, out_dir: Path) -> Path:
         )
     path = write_csv(out_dir / "preconditioner_newton.csv", rows)
     print("wrote", path, f"({time.perf_counter() - t0:.0f} s)")
+    return path
+
+
+# ------------------------------------------------------------------ part settled
+SETTLED_SIZES = (300, 1000, 3000, 10000)
+SETTLED_SOLVES = 30  # consecutive Newton solves captured per N, after the warm-up
+SETTLED_WARM_UP_S = 0.02  # as bench_contact.py's settled parts
+SETTLED_MAX_STEP_S = 2.5e-4
+RECYCLED = (10, 40)  # directions the recycling variants keep
+
+
+class Forest(NamedTuple):
+    """The axial problem with its couplings a turn apart lumped onto one partner a node:
+    a forest (each node at most one parent, of higher index), solved exactly in O(N)."""
+
+    diagonal: np.ndarray
+    parent: np.ndarray  # -1: a root
+    up: np.ndarray  # the node's entry in its parent's column
+    down: np.ndarray  # the parent's entry in the node's column
+
+
+def line_forest(az: sp.csr_matrix, reach: int = L.KL // 3) -> Forest:
+    """From the axial matrix (every node's z): the entries within ``reach`` nodes along the
+    filament lumped onto the diagonal (row sums kept, as for a displacement smooth along
+    the filament), each node's entries further up (the turn above) summed onto the
+    strongest of them, and their transposes onto the same pair: the lines of contacts up
+    the stack, one tridiagonal-like chain (a tree where two nodes share a partner)."""
+    n = az.shape[0]
+    coo = az.tocoo()
+    diagonal = np.zeros(n)
+    up, down = np.zeros(n), np.zeros(n)
+    parent = -np.ones(n, dtype=np.int64)
+    strongest = np.zeros(n)
+    near = np.abs(coo.row - coo.col) <= reach
+    np.add.at(diagonal, coo.row[near], coo.data[near])
+    far = ~near & (coo.col > coo.row)
+    for i, j, v in zip(coo.row[far], coo.col[far], coo.data[far], strict=True):
+        up[i] += v
+        down[i] += az[j, i]
+        if abs(v) > strongest[i]:
+            strongest[i], parent[i] = abs(v), j
+    return Forest(diagonal, parent, up, down)
+
+
+def forest_solve(f: Forest, r: Vector) -> Vector:
+    """x with F x = r: children eliminated into their parents (a parent's index is higher),
+    then back-substitution from the roots."""
+    d, b = f.diagonal.copy(), np.array(r, dtype=np.float64)
+    for i in range(d.size):
+        p = f.parent[i]
+        if p >= 0:
+            m = f.down[i] / d[i]
+            d[p] -= m * f.up[i]
+            b[p] -= m * b[i]
+    x = np.zeros_like(b)
+    for i in range(d.size - 1, -1, -1):
+        p = f.parent[i]
+        x[i] = (b[i] - (f.up[i] * x[p] if p >= 0 else 0.0)) / d[i]
+    return x
+
+
+class Recycler:
+    """Fischer's (1998) projection for successive right-hand sides of one matrix: the last
+    ``keep`` preconditioned directions w of earlier solves with their A w orthonormalised;
+    a new solve starts from x0 = W (AW)^T b, which minimises |b - A x0| over them."""
+
+    def __init__(self, keep: int) -> None:
+        self.keep = keep
+        self.w: list[Vector] = []
+        self.aw: list[Vector] = []
+
+    def start(self, b: Vector) -> tuple[Vector, Vector]:
+        x0, r = np.zeros_like(b), b.copy()
+        for w, aw in zip(self.w, self.aw, strict=True):
+            c = aw @ r
+            x0 += c * w
+            r -= c * aw
+        return x0, r
+
+    def add(self, pairs: list[tuple[Vector, Vector]], scale: float) -> None:
+        for z, y in pairs:
+            for w, aw in zip(self.w, self.aw, strict=True):
+                h = aw @ y
+                y, z = y - h * aw, z - h * w
+            norm = float(np.linalg.norm(y))
+            if norm > 1e-8 * scale:
+                self.w.append(z / norm)
+                self.aw.append(y / norm)
+        del self.w[: -self.keep], self.aw[: -self.keep]
+
+
+def settled_size(n: int, n_solves: int, progress: Progress, task: int) -> list[dict]:
+    """Rows of one N: GMRES iterations per solve (to the simulator's tolerance) of
+    ``n_solves`` consecutive Newton solves of the settled pressed stack, per variant."""
+    t0 = time.perf_counter()
+    sim = coil_stack(n, True, 0.98, {"numerics.max_step_s": SETTLED_MAX_STEP_S}, {})
+    sim.advance(SETTLED_WARM_UP_S)
+    caps = capture(sim, n_solves, every=True)
+    factorisations = len({cap.factorisation for cap in caps})
+    _say(
+        progress,
+        f"N={n}: captured {len(caps)} solves ({factorisations} matrices) at "
+        f"t = {sim.t * 1e3:.2f} ms in {time.perf_counter() - t0:.1f} s",
+    )
+    variants = ["band", "axial", "hat_4_z", "lines"] + [f"recycled_{k}" for k in RECYCLED]
+    its: dict[str, list[int]] = {v: [] for v in variants}
+    recyclers = {k: Recycler(k) for k in RECYCLED}
+    last = None
+    for cap in caps:
+        a, c = cap.matrix(), cap.off_band()
+        b_lu = BandedLU(cap.band, cap.nd, L.KL, L.KU)
+        rtol = cap.rtol
+        if cap.factorisation != last:  # a new matrix: what was kept no longer applies
+            recyclers = {k: Recycler(k) for k in RECYCLED}
+            last = cap.factorisation
+            p1 = hat_basis(cap.nd // 3, 1)
+            axial_lu = sla.splu((p1.T @ a @ p1).tocsc())
+            forest = line_forest((p1.T @ a @ p1).tocsr())
+            p4 = hat_basis(cap.nd // 3, 4)
+            hat_lu = sla.splu((p4.T @ a @ p4).tocsc())
+
+        def band_apply(v: Vector, b_lu=b_lu, c=c) -> tuple[Vector, Vector]:
+            z = b_lu.solve(v)
+            return z, v + c @ z
+
+        def after(correct: Callable[[Vector], Vector], a=a, b_lu=b_lu) -> Apply:
+            def corrected(v: Vector) -> tuple[Vector, Vector]:
+                z = b_lu.solve(v)
+                z = z + correct(v - a @ z)
+                return z, a @ z
+
+            return corrected
+
+        applies = {
+            "band": band_apply,
+            "axial": after(lambda r, p=p1, lu=axial_lu: p @ lu.solve(p.T @ r)),
+            "hat_4_z": after(lambda r, p=p4, lu=hat_lu: p @ lu.solve(p.T @ r)),
+            "lines": after(lambda r, p=p1, f=forest: p @ forest_solve(f, p.T @ r)),
+        }
+        for name, fn in applies.items():
+            its[name].append(fgmres(a, cap.rhs, fn, rtol)[0])
+        scale = float(np.linalg.norm(cap.rhs))
+        for k, rec in recyclers.items():
+            _x0, r = rec.start(cap.rhs)
+            kept: list[tuple[Vector, Vector]] = []
+
+            def keeping(v: Vector, kept=kept, band_apply=band_apply) -> tuple[Vector, Vector]:
+                z, y = band_apply(v)
+                kept.append((z, y))
+                return z, y
+
+            left = float(np.linalg.norm(r))
+            # the same target as the others: |b - A x| <= rtol |b|
+            its[f"recycled_{k}"].append(
+                0 if left <= rtol * scale else fgmres(a, r, keeping, rtol * scale / left)[0]
+            )
+            rec.add(kept, scale)
+        progress.advance(task)
+    _say(
+        progress,
+        f"N={n}: mean iterations "
+        + ", ".join(f"{v} {np.mean(its[v]):.2f}" for v in variants)
+        + f" (simulator {np.mean([cap.iterations for cap in caps]):.2f})",
+    )
+    rows = []
+    for v in variants:
+        rows.append(
+            {
+                "nodes": n,
+                "solves": len(caps),
+                "matrices": factorisations,
+                "variant": v,
+                "simulator_iterations": float(np.mean([cap.iterations for cap in caps])),
+                "iterations": float(np.mean(its[v])),
+                "iterations_max": int(np.max(its[v])),
+                # work beyond band's per iteration: one more product with A (a
+                # multiplicative correction), or 2 keep dot products and axpys per solve
+                "extra_products_per_iteration": 1 if v in applies and v != "band" else 0,
+                "kept_directions": int(v.split("_")[1]) if v.startswith("recycled") else 0,
+            }
+        )
+    return rows
+
+
+def settled_part(sizes: Sequence[int], n_solves: int, out_dir: Path) -> Path:
+    """Consecutive Newton solves of settled pressed stacks: what a cheaper preconditioner
+    or Krylov recycling would save."""
+    rows: list[dict] = []
+    with Progress() as progress:
+        task = progress.add_task("settled", total=len(sizes) * n_solves)
+        for n in sizes:
+            rows += settled_size(n, n_solves, progress, task)
+    path = write_csv(out_dir / "preconditioner_settled.csv", rows)
+    print("wrote", path)
     return path
 
 
@@ -1111,7 +1324,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument(
         "--part",
-        choices=("all", "random", "newton", "amg", "backsub", "diagonal", "blocks"),
+        choices=("all", "random", "newton", "amg", "settled", "backsub", "diagonal", "blocks"),
         default="all",
     )
     ap.add_argument(
@@ -1120,22 +1333,30 @@ def main(argv: Sequence[str] | None = None) -> int:
         default=list(NEWTON_SIZES),
         help="part newton: node counts N, comma-separated",
     )
-    ap.add_argument("--solves", type=int, default=SOLVES, help="part newton: solves per N")
+    ap.add_argument(
+        "--solves",
+        type=int,
+        default=None,
+        help=f"parts newton and amg: solves per N ({SOLVES}); settled: ({SETTLED_SOLVES})",
+    )
     ap.add_argument("--out", type=Path, default=RESULTS, help="directory of the CSV files")
     args = ap.parse_args(argv)
     if args.part in ("all", "random"):
         random_part(args.out)
     if args.part in ("all", "newton"):
-        newton_part(args.sizes, args.solves, args.out)
+        newton_part(args.sizes, args.solves or SOLVES, args.out)
     if args.part in ("all", "backsub"):
         backsub_part(args.out)
     if args.part in ("all", "diagonal"):
         diagonal_part(args.out)
     if args.part in ("all", "blocks"):
         blocks_part(args.out)
+    if args.part in ("all", "settled"):
+        sizes = args.sizes if args.sizes != list(NEWTON_SIZES) else list(SETTLED_SIZES)
+        settled_part(sizes, args.solves or SETTLED_SOLVES, args.out)
     if args.part == "amg":
         sizes = args.sizes if args.sizes != list(NEWTON_SIZES) else list(AMG_SIZES)
-        amg_part(sizes, args.solves, args.out)
+        amg_part(sizes, args.solves or SOLVES, args.out)
     return 0
 
 

@@ -119,3 +119,73 @@ def test_blocks_part_times_the_stacks_two_kernels_alone(tmp_path, monkeypatch, l
         assert float(r["blocks_mb"]) == pytest.approx(int(r["blocks"]) * 88 / 1e6)
         assert int(r["merged_blocks"]) * mod.WRITES == int(r["blocks"])
         assert float(r["product_merged_us"]) > 0.0 and float(r["merge_us"]) > 0.0
+
+
+def test_forest_solve_is_exact_on_chains_of_turns(monkeypatch, load_script):
+    """With couplings only a turn apart (m nodes) and none along the filament, the axial
+    matrix is its own line forest: forest_solve returns its exact solution."""
+    monkeypatch.syspath_prepend(str(BENCH))
+    mod = load_script(BENCH / "bench_preconditioner.py")
+    rng = np.random.default_rng(1)
+    n, m = 60, 7
+    k = rng.uniform(1.0, 2.0, n - m)
+    a = np.diag(rng.uniform(0.5, 1.0, n))
+    for i in range(n - m):  # a symmetric positive-definite chain: k (e_i - e_j)(e_i - e_j)^T
+        j = i + m
+        a[i, i] += k[i]
+        a[j, j] += k[i]
+        a[i, j] = a[j, i] = -k[i]
+    import scipy.sparse as sp
+
+    forest = mod.line_forest(sp.csr_matrix(a), reach=2)
+    assert np.array_equal(forest.parent[: n - m], np.arange(m, n))
+    assert np.all(forest.parent[n - m :] == -1)
+    r = rng.normal(size=n)
+    np.testing.assert_allclose(mod.forest_solve(forest, r), np.linalg.solve(a, r), rtol=1e-12)
+
+
+def test_recycler_starts_from_the_best_point_of_what_it_kept(monkeypatch, load_script):
+    """Fischer's projection: the start's residual never exceeds the right-hand side's, and
+    a right-hand side in the span of the kept directions' images is solved at once."""
+    monkeypatch.syspath_prepend(str(BENCH))
+    mod = load_script(BENCH / "bench_preconditioner.py")
+    rng = np.random.default_rng(2)
+    n = 40
+    a = rng.normal(size=(n, n)) + n * np.eye(n)
+    rec = mod.Recycler(keep=5)
+    pairs = [(z, a @ z) for z in rng.normal(size=(7, n))]
+    rec.add(pairs, scale=1.0)
+    assert len(rec.w) == 5  # the last five kept
+    aw = np.array(rec.aw)
+    np.testing.assert_allclose(aw @ aw.T, np.eye(5), atol=1e-12)
+    for w, y in zip(rec.w, rec.aw, strict=True):
+        np.testing.assert_allclose(a @ w, y, atol=1e-10)
+    b = rng.normal(size=n)
+    x0, r = rec.start(b)
+    np.testing.assert_allclose(r, b - a @ x0, atol=1e-10)
+    assert np.linalg.norm(r) <= np.linalg.norm(b)
+    inside = aw.T @ rng.normal(size=5)
+    _x0, r_in = rec.start(inside)
+    assert np.linalg.norm(r_in) < 1e-10 * np.linalg.norm(inside)
+
+
+def test_settled_part_compares_variants_on_consecutive_solves(tmp_path, monkeypatch, load_script):
+    """``--part settled`` on the smallest settled stack: a row per variant, the band's
+    count the simulator's, the whole axial problem no worse than the band."""
+    monkeypatch.syspath_prepend(str(BENCH))
+    mod = load_script(BENCH / "bench_preconditioner.py")
+    monkeypatch.setattr(mod, "SETTLED_WARM_UP_S", 2e-3)
+    args = ["--part", "settled", "--sizes", "300", "--solves", "4", "--out", str(tmp_path)]
+    assert mod.main(args) == 0
+    with (tmp_path / "preconditioner_settled.csv").open() as f:
+        rows = {r["variant"]: r for r in csv.DictReader(f)}
+    expected = {"band", "axial", "hat_4_z", "lines"} | {f"recycled_{k}" for k in mod.RECYCLED}
+    assert set(rows) == expected
+    band = rows["band"]
+    assert int(band["solves"]) == 4 and int(band["matrices"]) >= 1
+    assert float(band["iterations"]) == pytest.approx(float(band["simulator_iterations"]))
+    assert float(rows["axial"]["iterations"]) <= float(band["iterations"])
+    for r in rows.values():
+        assert float(r["iterations"]) >= 0.0
+    assert int(rows["recycled_10"]["kept_directions"]) == 10
+    assert int(rows["lines"]["extra_products_per_iteration"]) == 1
