@@ -1985,6 +1985,26 @@ def preconditioner_newton() -> str:
     return _table(head, rows) + "\n\n" + provenance(path)
 
 
+def preconditioner_settled() -> str:
+    """``bench_preconditioner.py --part settled``: mean (largest) GMRES iterations per
+    consecutive Newton solve of the settled stacks, a column per variant."""
+    path = RESULTS / "preconditioner_settled.csv"
+    table = _csv(path)
+    names = list(dict.fromkeys(r["variant"] for r in table))
+    by = {(r["nodes"], r["variant"]): r for r in table}
+    rows = []
+    for n in dict.fromkeys(r["nodes"] for r in table):
+        band = by[(n, "band")]
+        row = [n, band["solves"], _g(band["simulator_iterations"], 3)]
+        row += [
+            f"{_g(by[(n, v)]['iterations'], 3)} ({by[(n, v)]['iterations_max']})" for v in names
+        ]
+        rows.append(row)
+    head = ["nodes", "solves", "simulator's GMRES iterations"]
+    head += [f"`{v}`" for v in names]
+    return _table(head, rows) + "\n\n" + provenance(path)
+
+
 def preconditioner_amg() -> str:
     path = RESULTS / "preconditioner_amg.csv"
     table = _csv(path)
@@ -2370,6 +2390,7 @@ TABLES: dict[str, Callable[[], str]] = {
     "contact-hessian": contact_hessian,
     "contact-onset": contact_onset,
     "preconditioner-newton": preconditioner_newton,
+    "preconditioner-settled": preconditioner_settled,
     "preconditioner-amg": preconditioner_amg,
     "contact-krylov": contact_krylov,
     "bc-search": bc_search,
