@@ -276,10 +276,19 @@ def fgmres(a: sp.csr_matrix, b: Vector, apply: Apply, rtol: float) -> tuple[int,
     step by step as ``solver._gmres`` (modified Gram-Schmidt, Givens rotations, restarts of
     ``KRYLOV_RESTART`` with the true residual, at most ``KRYLOV_MAX_RESTARTS``), and whether
     it got there. ``apply(v)`` returns z = M^-1 v and A z."""
+    its, ok, _x = fgmres_solution(a, b, apply, rtol)
+    return its, ok
+
+
+def fgmres_solution(
+    a: sp.csr_matrix, b: Vector, apply: Apply, rtol: float
+) -> tuple[int, bool, Vector]:
+    """:func:`fgmres`, and the solution it found. The vectors ``apply`` returns are copied
+    before GMRES orthogonalises A z in place (the caller may keep them)."""
     m, nd = KRYLOV_RESTART, b.size
     beta0 = float(np.linalg.norm(b))
     if beta0 == 0.0:
-        return 0, True
+        return 0, True, np.zeros(nd)
     x = np.zeros(nd)
     r = b.copy()
     beta = beta0
@@ -295,6 +304,7 @@ def fgmres(a: sp.csr_matrix, b: Vector, apply: Apply, rtol: float) -> tuple[int,
         n_used = 0
         for j in range(m):
             zbasis[j], w = apply(basis[j])
+            w = np.array(w, dtype=np.float64)  # orthogonalised in place below
             for i in range(j + 1):
                 hess[i, j] = w @ basis[i]
                 w -= hess[i, j] * basis[i]
@@ -329,7 +339,7 @@ def fgmres(a: sp.csr_matrix, b: Vector, apply: Apply, rtol: float) -> tuple[int,
         if beta <= rtol * beta0:
             converged = True
             break
-    return its, converged and bool(np.isfinite(x).all())
+    return its, converged and bool(np.isfinite(x).all()), x
 
 
 # ------------------------------------------------------------------ part random
@@ -689,7 +699,8 @@ SETTLED_SIZES = (300, 1000, 3000, 10000)
 SETTLED_SOLVES = 30  # consecutive Newton solves captured per N, after the warm-up
 SETTLED_WARM_UP_S = 0.02  # as bench_contact.py's settled parts
 SETTLED_MAX_STEP_S = 2.5e-4
-RECYCLED = (10, 40)  # directions the recycling variants keep
+RECYCLED = (10, 40)  # Krylov directions (z, A z) the variants recycled_K keep
+PROJECTED = (2, 8)  # earlier solutions (x, A x) the variants projected_K keep
 
 
 class Forest(NamedTuple):
@@ -730,6 +741,8 @@ def forest_solve(f: Forest, r: Vector) -> Vector:
     then back-substitution from the roots."""
     d, b = f.diagonal.copy(), np.array(r, dtype=np.float64)
     for i in range(d.size):
+        if not d[i] > 0.0:
+            raise ValueError(f"forest pivot {i} is {d[i]:g}: the lumped problem is not definite")
         p = f.parent[i]
         if p >= 0:
             m = f.down[i] / d[i]
@@ -743,58 +756,94 @@ def forest_solve(f: Forest, r: Vector) -> Vector:
 
 
 class Recycler:
-    """Fischer's (1998) projection for successive right-hand sides of one matrix: the last
-    ``keep`` preconditioned directions w of earlier solves with their A w orthonormalised;
-    a new solve starts from x0 = W (AW)^T b, which minimises |b - A x0| over them."""
+    """Fischer's (1998) projection for successive right-hand sides of one matrix: pairs
+    (w, A w) kept from earlier solves, the A w orthonormalised, at most ``keep`` of them; a
+    solve starts from x0 = W (AW)^T b, the point of their span with the smallest residual
+    |b - A x0|. When pairs would overfill it, it starts anew from them, as Fischer's
+    restarts. ``passes`` counts the passes over a vector of the system's length (a dot
+    product, a scaling or an axpy each) that keeping and projecting take."""
 
     def __init__(self, keep: int) -> None:
         self.keep = keep
         self.w: list[Vector] = []
         self.aw: list[Vector] = []
+        self.passes = 0
 
     def start(self, b: Vector) -> tuple[Vector, Vector]:
-        x0, r = np.zeros_like(b), b.copy()
+        """x0 and its residual b - A x0."""
+        x0, r = np.zeros_like(b), np.array(b, dtype=np.float64)
         for w, aw in zip(self.w, self.aw, strict=True):
             c = aw @ r
             x0 += c * w
             r -= c * aw
+        self.passes += 3 * len(self.w)
         return x0, r
 
-    def add(self, pairs: list[tuple[Vector, Vector]], scale: float) -> None:
-        for z, y in pairs:
+    def add(self, pairs: list[tuple[Vector, Vector]]) -> None:
+        """Keep pairs (z, A z) (the first ``keep`` of them), each orthogonalised against
+        those kept (modified Gram-Schmidt on the A z); one whose A z is lost to round-off in
+        that (already in the span) is dropped."""
+        if len(self.w) + len(pairs) > self.keep:
+            self.w, self.aw = [], []
+        for z0, y0 in pairs[: self.keep]:
+            z, y = np.array(z0, dtype=np.float64), np.array(y0, dtype=np.float64)
+            size = float(np.linalg.norm(y))
             for w, aw in zip(self.w, self.aw, strict=True):
                 h = aw @ y
-                y, z = y - h * aw, z - h * w
+                y -= h * aw
+                z -= h * w
             norm = float(np.linalg.norm(y))
-            if norm > 1e-8 * scale:
+            self.passes += 1 + 3 * len(self.w) + 1
+            if norm > 1e-8 * size:
                 self.w.append(z / norm)
                 self.aw.append(y / norm)
-        del self.w[: -self.keep], self.aw[: -self.keep]
+                self.passes += 2
 
 
-def settled_size(n: int, n_solves: int, progress: Progress, task: int) -> list[dict]:
-    """Rows of one N: GMRES iterations per solve (to the simulator's tolerance) of
-    ``n_solves`` consecutive Newton solves of the settled pressed stack, per variant."""
-    t0 = time.perf_counter()
+def settled_stack(n: int) -> Simulation:
+    """The pressed stack of N nodes after it has relaxed (as bench_contact.py's settled
+    parts)."""
     sim = coil_stack(n, True, 0.98, {"numerics.max_step_s": SETTLED_MAX_STEP_S}, {})
     sim.advance(SETTLED_WARM_UP_S)
+    return sim
+
+
+def coil_pile() -> Simulation:
+    """``period_doubling_22G`` (seed 0) at PILE_T_S: the coil's pile, with contact."""
+    sim = Simulation("period_doubling_22G", {"seed": 0, "outputs.plot": False})
+    sim.advance(PILE_T_S)
+    return sim
+
+
+def settled_case(
+    case: str, sim: Simulation, n_solves: int, progress: Progress, task: int
+) -> list[dict]:
+    """Rows of one state: GMRES iterations per solve (to the simulator's tolerance) of its
+    next ``n_solves`` consecutive Newton solves, per variant."""
+    t0 = time.perf_counter()
+    n = sim.n_nodes
     caps = capture(sim, n_solves, every=True)
     factorisations = len({cap.factorisation for cap in caps})
     _say(
         progress,
-        f"N={n}: captured {len(caps)} solves ({factorisations} matrices) at "
+        f"{case}, N={n}: captured {len(caps)} solves ({factorisations} matrices) at "
         f"t = {sim.t * 1e3:.2f} ms in {time.perf_counter() - t0:.1f} s",
     )
-    variants = ["band", "axial", "hat_4_z", "lines"] + [f"recycled_{k}" for k in RECYCLED]
+    kept_variants = {f"recycled_{k}": k for k in RECYCLED} | {
+        f"projected_{k}": k for k in PROJECTED
+    }
+    variants = ["band", "axial", "hat_4_z", "lines", *kept_variants]
     its: dict[str, list[int]] = {v: [] for v in variants}
-    recyclers = {k: Recycler(k) for k in RECYCLED}
+    failed = dict.fromkeys(variants, 0)
+    passes: dict[str, list[int]] = {v: [] for v in kept_variants}
+    keepers: dict[str, Recycler] = {}
     last = None
     for cap in caps:
         a, c = cap.matrix(), cap.off_band()
         b_lu = BandedLU(cap.band, cap.nd, L.KL, L.KU)
         rtol = cap.rtol
         if cap.factorisation != last:  # a new matrix: what was kept no longer applies
-            recyclers = {k: Recycler(k) for k in RECYCLED}
+            keepers = {label: Recycler(k) for label, k in kept_variants.items()}
             last = cap.factorisation
             p1 = hat_basis(cap.nd // 3, 1)
             axial_lu = sla.splu((p1.T @ a @ p1).tocsc())
@@ -821,27 +870,44 @@ def settled_size(n: int, n_solves: int, progress: Progress, task: int) -> list[d
             "lines": after(lambda r, p=p1, f=forest: p @ forest_solve(f, p.T @ r)),
         }
         for name, fn in applies.items():
-            its[name].append(fgmres(a, cap.rhs, fn, rtol)[0])
+            try:
+                n_its, ok = fgmres(a, cap.rhs, fn, rtol)
+            except (ValueError, np.linalg.LinAlgError):  # a forest pivot not positive
+                failed[name] += 1
+                continue
+            its[name].append(n_its)
+            failed[name] += not ok
         scale = float(np.linalg.norm(cap.rhs))
-        for k, rec in recyclers.items():
-            _x0, r = rec.start(cap.rhs)
+        for name, rec in keepers.items():
+            before = rec.passes
+            x0, r = rec.start(cap.rhs)
             kept: list[tuple[Vector, Vector]] = []
 
             def keeping(v: Vector, kept=kept, band_apply=band_apply) -> tuple[Vector, Vector]:
                 z, y = band_apply(v)
-                kept.append((z, y))
+                kept.append((z.copy(), y.copy()))
                 return z, y
 
             left = float(np.linalg.norm(r))
             # the same target as the others: |b - A x| <= rtol |b|
-            its[f"recycled_{k}"].append(
-                0 if left <= rtol * scale else fgmres(a, r, keeping, rtol * scale / left)[0]
-            )
-            rec.add(kept, scale)
+            if left <= rtol * scale:
+                n_its, ok, e = 0, True, np.zeros_like(x0)
+            else:
+                n_its, ok, e = fgmres_solution(a, r, keeping, rtol * scale / left)
+            x = x0 + e
+            ok = ok and float(np.linalg.norm(cap.rhs - a @ x)) <= rtol * scale * (1 + 1e-9)
+            its[name].append(n_its)
+            failed[name] += not ok
+            if name.startswith("recycled"):
+                rec.add(kept)
+            else:  # A x = A x0 + A e: from the kept A w and GMRES's own A z (n_its + 1 axpys)
+                rec.add([(x, a @ x)])
+                rec.passes += n_its + 1
+            passes[name].append(rec.passes - before)
         progress.advance(task)
     _say(
         progress,
-        f"N={n}: mean iterations "
+        f"{case}, N={n}: mean iterations "
         + ", ".join(f"{v} {np.mean(its[v]):.2f}" for v in variants)
         + f" (simulator {np.mean([cap.iterations for cap in caps]):.2f})",
     )
@@ -849,30 +915,37 @@ def settled_size(n: int, n_solves: int, progress: Progress, task: int) -> list[d
     for v in variants:
         rows.append(
             {
+                "case": case,
                 "nodes": n,
                 "solves": len(caps),
                 "matrices": factorisations,
                 "variant": v,
                 "simulator_iterations": float(np.mean([cap.iterations for cap in caps])),
-                "iterations": float(np.mean(its[v])),
-                "iterations_max": int(np.max(its[v])),
+                "iterations": float(np.mean(its[v])) if its[v] else math.nan,
+                "iterations_max": int(np.max(its[v])) if its[v] else -1,
+                "unconverged_solves": failed[v],
                 # work beyond band's per iteration: one more product with A (a
-                # multiplicative correction), or 2 keep dot products and axpys per solve
+                # multiplicative correction)
                 "extra_products_per_iteration": 1 if v in applies and v != "band" else 0,
-                "kept_directions": int(v.split("_")[1]) if v.startswith("recycled") else 0,
+                # and per solve: passes over a vector (projection and keeping)
+                "vector_passes_per_solve": float(np.mean(passes[v])) if v in passes else 0.0,
+                "kept": kept_variants.get(v, 0),
             }
         )
     return rows
 
 
-def settled_part(sizes: Sequence[int], n_solves: int, out_dir: Path) -> Path:
-    """Consecutive Newton solves of settled pressed stacks: what a cheaper preconditioner
-    or Krylov recycling would save."""
+def settled_part(sizes: Sequence[int], n_solves: int, out_dir: Path, pile: bool = True) -> Path:
+    """Consecutive Newton solves of settled pressed stacks (and of the coil's pile): what
+    other preconditioners, or what earlier solves of the same matrix kept, would save."""
     rows: list[dict] = []
     with Progress() as progress:
-        task = progress.add_task("settled", total=len(sizes) * n_solves)
+        task = progress.add_task("settled", total=(len(sizes) + pile) * n_solves)
         for n in sizes:
-            rows += settled_size(n, n_solves, progress, task)
+            rows += settled_case("pressed stack", settled_stack(n), n_solves, progress, task)
+        if pile:
+            case = f"period_doubling_22G at {PILE_T_S:g} s"
+            rows += settled_case(case, coil_pile(), n_solves, progress, task)
     path = write_csv(out_dir / "preconditioner_settled.csv", rows)
     print("wrote", path)
     return path

@@ -144,48 +144,114 @@ def test_forest_solve_is_exact_on_chains_of_turns(monkeypatch, load_script):
     np.testing.assert_allclose(mod.forest_solve(forest, r), np.linalg.solve(a, r), rtol=1e-12)
 
 
-def test_recycler_starts_from_the_best_point_of_what_it_kept(monkeypatch, load_script):
-    """Fischer's projection: the start's residual never exceeds the right-hand side's, and
-    a right-hand side in the span of the kept directions' images is solved at once."""
+def test_forest_solve_is_exact_on_a_tree(monkeypatch, load_script):
+    """An unsymmetric forest with nodes of two children: forest_solve against the dense
+    matrix it stands for; a pivot that is not positive is an error, not a NaN."""
+    monkeypatch.syspath_prepend(str(BENCH))
+    mod = load_script(BENCH / "bench_preconditioner.py")
+    rng = np.random.default_rng(3)
+    n = 12
+    parent = np.array([3, 3, 5, 6, 6, 8, 9, 9, 11, -1, 11, -1])  # 0, 1 -> 3; 3, 4 -> 6; ...
+    up, down = rng.uniform(-1.0, 1.0, n), rng.uniform(-1.0, 1.0, n)
+    diagonal = rng.uniform(4.0, 5.0, n)
+    f = mod.Forest(diagonal, parent, up, down)
+    dense = np.diag(diagonal)
+    for i, p in enumerate(parent):
+        if p >= 0:
+            dense[i, p], dense[p, i] = up[i], down[i]
+    r = rng.normal(size=n)
+    np.testing.assert_allclose(mod.forest_solve(f, r), np.linalg.solve(dense, r), rtol=1e-12)
+    bad = mod.Forest(np.where(np.arange(n) == 6, -1.0, diagonal), parent, up, down)
+    with pytest.raises(ValueError, match="forest pivot 6"):
+        mod.forest_solve(bad, r)
+
+
+def _system(rng: np.random.Generator, n: int):
+    """A nonsymmetric diagonally dominant system and an inexact preconditioner for it."""
+    a = rng.normal(size=(n, n)) + 2 * n**0.5 * np.eye(n)
+    m = np.linalg.inv(np.diag(np.diag(a)))
+
+    def apply(v):
+        z = m @ v
+        return z, a @ z
+
+    return a, apply
+
+
+def test_recycler_keeps_directions_and_their_images(monkeypatch, load_script):
+    """Directions kept from a GMRES solve (fgmres orthogonalises what apply returns in place,
+    so they are copied): each kept A w is A times its w, and they are orthonormal; the same
+    right-hand side again starts at a residual within the tolerance."""
     monkeypatch.syspath_prepend(str(BENCH))
     mod = load_script(BENCH / "bench_preconditioner.py")
     rng = np.random.default_rng(2)
     n = 40
-    a = rng.normal(size=(n, n)) + n * np.eye(n)
-    rec = mod.Recycler(keep=5)
-    pairs = [(z, a @ z) for z in rng.normal(size=(7, n))]
-    rec.add(pairs, scale=1.0)
-    assert len(rec.w) == 5  # the last five kept
+    a, apply = _system(rng, n)
+    b = rng.normal(size=n)
+    kept = []
+
+    def keeping(v):
+        z, y = apply(v)
+        kept.append((z, y))
+        return z, y
+
+    its, ok, x = mod.fgmres_solution(a, b, keeping, 1e-8)
+    assert ok and its >= 2
+    assert np.linalg.norm(b - a @ x) <= 1e-8 * np.linalg.norm(b)
+    rec = mod.Recycler(keep=its)
+    rec.add(kept)
     aw = np.array(rec.aw)
-    np.testing.assert_allclose(aw @ aw.T, np.eye(5), atol=1e-12)
+    np.testing.assert_allclose(aw @ aw.T, np.eye(len(rec.aw)), atol=1e-10)
     for w, y in zip(rec.w, rec.aw, strict=True):
         np.testing.assert_allclose(a @ w, y, atol=1e-10)
-    b = rng.normal(size=n)
     x0, r = rec.start(b)
     np.testing.assert_allclose(r, b - a @ x0, atol=1e-10)
-    assert np.linalg.norm(r) <= np.linalg.norm(b)
-    inside = aw.T @ rng.normal(size=5)
-    _x0, r_in = rec.start(inside)
-    assert np.linalg.norm(r_in) < 1e-10 * np.linalg.norm(inside)
+    assert np.linalg.norm(r) <= 1e-6 * np.linalg.norm(b)
+
+
+def test_recycler_starts_anew_when_full(monkeypatch, load_script):
+    """Kept solutions, at most ``keep``: one more starts it anew from that one (Fischer's
+    restart); a right-hand side in the span of those kept is solved by the start alone,
+    one outside it is not; a pair already in the span adds nothing."""
+    monkeypatch.syspath_prepend(str(BENCH))
+    mod = load_script(BENCH / "bench_preconditioner.py")
+    rng = np.random.default_rng(4)
+    n = 30
+    a, _apply = _system(rng, n)
+    xs = rng.normal(size=(5, n))
+    rec = mod.Recycler(keep=3)
+    for k, x in enumerate(xs):
+        rec.add([(x, a @ x)])
+        assert len(rec.w) == (k + 1 if k < 3 else k - 2)
+    b = a @ (xs[3] - 2 * xs[4])  # in the span of the two kept since the restart
+    x0, r = rec.start(b)
+    assert np.linalg.norm(r) < 1e-10 * np.linalg.norm(b)
+    np.testing.assert_allclose(x0, xs[3] - 2 * xs[4], atol=1e-8)
+    _x0, r_old = rec.start(a @ xs[0])  # dropped at the restart
+    assert np.linalg.norm(r_old) > 1e-3 * np.linalg.norm(a @ xs[0])
+    rec.add([(xs[3] + xs[4], a @ (xs[3] + xs[4]))])
+    assert len(rec.w) == 2  # already in the span: dropped
 
 
 def test_settled_part_compares_variants_on_consecutive_solves(tmp_path, monkeypatch, load_script):
-    """``--part settled`` on the smallest settled stack: a row per variant, the band's
-    count the simulator's, the whole axial problem no worse than the band."""
+    """``--part settled`` on the smallest settled stack: a row per variant, every solve
+    converged (the kept variants checked on their true residual), the band's count the
+    simulator's, the whole axial problem and the kept solutions no worse than the band."""
     monkeypatch.syspath_prepend(str(BENCH))
     mod = load_script(BENCH / "bench_preconditioner.py")
-    monkeypatch.setattr(mod, "SETTLED_WARM_UP_S", 2e-3)
-    args = ["--part", "settled", "--sizes", "300", "--solves", "4", "--out", str(tmp_path)]
-    assert mod.main(args) == 0
-    with (tmp_path / "preconditioner_settled.csv").open() as f:
+    path = mod.settled_part([300], 8, tmp_path, pile=False)
+    with path.open() as f:
         rows = {r["variant"]: r for r in csv.DictReader(f)}
-    expected = {"band", "axial", "hat_4_z", "lines"} | {f"recycled_{k}" for k in mod.RECYCLED}
+    expected = {"band", "axial", "hat_4_z", "lines"}
+    expected |= {f"recycled_{k}" for k in mod.RECYCLED} | {f"projected_{k}" for k in mod.PROJECTED}
     assert set(rows) == expected
     band = rows["band"]
-    assert int(band["solves"]) == 4 and int(band["matrices"]) >= 1
+    assert band["case"] == "pressed stack" and int(band["nodes"]) == 300
+    assert int(band["solves"]) == 8 and int(band["matrices"]) >= 1
     assert float(band["iterations"]) == pytest.approx(float(band["simulator_iterations"]))
-    assert float(rows["axial"]["iterations"]) <= float(band["iterations"])
     for r in rows.values():
-        assert float(r["iterations"]) >= 0.0
-    assert int(rows["recycled_10"]["kept_directions"]) == 10
+        assert int(r["unconverged_solves"]) == 0
+    for v in ("axial", f"projected_{max(mod.PROJECTED)}", f"recycled_{max(mod.RECYCLED)}"):
+        assert float(rows[v]["iterations"]) <= float(band["iterations"])
+    assert float(rows[f"projected_{max(mod.PROJECTED)}"]["vector_passes_per_solve"]) > 0.0
     assert int(rows["lines"]["extra_products_per_iteration"]) == 1
