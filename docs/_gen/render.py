@@ -1987,21 +1987,26 @@ def preconditioner_newton() -> str:
 
 def preconditioner_settled() -> str:
     """``bench_preconditioner.py --part settled``: mean (largest) GMRES iterations per
-    consecutive Newton solve of the settled stacks, a column per variant."""
+    consecutive Newton solve, a column per variant; for those that keep earlier solves'
+    vectors, also their passes over a vector per solve."""
     path = RESULTS / "preconditioner_settled.csv"
     table = _csv(path)
     names = list(dict.fromkeys(r["variant"] for r in table))
-    by = {(r["nodes"], r["variant"]): r for r in table}
+    by = {(r["case"], r["nodes"], r["variant"]): r for r in table}
     rows = []
-    for n in dict.fromkeys(r["nodes"] for r in table):
-        band = by[(n, "band")]
-        row = [n, band["solves"], _g(band["simulator_iterations"], 3)]
-        row += [
-            f"{_g(by[(n, v)]['iterations'], 3)} ({by[(n, v)]['iterations_max']})" for v in names
-        ]
+    for case, n in dict.fromkeys((r["case"], r["nodes"]) for r in table):
+        band = by[(case, n, "band")]
+        row = [case, n, f"{band['solves']} / {band['matrices']}"]
+        for v in names:
+            r = by[(case, n, v)]
+            cell = f"{_g(r['iterations'], 2)} ({r['iterations_max']})"
+            if int(r["kept"]) > 0:
+                cell += f", {_g(r['vector_passes_per_solve'], 2)} passes"
+            if int(r["unconverged_solves"]) > 0:
+                cell += f", {r['unconverged_solves']} unconverged"
+            row.append(cell)
         rows.append(row)
-    head = ["nodes", "solves", "simulator's GMRES iterations"]
-    head += [f"`{v}`" for v in names]
+    head = ["state", "nodes", "solves / matrices"] + [f"`{v}`" for v in names]
     return _table(head, rows) + "\n\n" + provenance(path)
 
 
