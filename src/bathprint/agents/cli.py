@@ -148,8 +148,8 @@ def _evaluate_parser() -> argparse.ArgumentParser:
     ap.add_argument(
         "policies",
         nargs="+",
-        help="run directories, model .zip files or baselines: random, constant, feedforward, "
-        "feedforward_calibrated",
+        help="run directories, model .zip files, baselines (random, constant, feedforward, "
+        "feedforward_calibrated) or planners (oracle, mpc: version-1 environments)",
     )
     ap.add_argument("--env", required=True)
     ap.add_argument("--episodes", type=int, default=16)

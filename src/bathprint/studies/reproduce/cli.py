@@ -123,7 +123,9 @@ def run_args(args: argparse.Namespace) -> int:
                     _write_json(report_path, report)
                     done.append(name)
                 current = None
-                print(f"{name}: {report[name]['wall_time_s']:.1f} s -> {out}/{name}*.png, .csv")
+                written = sorted(p.name for p in out.glob(f"{name}*") if p.is_file())
+                wall = report[name]["wall_time_s"]
+                print(f"{name}: {wall:.1f} s -> {out}/: {', '.join(written)}")
                 print(json.dumps(result, indent=2, default=float)[:1500])
             if marker_path.exists():
                 marker_path.unlink()
