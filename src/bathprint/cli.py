@@ -264,7 +264,11 @@ def build_parser() -> argparse.ArgumentParser:
     sw.set_defaults(func=sweep.run_args)
     from bathprint.studies.reproduce import cli as reproduce_cli
 
-    rp = sub.add_parser("reproduce", help="the paper's figures: fig1c|fig2|fig3|stability|all")
+    rp = sub.add_parser(
+        "reproduce",
+        help="the paper's figures and studies: "
+        "fig1c|fig2|fig3|stability|coils|all|ablation|gravity|fast_jets",
+    )
     reproduce_cli.add_arguments(rp)
     rp.set_defaults(func=reproduce_cli.run_args)
     co = sub.add_parser(

@@ -35,7 +35,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument(
         "figure",
         choices=(*FIGURES, "all", *STUDIES),
-        help="coils: steady coiling over 20+ turns, with and without gelation; all: the "
+        help="coils: steady coiling over 8 s (10-19 turns), with and without gelation; all: the "
         "figures; ablation: the effects switched on one at a time and together at the Fig. 1B "
         "points and over the Fig. 2 range; gravity: l against (B/(mu v + drho g r^2))^(1/3); "
         "fast_jets: inertia and finite-Re drag with and without the solution's viscosity at the "

@@ -3,7 +3,7 @@
 The paper's own simulation made regular coils at first, then they unravelled at the
 free end; the authors suspected missing nonlocal hydrodynamics and the build-up of
 stiffness and natural curvature as the gel sets. Here the drag-coiling scene is run long
-enough for 20+ turns with and without the gelation effect, and the radius and pitch of
+enough for 10-19 turns (8 s) with and without the gelation effect, and the radius and pitch of
 every turn (:func:`bathprint.analysis.measure.coil_geometry`) are plotted from the needle down.
 """
 
