@@ -105,6 +105,20 @@ def test_view_refusals(tmp_path: Path, capsys):
         assert err.startswith("bathprint view:") and "\n" not in err, (argv, err)
 
 
+def test_view_env_plays_a_version_1_test_target(tmp_path: Path, capsys):
+    """A version-1 environment's episode page plays its test set (version 0's ``eval`` set
+    does not exist there), and its target index is checked against that set."""
+    out = tmp_path / "episode.html"
+    argv = ["view", "--env", "CoilRadius-v1", "--policy", "constant", "--accuracy", "draft"]
+    assert main([*argv, "--out", str(out)]) == 0
+    text = out.read_text(encoding="utf-8")
+    assert "target" in text and len(text) > 10_000
+    capsys.readouterr()
+    assert main([*argv, "--target-index", "16", "--out", str(tmp_path / "x.html")]) == 2
+    err = capsys.readouterr().err.strip()
+    assert "test set of bathprint/CoilRadius-v1 has 16 targets" in err, err
+
+
 def test_colour_choices_refused_by_argparse(tmp_path: Path):
     with pytest.raises(SystemExit) as exc:
         main(["view", str(tmp_path), "--colour", "stiffness"])

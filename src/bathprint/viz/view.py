@@ -369,9 +369,9 @@ def episode_page(
     accuracy: str | None = None,
 ) -> tuple[Path, dict[str, Any]]:
     """Play one deterministic episode of ``policy`` (a baseline name, a run directory or a
-    model ``.zip``) on held-out target ``target_index`` and write its page; returns the path
-    and the last step's info."""
-    from bathprint.agents.evaluate import _run_settings
+    model ``.zip``) on held-out target ``target_index`` (version 0's evaluation set, a later
+    version's test set) and write its page; returns the path and the last step's info."""
+    from bathprint.agents.evaluate import _run_settings, default_target_set
     from bathprint.agents.policies import load_policy
     from bathprint.agents.wrappers import wrapper_factory
     from bathprint.envs import make, resolve_id
@@ -381,14 +381,16 @@ def episode_page(
     except ValueError as exc:
         raise OptionError(f"--env = {env_id!r}: {exc}") from None
     kwargs, wrapper = _run_settings(policy, accuracy, env_id)
-    env = make(env_id, target_set="eval", **kwargs)
+    target_set = default_target_set(env_id)
+    env = make(env_id, target_set=target_set, **kwargs)
     try:
         if wrapper:
             env = wrapper_factory(wrapper)(env)
-        n_eval = env.unwrapped.sampler.eval_size
+        u = env.unwrapped
+        n_eval = u.sampler.eval_size if target_set == "eval" else u.printed.sizes[target_set]
         if not 0 <= target_index < n_eval:
             raise OptionError(
-                f"--target-index = {target_index}; the evaluation set of {env_id} "
+                f"--target-index = {target_index}; the {target_set} set of {env_id} "
                 f"has {n_eval} targets: allowed 0..{n_eval - 1}"
             )
         try:
