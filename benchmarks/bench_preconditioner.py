@@ -846,8 +846,9 @@ def settled_case(
             keepers = {label: Recycler(k) for label, k in kept_variants.items()}
             last = cap.factorisation
             p1 = hat_basis(cap.nd // 3, 1)
-            axial_lu = sla.splu((p1.T @ a @ p1).tocsc())
-            forest = line_forest((p1.T @ a @ p1).tocsr())
+            axial = (p1.T @ a @ p1).tocsr()
+            axial_lu = sla.splu(axial.tocsc())
+            forest = line_forest(axial)
             p4 = hat_basis(cap.nd // 3, 4)
             hat_lu = sla.splu((p4.T @ a @ p4).tocsc())
 

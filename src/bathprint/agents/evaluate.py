@@ -39,7 +39,7 @@ from tqdm import tqdm
 from bathprint.agents.hyperparams import split_hyperparams
 from bathprint.agents.rollout import METRIC_KEYS, Episode, run_episode
 from bathprint.agents.train import read_run_info, trained_files
-from bathprint.envs import printed_targets
+from bathprint.envs import printed_targets, target_set_size
 from bathprint.errors import ConfigError
 
 
@@ -133,7 +133,7 @@ def evaluate_policy_spec(
     if wrapper:
         env = wrapper_factory(wrapper)(env)
     u = env.unwrapped
-    n_eval = u.printed.sizes[target_set] if target_set != "eval" else u.sampler.eval_size
+    n_eval = target_set_size(u, target_set)
     if episodes > n_eval:
         env.close()
         raise ConfigError(

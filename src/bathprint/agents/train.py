@@ -61,7 +61,7 @@ from bathprint.agents.hyperparams import (
 )
 from bathprint.agents.imitation import bc_settings
 from bathprint.agents.signals import Interrupted, SignalStop, signal_name
-from bathprint.envs import printed_targets
+from bathprint.envs import printed_targets, target_set_size
 from bathprint.errors import ConfigError
 
 _CKPT = re.compile(r"model_(\d+)_steps\.zip$")
@@ -327,7 +327,7 @@ def _preflight(
             f"has {pool} targets: allowed 1..{pool}"
         )
     selection = eval_target_set(env_id)
-    n_eval = u.printed.sizes[selection] if selection != "eval" else u.sampler.eval_size
+    n_eval = target_set_size(u, selection)
     obs_space, act_space = env.observation_space, env.action_space
     env.close()
     eval_episodes = int(run.get("eval_episodes", 16))

@@ -76,6 +76,14 @@ def printed_targets(env_id: str) -> bool:
     return not resolve_id(env_id).endswith("-v0")
 
 
+def target_set_size(env: Any, target_set: str) -> int:
+    """How many targets the fixed set ``target_set`` of an (unwrapped) environment holds:
+    version 0's ``eval`` set, or a later version's ``validation`` or ``test`` set."""
+    if target_set == "eval":
+        return int(env.sampler.eval_size)
+    return int(env.printed.sizes[target_set])
+
+
 def make(env_id: str, **kwargs: Any) -> Any:
     """``gymnasium.make`` after :func:`register_envs` (accepts short names, see
     :func:`resolve_id`). Picklable by reference, so ``functools.partial(make, id, ...)`` is a
@@ -127,4 +135,5 @@ __all__ = [
     "play_main",
     "register_envs",
     "resolve_id",
+    "target_set_size",
 ]

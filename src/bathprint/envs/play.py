@@ -168,12 +168,9 @@ def check_args(args: argparse.Namespace, eval_size: int | None = None) -> None:
 
 
 def _set_size(env: Any, target_set: str) -> int | None:
-    u = env.unwrapped
-    if target_set == "eval":
-        return u.sampler.eval_size
-    if target_set in ("validation", "test"):
-        return u.printed.sizes[target_set]
-    return None
+    from bathprint.envs import target_set_size  # (the package imports this module)
+
+    return target_set_size(env.unwrapped, target_set) if target_set in FIXED_SETS else None
 
 
 def run(args: argparse.Namespace) -> dict[str, Any]:

@@ -374,7 +374,7 @@ def episode_page(
     from bathprint.agents.evaluate import _run_settings, default_target_set
     from bathprint.agents.policies import load_policy
     from bathprint.agents.wrappers import wrapper_factory
-    from bathprint.envs import make, resolve_id
+    from bathprint.envs import make, resolve_id, target_set_size
 
     try:
         env_id = resolve_id(env_id)
@@ -386,8 +386,7 @@ def episode_page(
     try:
         if wrapper:
             env = wrapper_factory(wrapper)(env)
-        u = env.unwrapped
-        n_eval = u.sampler.eval_size if target_set == "eval" else u.printed.sizes[target_set]
+        n_eval = target_set_size(env.unwrapped, target_set)
         if not 0 <= target_index < n_eval:
             raise OptionError(
                 f"--target-index = {target_index}; the {target_set} set of {env_id} "
