@@ -257,6 +257,21 @@ def test_environments_section_lists_the_env_pages(tmp_path: Path):
 
 
 @needs_mkdocs
+def test_environments_section_is_found_inside_another_section(tmp_path: Path):
+    hooks = _hooks()
+    (tmp_path / "envs").mkdir()
+    (tmp_path / "envs" / "A-v1.md").write_text("# Ay\n\ntext\n")
+    hooks.DOCS = tmp_path
+    guide = [{"Getting started": "getting-started.md"}, {"Environments": ["environments.md"]}]
+    config = {"nav": [{"Home": "index.md"}, {"User guide": guide}]}
+    hooks.on_config(config)
+    assert config["nav"][1]["User guide"][1]["Environments"] == [
+        "environments.md",
+        {"Ay": "envs/A-v1.md"},
+    ]
+
+
+@needs_mkdocs
 def test_build_with_stand_ins_only_for_absent_pages(tmp_path: Path):
     """A strict build of a small site with the project's hooks: the absent environment page
     gets a stand-in, the present hydrodynamics page stays itself, tables are rendered."""

@@ -1,7 +1,7 @@
 """mkdocs hooks (``hooks:`` in mkdocs.yml): render the tables, list the environment pages.
 
-- ``on_config``: the nav's *Environments* section gets every page of ``docs/envs/`` (its
-  ``README.md`` first), so a new environment page needs no edit here;
+- ``on_config``: the nav's *Environments* section (at any depth) gets every page of
+  ``docs/envs/`` (its ``README.md`` first), so a new environment page needs no edit here;
 - ``on_files``: pages that other parts of the project own and that the site links to get a
   stand-in when they are absent (``STAND_INS``), so the build never links into nothing;
 - ``on_page_markdown``: each ``<!-- render: NAME -->`` line becomes its table
@@ -30,6 +30,11 @@ STAND_INS = {
         "See [Environments](../environments.md) for the environments and their reference "
         "in `envs/README.md`.",
     ),
+    "studies/index.md": (
+        "Studies",
+        "The index of the studies (`docs/studies/index.md`) is not present in this build; "
+        "each study page answers one question and is listed in the navigation.",
+    ),
     "physics/hydrodynamics.md": (
         "Hydrodynamics",
         "The hydrodynamics page (`docs/physics/hydrodynamics.md`) is not present in this "
@@ -51,12 +56,27 @@ def on_config(config: Any) -> Any:
     entries: list[Any] = [{_title(p): f"envs/{p.name}"} for p in pages]
     if not entries:
         entries = [{STAND_INS["envs/README.md"][0]: "envs/README.md"}]
-    for item in config["nav"] or []:
-        if isinstance(item, dict) and ENVS_SECTION in item:
-            section = item[ENVS_SECTION]
-            known = {v for e in section if isinstance(e, dict) for v in e.values()}
-            section.extend(e for e in entries if next(iter(e.values())) not in known)
+    section = _find_section(config["nav"] or [], ENVS_SECTION)
+    if section is not None:
+        known = {v for e in section if isinstance(e, dict) for v in e.values()}
+        section.extend(e for e in entries if next(iter(e.values())) not in known)
     return config
+
+
+def _find_section(nav: list[Any], title: str) -> list[Any] | None:
+    """The list of the nav section called ``title``, at any depth (the first found)."""
+    for item in nav:
+        if not isinstance(item, dict):
+            continue
+        for key, value in item.items():
+            if not isinstance(value, list):
+                continue
+            if key == title:
+                return value
+            found = _find_section(value, title)
+            if found is not None:
+                return found
+    return None
 
 
 def on_files(files: Any, config: Any) -> Any:
