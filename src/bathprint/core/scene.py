@@ -30,6 +30,7 @@ from bathprint.core.layout import (
     HYDRO_KERNELS,
     INTEGRATOR_NAMES,
 )
+from bathprint.core.resolution import check_resolution
 from bathprint.errors import SceneError
 
 # accuracy presets: (tolerance, max_inlet_growth, node spacing factor); "custom" uses the
@@ -851,7 +852,26 @@ def scene_from_dict(data: dict[str, Any]) -> Scene:
     """Build and validate a scene from a nested dict (as read from TOML)."""
     scene = _build(Scene, apply_physics_preset(data), "")
     _check_tables(scene)
+    num = effective_numerics(scene)
+    check_resolution(scene, num["node_spacing_mm"], flow_rows(scene))
     return scene
+
+
+def effective_numerics(scene: Scene) -> dict[str, float]:
+    """Tolerance, inlet growth and node spacing after the accuracy preset (if any)."""
+    n = scene.numerics
+    if n.accuracy == "custom":
+        return {
+            "tolerance": n.tolerance,
+            "max_inlet_growth": n.max_inlet_growth,
+            "node_spacing_mm": n.node_spacing_mm,
+        }
+    tol, growth, factor = ACCURACY_PRESETS[n.accuracy]
+    return {
+        "tolerance": tol,
+        "max_inlet_growth": growth,
+        "node_spacing_mm": n.node_spacing_mm * factor,
+    }
 
 
 def parse_override(text: str) -> tuple[str, Any]:
