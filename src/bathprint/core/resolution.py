@@ -172,7 +172,7 @@ def check_resolution(
         raise SceneError(
             f"numerics.node_spacing_mm = {n.node_spacing_mm!r}{preset} cannot resolve "
             f"{bl.describe()}: one segment is longer than a coil turn, 2 pi R = 2.5 l = "
-            f"{turn / MM:.3g} mm (R = 0.4 l, the paper's Fig. 2B), so the filament cannot "
+            f"{_below(turn / MM)} mm (R = 0.4 l, the paper's Fig. 2B), so the filament cannot "
             f"coil; allowed: numerics.node_spacing_mm <= {_below(turn / factor / MM)} here"
         )
     if scene.numerics.time_step_s > 0.0:
@@ -197,6 +197,6 @@ def _check_fixed_step(scene: Scene, bl: BucklingLength, turn: float) -> None:
         raise SceneError(
             f"numerics.time_step_s = {dt!r} extrudes {bl.v_m_s * dt / MM:.3g} mm per step, "
             f"which leaves the needle straight: longer than a coil turn, 2 pi R = 2.5 l = "
-            f"{turn / MM:.3g} mm, with {bl.describe()}, so the filament cannot coil; "
+            f"{_below(turn / MM)} mm, with {bl.describe()}, so the filament cannot coil; "
             f"allowed: numerics.time_step_s <= {_below(turn / bl.v_m_s)} here (or 0: adaptive)"
         )

@@ -390,7 +390,10 @@ class Initial:
 
 @dataclass
 class Numerics:
-    """Resolution and time stepping."""
+    """Resolution and time stepping. The node spacing (after the accuracy preset) and a fixed
+    step's extrusion v dt must each be at most one coil turn, 2.5 l, of the scene's buckling
+    length l = (B/(mu v + drho g r^2))^(1/3) (the paper's scaling, R = 0.4 l from its Fig. 2B);
+    a spacing above l/2 warns (bathprint.core.resolution)."""
 
     accuracy: str = field(
         default="custom",
@@ -399,10 +402,14 @@ class Numerics:
             "doc": "a preset sets tolerance, inlet growth and scales the node spacing",
         },
     )
-    node_spacing_mm: float = _num(0.5, 1e-3, 100.0, lo_open=True, doc="segment rest length")
+    node_spacing_mm: float = _num(
+        0.5, 1e-3, 100.0, lo_open=True, doc="segment rest length; at most a coil turn, 2.5 l"
+    )
     integrator: str = field(default="implicit", metadata={"choices": INTEGRATOR_NAMES})
     tolerance: float = _num(1e-3, 1e-10, 1.0, lo_open=True, doc="local error / node spacing")
-    time_step_s: float = _num(0.0, 0.0, 10.0, doc="> 0: fixed step; 0: adaptive")
+    time_step_s: float = _num(
+        0.0, 0.0, 10.0, doc="> 0: fixed step, extruding at most a coil turn (2.5 l); 0: adaptive"
+    )
     max_step_s: float = _num(0.05, 1e-9, 100.0, lo_open=True)
     min_step_s: float = _num(1e-10, 1e-15, 1.0, lo_open=True)
     stretch_limit: float = _num(0.5, 1e-3, 10.0, lo_open=True, doc="bound on |l/l0 - 1|")
