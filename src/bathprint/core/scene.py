@@ -8,7 +8,8 @@ Overrides use dotted keys, the same from the CLI (``--set flow.q_outer_ml_min=5`
 from Python (``overrides={"flow.q_outer_ml_min": 5}``). Every key is checked: unknown
 keys and effects, missing or non-finite values, and values outside the physical range
 (the paper's range widened by orders of magnitude) raise one :class:`SceneError` that
-names the key, the value and what is allowed.
+names the key, the value and what is allowed; so do numerics that cannot resolve the
+scene's buckling length (:mod:`bathprint.core.resolution`).
 """
 
 from __future__ import annotations
