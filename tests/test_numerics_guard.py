@@ -6,6 +6,8 @@ from __future__ import annotations
 
 import math
 import re
+import subprocess
+import sys
 import warnings
 from typing import Any
 
@@ -186,6 +188,7 @@ def test_the_studies_runs_load_and_only_the_thinnest_phase_diagram_jets_warn() -
 
 
 def test_the_cli_exits_2_with_the_message_before_any_work(tmp_path, capsys) -> None:
+    """In process (the output folder is never made) and as a command."""
     out = tmp_path / "run"
     code = main(
         [
@@ -202,4 +205,13 @@ def test_the_cli_exits_2_with_the_message_before_any_work(tmp_path, capsys) -> N
     err = capsys.readouterr().err
     assert "numerics.node_spacing_mm = 100" in err
     assert "allowed: numerics.node_spacing_mm <= 9.7" in err
+    assert not out.exists()
+    proc = subprocess.run(
+        [sys.executable, "-m", "bathprint.cli", "simulate", COIL, "--set",
+         "numerics.node_spacing_mm=100", "--out", str(out)],
+        capture_output=True,
+        text=True,
+    )  # fmt: skip
+    assert proc.returncode == 2 and "Traceback" not in proc.stderr
+    assert "scene error: numerics.node_spacing_mm = 100.0" in proc.stderr
     assert not out.exists()
