@@ -158,8 +158,11 @@ def test_divergence_raises_simulation_error_naming_time_node_and_cause() -> None
 
 
 def test_newton_failure_at_fixed_step_is_reported() -> None:
+    # 0.1 s: the longest fixed step whose extrusion (21 mm) is within a coil turn (24.7 mm),
+    # the bound bathprint.core.resolution puts on a fixed step; far beyond what Newton's
+    # single iteration can take
     sim = Simulation(
-        "paper_simulation", {"numerics.time_step_s": 5.0, "numerics.max_newton_iterations": 1}
+        "paper_simulation", {"numerics.time_step_s": 0.1, "numerics.max_newton_iterations": 1}
     )
     with pytest.raises(SimulationError, match="Newton"):
         sim.advance(10.0)

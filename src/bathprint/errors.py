@@ -20,6 +20,11 @@ class ConfigError(ValueError):
     """
 
 
+class CoarseNumericsWarning(UserWarning):
+    """A scene's numerics resolve its buckling length only coarsely: the run goes ahead,
+    its shapes carry a discretisation error (:mod:`bathprint.core.resolution`)."""
+
+
 OptionError = ConfigError  # the name the commands' option checks raise
 
 

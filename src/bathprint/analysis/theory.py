@@ -44,6 +44,8 @@ from numpy.polynomial import chebyshev as cheb
 from scipy.optimize import brentq
 from scipy.special import hyp0f1, lambertw
 
+from bathprint.core.resolution import gravity_drag_length
+
 __all__ = [
     "DEFAULT_N",
     "GRAVITY",
@@ -128,20 +130,6 @@ def coil_frequency(
     """Coiling frequency omega = prefactor v^(4/3) (mu/B)^(1/3) in rad/s (Fig. 2C fit: 1.1)."""
     _require_positive(B=B, mu=mu, v=v)
     return prefactor * v ** (4.0 / 3.0) * (mu / B) ** (1.0 / 3.0)
-
-
-def gravity_drag_length(
-    B: float, mu: float, v: float, drho: float, r: float, g: float = GRAVITY
-) -> float:
-    """Buckling length (B/(mu v + drho g r^2))^(1/3) in m interpolating drag and gravity coiling.
-
-    drho is the filament-bath density difference in kg/m^3 and r the filament radius in m.
-    """
-    _require_positive(B=B)
-    denominator = mu * v + drho * g * r**2
-    if denominator <= 0:
-        raise ValueError("mu v + drho g r^2 must be positive")
-    return (B / denominator) ** (1.0 / 3.0)
 
 
 def bending_stiffness(E: float, r: float) -> float:

@@ -17,7 +17,7 @@ from bathprint.core import layout as L
 from bathprint.core import records
 from bathprint.core.composite import INNER_FLUIDS
 from bathprint.core.effects._rpy import GATE_MARGIN, window_margin, window_shift
-from bathprint.core.scene import ACCURACY_PRESETS, Scene, flow_rows
+from bathprint.core.scene import Scene, effective_numerics, flow_rows
 from bathprint.errors import SceneError
 
 ML_MIN = 1e-6 / 60.0  # m^3/s per ml/min
@@ -137,23 +137,6 @@ def _needle_table(scene: Scene) -> np.ndarray:
             raise SceneError(f"needle.path row at t = {row[0]:g} s has a zero direction")
         row[4:7] /= norm
     return table
-
-
-def effective_numerics(scene: Scene) -> dict[str, float]:
-    """Tolerance, inlet growth and node spacing after the accuracy preset (if any)."""
-    n = scene.numerics
-    if n.accuracy == "custom":
-        return {
-            "tolerance": n.tolerance,
-            "max_inlet_growth": n.max_inlet_growth,
-            "node_spacing_mm": n.node_spacing_mm,
-        }
-    tol, growth, factor = ACCURACY_PRESETS[n.accuracy]
-    return {
-        "tolerance": tol,
-        "max_inlet_growth": growth,
-        "node_spacing_mm": n.node_spacing_mm * factor,
-    }
 
 
 MIN_ACTIVE_SPACINGS = 8  # the active filament keeps at least this many node spacings

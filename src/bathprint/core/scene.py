@@ -8,7 +8,8 @@ Overrides use dotted keys, the same from the CLI (``--set flow.q_outer_ml_min=5`
 from Python (``overrides={"flow.q_outer_ml_min": 5}``). Every key is checked: unknown
 keys and effects, missing or non-finite values, and values outside the physical range
 (the paper's range widened by orders of magnitude) raise one :class:`SceneError` that
-names the key, the value and what is allowed.
+names the key, the value and what is allowed; so do numerics that cannot resolve the
+scene's buckling length (:mod:`bathprint.core.resolution`).
 """
 
 from __future__ import annotations
@@ -30,6 +31,7 @@ from bathprint.core.layout import (
     HYDRO_KERNELS,
     INTEGRATOR_NAMES,
 )
+from bathprint.core.resolution import check_resolution
 from bathprint.errors import SceneError
 
 # accuracy presets: (tolerance, max_inlet_growth, node spacing factor); "custom" uses the
@@ -389,7 +391,10 @@ class Initial:
 
 @dataclass
 class Numerics:
-    """Resolution and time stepping."""
+    """Resolution and time stepping. The node spacing (after the accuracy preset) and a fixed
+    step's extrusion v dt must each be at most one coil turn, 2.5 l, of the scene's buckling
+    length l = (B/(mu v + drho g r^2))^(1/3) (the paper's scaling, R = 0.4 l from its Fig. 2B);
+    a spacing above l/2 warns (bathprint.core.resolution)."""
 
     accuracy: str = field(
         default="custom",
@@ -398,10 +403,14 @@ class Numerics:
             "doc": "a preset sets tolerance, inlet growth and scales the node spacing",
         },
     )
-    node_spacing_mm: float = _num(0.5, 1e-3, 100.0, lo_open=True, doc="segment rest length")
+    node_spacing_mm: float = _num(
+        0.5, 1e-3, 100.0, lo_open=True, doc="segment rest length; at most a coil turn, 2.5 l"
+    )
     integrator: str = field(default="implicit", metadata={"choices": INTEGRATOR_NAMES})
     tolerance: float = _num(1e-3, 1e-10, 1.0, lo_open=True, doc="local error / node spacing")
-    time_step_s: float = _num(0.0, 0.0, 10.0, doc="> 0: fixed step; 0: adaptive")
+    time_step_s: float = _num(
+        0.0, 0.0, 10.0, doc="> 0: fixed step, extruding at most a coil turn (2.5 l); 0: adaptive"
+    )
     max_step_s: float = _num(0.05, 1e-9, 100.0, lo_open=True)
     min_step_s: float = _num(1e-10, 1e-15, 1.0, lo_open=True)
     stretch_limit: float = _num(0.5, 1e-3, 10.0, lo_open=True, doc="bound on |l/l0 - 1|")
@@ -851,7 +860,26 @@ def scene_from_dict(data: dict[str, Any]) -> Scene:
     """Build and validate a scene from a nested dict (as read from TOML)."""
     scene = _build(Scene, apply_physics_preset(data), "")
     _check_tables(scene)
+    num = effective_numerics(scene)
+    check_resolution(scene, num["node_spacing_mm"], flow_rows(scene))
     return scene
+
+
+def effective_numerics(scene: Scene) -> dict[str, float]:
+    """Tolerance, inlet growth and node spacing after the accuracy preset (if any)."""
+    n = scene.numerics
+    if n.accuracy == "custom":
+        return {
+            "tolerance": n.tolerance,
+            "max_inlet_growth": n.max_inlet_growth,
+            "node_spacing_mm": n.node_spacing_mm,
+        }
+    tol, growth, factor = ACCURACY_PRESETS[n.accuracy]
+    return {
+        "tolerance": tol,
+        "max_inlet_growth": growth,
+        "node_spacing_mm": n.node_spacing_mm * factor,
+    }
 
 
 def parse_override(text: str) -> tuple[str, Any]:
