@@ -17,7 +17,6 @@ import numpy as np
 import pytest
 
 
-
 def _load(name: str):
     spec = importlib.util.spec_from_file_location(name, Path(__file__).with_name("data") / name)
     assert spec is not None and spec.loader is not None
