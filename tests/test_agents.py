@@ -24,7 +24,7 @@ from bathprint.agents.train import checkpoints, train
 from bathprint.analysis.theory import bending_stiffness, coil_radius
 from bathprint.cli import main as cli_main
 from bathprint.envs import ENV_IDS, make
-from bathprint.envs.core import (
+from bathprint.envs.observation import (
     OBS_CURVATURE_MM,
     OBS_DENSITY_REF_KG_M3,
     OBS_DENSITY_SCALE_KG_M3,

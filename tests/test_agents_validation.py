@@ -537,13 +537,13 @@ def test_evaluate_writes_the_policies_side_by_side(tmp_path, capsys, monkeypatch
     import numpy as np
     from PIL import Image
 
-    import bathprint.envs.core as core
+    from bathprint.envs.base import BathprintEnvBase
 
     # small stand-in frames: the layout is under test here, not the drawing (which costs
     # most of an evaluation's time and is tested with the environments)
     calls = iter(range(10**6))  # each frame differs (a GIF merges identical frames)
     monkeypatch.setattr(
-        core.BathprintEnv, "render", lambda self: np.full((40, 60, 3), next(calls) % 256, np.uint8)
+        BathprintEnvBase, "render", lambda self: np.full((40, 60, 3), next(calls) % 256, np.uint8)
     )
     gif = tmp_path / "cmp.gif"
     argv = ["evaluate", "constant", "oracle", "--env", "CoilRadius-v1", "--episodes", "1",

@@ -59,14 +59,33 @@ def register_envs() -> list[str]:
     return list(ENV_IDS)
 
 
+def _name_version(env_id: str) -> tuple[str, int]:
+    """``bathprint/CoilRadius-v1`` -> (``bathprint/CoilRadius``, 1)."""
+    name, _, version = env_id.rpartition("-v")
+    return name, int(version)
+
+
+def newest_id(env_id: str) -> str:
+    """The newest registered version of an environment (a full id, e.g.
+    ``bathprint/WriteShape-v0`` -> ``bathprint/WriteShape-v2``)."""
+    name = _name_version(env_id)[0]
+    versions = [i for i in ENV_IDS if _name_version(i)[0] == name]
+    if not versions:
+        raise ValueError(f"unknown environment {env_id!r}; known: {', '.join(ENV_IDS)}")
+    return max(versions, key=lambda i: _name_version(i)[1])
+
+
 def resolve_id(name: str) -> str:
     """Full id of an environment given as ``bathprint/CoilRadius-v1``, ``CoilRadius-v1`` or
-    ``CoilRadius`` (case-insensitive; the bare name is version 0, as it always was)."""
+    ``CoilRadius`` (case-insensitive; a bare name is the newest version, as in Gymnasium)."""
     key = name.lower().removeprefix(f"{NAMESPACE}/")
     for env_id in ENV_IDS:
-        short = env_id.removeprefix(f"{NAMESPACE}/").lower()
-        if key in (short, short.removesuffix("-v0")):
+        if key == env_id.removeprefix(f"{NAMESPACE}/").lower():
             return env_id
+    for env_id in ENV_IDS:
+        bare = _name_version(env_id)[0].removeprefix(f"{NAMESPACE}/").lower()
+        if key == bare:
+            return newest_id(env_id)
     raise ValueError(f"unknown environment {name!r}; known: {', '.join(ENV_IDS)}")
 
 
@@ -132,6 +151,7 @@ __all__ = [
     "printed_targets",
     "make",
     "make_from_config",
+    "newest_id",
     "play_main",
     "register_envs",
     "resolve_id",

@@ -2,11 +2,11 @@
 
 from __future__ import annotations
 
-from bathprint.envs.core import BathprintEnv
+from bathprint.envs.v0 import BathprintEnvV0
 from bathprint.envs.v1 import BathprintEnvV1
 
 
-class BuoyantLayersEnv(BathprintEnv):
+class BuoyantLayersEnv(BathprintEnvV0):
     """
     ## Description
 
@@ -46,7 +46,7 @@ class BuoyantLayersEnv(BathprintEnv):
     ## Observation Space
 
     ``Box(-10, 10, (94,), float32)``: the shared layout (see ``CoilRadiusEnv`` and
-    ``bathprint.envs.core.OBS_LAYOUT``); here the useful parts are the printed density
+    ``bathprint.envs.observation.OBS_LAYOUT``); here the useful parts are the printed density
     (slice 54-59) and the target's density aim (every third entry of slice 60-83).
 
     ## Rewards

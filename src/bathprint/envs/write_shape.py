@@ -2,11 +2,11 @@
 
 from __future__ import annotations
 
-from bathprint.envs.core import BathprintEnv
+from bathprint.envs.v0 import BathprintEnvV0
 from bathprint.envs.v1 import BathprintEnvV1
 
 
-class WriteShapeEnv(BathprintEnv):
+class WriteShapeEnv(BathprintEnvV0):
     """
     ## Description
 
@@ -45,7 +45,7 @@ class WriteShapeEnv(BathprintEnv):
     ## Observation Space
 
     ``Box(-10, 10, (94,), float32)``: the layout shared by all bathprint environments, see
-    ``CoilRadiusEnv`` and ``bathprint.envs.core.OBS_LAYOUT`` (filament near the needle,
+    ``CoilRadiusEnv`` and ``bathprint.envs.observation.OBS_LAYOUT`` (filament near the needle,
     recent curvature and density, target curvature / torsion / density aim from 30 mm behind
     to 20 mm ahead, current controls, progress).
 
@@ -107,7 +107,7 @@ class WriteShapeEnvV1(BathprintEnvV1):
     env_id = "bathprint/WriteShape-v1"
 
 
-class WriteShapeEnvV2(WriteShapeEnvV1):
+class WriteShapeEnvV2(BathprintEnvV1):
     """
     ## Description
 
