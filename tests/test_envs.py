@@ -46,7 +46,9 @@ def test_register_envs_is_idempotent_and_makes_every_id() -> None:
     for env_id in E.ENV_IDS:
         assert env_id in gymnasium.registry
         assert env_id.startswith("bathprint/")
-    assert E.resolve_id("coilradius") == "bathprint/CoilRadius-v0"
+    assert E.resolve_id("coilradius") == "bathprint/CoilRadius-v1"  # a bare name: the newest
+    assert E.resolve_id("writeshape") == "bathprint/WriteShape-v2"
+    assert E.resolve_id("CoilRadius-v0") == "bathprint/CoilRadius-v0"
     with pytest.raises(ValueError, match="unknown environment"):
         E.resolve_id("Nope")
 
@@ -375,7 +377,7 @@ def test_make_from_config() -> None:
 # ------------------------------------------------------------------ play
 def test_play_writes_an_animation_and_the_metric(tmp_path) -> None:
     out = tmp_path / "play"
-    argv = ["BuoyantLayers", "--policy", "constant", "--seed", "1", "--out", str(out)]
+    argv = ["BuoyantLayers-v0", "--policy", "constant", "--seed", "1", "--out", str(out)]
     assert E.play_main([*argv, "--frame-every", "30"]) == 0
     summary = json.loads((out / "metrics.json").read_text())
     (ep,) = summary["episodes"]
