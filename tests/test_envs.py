@@ -17,6 +17,7 @@ import bathprint
 import bathprint.envs as E
 from bathprint import SimulationError
 from bathprint.envs.metric import MetricParams, PrintedSamples, evaluate, windowed_kabsch_rmsd
+from bathprint.envs.observation import OBS_SIZE
 from bathprint.envs.targets import CoilScheduleFamily, TargetSampler, params_key
 
 DRAFT = {"accuracy": "draft"}
@@ -64,7 +65,7 @@ def test_register_envs_is_idempotent_and_makes_every_id() -> None:
 def test_spaces(env_id: str, n_actions: int) -> None:
     env = gymnasium.make(env_id, **DRAFT)
     assert env.action_space == gymnasium.spaces.Box(-1, 1, (n_actions,), np.float32)
-    assert env.observation_space.shape == (E.core.OBS_SIZE,)
+    assert env.observation_space.shape == (OBS_SIZE,)
     assert env.observation_space.dtype == np.float32
     assert env.metadata["render_fps"] > 0
     assert set(env.metadata["render_modes"]) == {"human", "rgb_array"}
@@ -80,8 +81,9 @@ def test_spaces(env_id: str, n_actions: int) -> None:
 def test_gymnasium_and_sb3_checkers_pass(env_id: str) -> None:
     with warnings.catch_warnings():
         warnings.simplefilter("error")  # any checker warning fails the test
-        # but Gymnasium's note that a v0 has a newer version (v1) is its versioning convention
+        # but the notes that an older version has a newer one are the versioning convention
         warnings.filterwarnings("ignore", ".*is out of date", DeprecationWarning)
+        warnings.filterwarnings("ignore", ".*is deprecated: ", DeprecationWarning)
         gym_check_env(gymnasium.make(env_id, **DRAFT).unwrapped)  # renders both modes too
         gym_check_env(gymnasium.make(env_id, needle_velocity=True, **DRAFT).unwrapped)
         sb3_check_env(gymnasium.make(env_id, **DRAFT).unwrapped, warn=True)
@@ -339,7 +341,7 @@ def test_make_vec(mode: str) -> None:
         "bathprint/BuoyantLayers-v0", num_envs=2, vectorization_mode=mode, **DRAFT
     )
     obs, _ = venv.reset(seed=0)
-    assert obs.shape == (2, E.core.OBS_SIZE)
+    assert obs.shape == (2, OBS_SIZE)
     for _ in range(5):
         obs, rew, term, trunc, info = venv.step(venv.action_space.sample())
     assert np.isfinite(obs).all() and rew.shape == (2,) and "metric" in info
@@ -355,7 +357,7 @@ def test_sb3_subproc_vec_env() -> None:
     obs = venv.reset()
     for _ in range(5):
         obs, rew, done, infos = venv.step(np.stack([venv.action_space.sample()] * 2))
-    assert obs.shape == (2, E.core.OBS_SIZE) and np.isfinite(obs).all()
+    assert obs.shape == (2, OBS_SIZE) and np.isfinite(obs).all()
     venv.close()
 
 
@@ -367,7 +369,7 @@ def test_make_from_config() -> None:
     env = E.make_from_config(json.loads(json.dumps(cfg)))  # survives a JSON round trip
     assert env.action_space.shape == (5,)
     assert env.unwrapped.accuracy == "draft"
-    assert env.reset(seed=0)[0].shape == (E.core.OBS_SIZE,)
+    assert env.reset(seed=0)[0].shape == (OBS_SIZE,)
     with pytest.raises(ValueError, match="'id'"):
         E.make_from_config({"kwargs": {}})
     with pytest.raises(ValueError, match="unknown keys"):

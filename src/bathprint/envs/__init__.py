@@ -2,27 +2,30 @@
 
 >>> import gymnasium, bathprint.envs
 >>> bathprint.envs.register_envs()          # idempotent; ``import bathprint`` will call it
->>> env = gymnasium.make("bathprint/CoilRadius-v0", accuracy="draft")
+>>> env = gymnasium.make("bathprint/CoilRadius-v1", accuracy="draft")
 >>> obs, info = env.reset(seed=0)
 >>> obs, reward, terminated, truncated, info = env.step(env.action_space.sample())
 
 =============================  ===========================================================
 id                             task
 =============================  ===========================================================
-``bathprint/CoilRadius-v1``    track a coil-radius schedule with the flow (printed targets)
-``bathprint/WriteShape-v2``    WriteShape-v1 with the target's positions near the needle
-``bathprint/WriteShape-v1``    write a 3D curve with the needle and the flow
-``bathprint/BuoyantLayers-v1`` parts that settle at target heights, the oil pump lagging
-``bathprint/CoilRadius-v0``    track a schedule of coil radius (and pitch) along the length
-``bathprint/WriteShape-v0``    write a 3D curve: helices, straight pieces, arcs, float/sink
-``bathprint/BuoyantLayers-v0`` parts that settle at target heights in a gradient bath
+``bathprint/CoilRadius-v1``    track a coil-radius schedule with the flow (newest)
+``bathprint/WriteShape-v2``    WriteShape-v1 with the target's positions near the needle (newest)
+``bathprint/BuoyantLayers-v1`` parts that settle at target heights, the oil pump lagging (newest)
+``bathprint/WriteShape-v1``    write a 3D curve with the needle and the flow (deprecated)
+``bathprint/CoilRadius-v0``    a schedule of coil radius (and pitch) (deprecated)
+``bathprint/WriteShape-v0``    a 3D curve: helices, straight pieces, arcs (deprecated)
+``bathprint/BuoyantLayers-v0`` parts that settle at target heights (deprecated)
 =============================  ===========================================================
 
-Version 1 (:mod:`bathprint.envs.v1`, ``docs/envs/``) is the suite to use; version 0 stays as
-it was for reproducing older results. ``WriteShape-v2`` is version 1's protocol (printed
-targets, train / validation / test sets) with a new observation. Specs (scene, ranges,
-targets, metric) live in ``envs/*.toml``; the metric is in :mod:`bathprint.envs.metric`.
-``bathprint play`` is :func:`play_main`.
+Versioning follows Gymnasium's: a registered version never changes its results (a change is
+a new version); a bare name (``bathprint/CoilRadius``, or ``CoilRadius`` here) makes the
+newest version (:func:`newest_id`); making an older one raises a DeprecationWarning naming
+the newest (``docs/envs/``, Version History). Each version is its own class:
+:mod:`bathprint.envs.v0` and :mod:`bathprint.envs.v1` (the printed-target protocol of
+versions 1 and 2) on :mod:`bathprint.envs.base`, which holds what they share. Specs (scene,
+ranges, targets, metric) live in ``envs/*.toml``; the metric is in
+:mod:`bathprint.envs.metric`. ``bathprint play`` is :func:`play_main`.
 """
 
 from __future__ import annotations

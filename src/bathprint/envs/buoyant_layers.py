@@ -8,6 +8,9 @@ from bathprint.envs.v1 import BathprintEnvV1
 
 class BuoyantLayersEnv(BathprintEnvV0):
     """
+    Deprecated: ``bathprint/BuoyantLayers-v1`` is the newest version (making this one warns);
+    registered so that results made with it reproduce.
+
     ## Description
 
     The paper's density-gradient column (Fig. 3E): the bath's density rises linearly from

@@ -8,6 +8,9 @@ from bathprint.envs.v1 import BathprintEnvV1
 
 class CoilRadiusEnv(BathprintEnvV0):
     """
+    Deprecated: ``bathprint/CoilRadius-v1`` is the newest version (making this one warns);
+    registered so that results made with it reproduce.
+
     ## Description
 
     A soft alginate filament (22G needle, d = 0.41 mm) is extruded downwards into a viscous

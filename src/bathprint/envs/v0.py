@@ -3,9 +3,10 @@
 Targets are drawn from analytic families (coil schedules, sections of helices, straight
 pieces and arcs, layers) and scored on the filament as it is at each step; the reward is
 the decrease of the metric M (:mod:`bathprint.envs.metric`), so an episode's return is
-``missing_error - M_final``. One observation layout (:data:`OBS_LAYOUT`, 94 entries) serves
-the three environments; the fixed held-out set is ``target_set="eval"``. Superseded by
-version 1 (:mod:`bathprint.envs.v1`); registered so that results made with it reproduce.
+``missing_error - M_final``. One observation layout
+(:data:`bathprint.envs.observation.OBS_LAYOUT`, 94 entries) serves the three environments;
+the fixed held-out set is ``target_set="eval"``. Superseded by version 1
+(:mod:`bathprint.envs.v1`); registered so that results made with it reproduce.
 """
 
 from __future__ import annotations
@@ -44,7 +45,6 @@ from bathprint.envs.observation import (
     OBS_CURVATURE_MM,
     OBS_DENSITY_REF_KG_M3,
     OBS_DENSITY_SCALE_KG_M3,
-    OBS_LAYOUT,
     OBS_NEEDLE_MM,
     OBS_SIZE,
 )
@@ -59,7 +59,7 @@ from bathprint.envs.targets import (
 )
 from bathprint.errors import ConfigError, SimulationError
 
-__all__ = ["OBS_LAYOUT", "BathprintEnvV0"]
+__all__ = ["BathprintEnvV0"]
 
 
 def _check_index_type(index: Any, name: str = "target_index") -> None:

@@ -8,6 +8,9 @@ from bathprint.envs.v1 import BathprintEnvV1
 
 class WriteShapeEnv(BathprintEnvV0):
     """
+    Deprecated: ``bathprint/WriteShape-v2`` is the newest version (making this one warns);
+    registered so that results made with it reproduce.
+
     ## Description
 
     The coiling gel filament of ``CoilRadius-v0`` used as a pen: the target is a 3D curve
@@ -78,6 +81,9 @@ class WriteShapeEnv(BathprintEnvV0):
 
 class WriteShapeEnvV1(BathprintEnvV1):
     """
+    Deprecated: ``bathprint/WriteShape-v2`` is the newest version (making this one warns);
+    registered so that results made with it reproduce.
+
     ## Description
 
     Writing with the needle, as the fluid-rope-trick work of Chaudhary, Christ, Hart &
