@@ -45,7 +45,7 @@ import numpy as np
 from gymnasium import spaces
 
 from bathprint.envs._kernels import metric_errors, printed_at
-from bathprint.envs._kernels_v1 import goal_rewards, observe_v1, record_samples, squared_sum
+from bathprint.envs._kernels_v1 import observe_v1, record_samples, squared_sum
 from bathprint.envs.base import (
     ML_MIN,
     MM,
@@ -58,6 +58,7 @@ from bathprint.envs.base import (
     move_needle_within,
     set_flows,
 )
+from bathprint.envs.goals import GoalLayout
 from bathprint.envs.metric import MetricParams, MetricValue, PrintedSamples, prepare
 from bathprint.envs.observation import (
     CURV_INDEX,
@@ -78,7 +79,7 @@ from bathprint.envs.observation import (
 )
 from bathprint.envs.printed import PrintedTargets
 from bathprint.envs.spec import load_spec
-from bathprint.envs.targets import FREE_DENSITY, Target, discrete_curvature, load_target_file
+from bathprint.envs.targets import FREE_DENSITY, Target, load_target_file
 from bathprint.errors import ConfigError, SimulationError
 
 TARGET_SETS = ("train", "validation", "test")
@@ -307,6 +308,14 @@ class BathprintEnvV1(BathprintEnvBase):
         self.scores_shape = mp.w_shape > 0 or mp.w_curvature > 0
         self.scores_density = mp.w_density > 0
         self.observes_density = self.scores_density or "q_inner" in self.action_names
+        self.goals = GoalLayout(
+            self.n_target_samples,
+            self.scores_shape,
+            self.scores_density,
+            mp,
+            self.target_spacing_mm,
+            self.bath_range,
+        )
         feats = (["curvature", "torsion"] if self.scores_shape else []) + (
             ["density_lo", "density_hi"] if self.scores_density else []
         )
@@ -353,8 +362,8 @@ class BathprintEnvV1(BathprintEnvBase):
         self.goal_size = (3 * n if self.scores_shape else 0) + (2 * n if self.scores_density else 0)
         self.goal_size += 2
         low, high = (
-            self._goal_vector(np.full((n, 3), -GOAL_POSITION_MM), np.zeros(n), np.zeros(n), 0, 0),
-            self._goal_vector(
+            self.goals.vector(np.full((n, 3), -GOAL_POSITION_MM), np.zeros(n), np.zeros(n), 0, 0),
+            self.goals.vector(
                 np.full((n, 3), GOAL_POSITION_MM),
                 np.full(n, FREE_DENSITY[1]),
                 np.full(n, FREE_DENSITY[1]),
@@ -699,7 +708,7 @@ class BathprintEnvV1(BathprintEnvBase):
         self._target_key = tgt.key
         self._prepared_target = tgt
         if self.goal_conditioned:
-            self._desired_goal = self._goal_vector(
+            self._desired_goal = self.goals.vector(
                 tgt.points_mm, tgt.density_lo_kg_m3, tgt.density_hi_kg_m3, n, n
             )
 
@@ -843,101 +852,11 @@ class BathprintEnvV1(BathprintEnvBase):
         return out
 
     # ------------------------------------------------------------------ goals
-    def _goal_vector(
-        self, pts: np.ndarray, lo: np.ndarray, hi: np.ndarray, n: int, n_prev: int
-    ) -> np.ndarray:
-        """[points (N x 3) mm | density lo (N) | density hi (N) | n | n_prev], N = the spec's
-        samples, padded with zeros; points only if shape is scored, the band only if density
-        is."""
-        size = self.n_target_samples
-        parts = []
-        if self.scores_shape:
-            p = np.zeros((size, 3))
-            p[: len(pts)] = pts[:size]
-            parts.append(p.ravel())
-        if self.scores_density:
-            for band in (lo, hi):
-                b = np.zeros(size)
-                b[: len(band)] = band[:size]
-                parts.append(b)
-        parts.append(np.array([float(n), float(n_prev)]))
-        return np.concatenate(parts)
-
     def _achieved_goal(self) -> np.ndarray:
         j = self._n_scored
-        return self._goal_vector(
+        return self.goals.vector(
             self._rec_pts[:j], self._rec_rho[:j], self._rec_rho[:j], j, self._n_scored_prev
         )
-
-    def _split_goal(self, g: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, int, int]:
-        size = self.n_target_samples
-        k = 0
-        pts = np.zeros((size, 3))
-        lo = np.full(size, FREE_DENSITY[0])
-        hi = np.full(size, FREE_DENSITY[1])
-        if self.scores_shape:
-            pts = np.ascontiguousarray(g[: 3 * size].reshape(size, 3))
-            k = 3 * size
-        if self.scores_density:
-            lo = np.ascontiguousarray(g[k : k + size])
-            hi = np.ascontiguousarray(g[k + size : k + 2 * size])
-        return pts, lo, hi, int(round(g[-2])), int(round(g[-1]))
-
-    def _goal_spans(self) -> tuple[int, int]:
-        """The metric's alignment half-window and curvature span, in target samples."""
-        mp = self.metric_params
-        h = self.target_spacing_mm
-        half = max(1, int(round(0.5 * mp.window_mm / h)))
-        return half, max(1, int(round(mp.curvature_span_mm / h)))
-
-    def _goal_weights(self) -> np.ndarray:
-        """The metric's weights and scales as :func:`metric_errors` takes them."""
-        mp = self.metric_params
-        return np.array(
-            [
-                mp.w_shape,
-                mp.w_curvature,
-                mp.w_density,
-                mp.length_scale_mm,
-                mp.density_scale_kg_m3,
-                mp.missing_error**2,
-            ]
-        )
-
-    def _goal_sse(
-        self,
-        a_pts: np.ndarray,
-        a_rho: np.ndarray,
-        n: int,
-        d_pts: np.ndarray,
-        d_lo: np.ndarray,
-        d_hi: np.ndarray,
-        n_d: int,
-    ) -> float:
-        """Sum of squared errors of the first n achieved samples against the desired goal's
-        first n_d samples (the metric of the environment)."""
-        mp = self.metric_params
-        half, k = self._goal_spans()
-        tpts = np.ascontiguousarray(d_pts[:n_d])
-        tcurv = discrete_curvature(tpts, k) if mp.w_curvature > 0 else np.zeros(0)
-        w = self._goal_weights()
-        b_lo, b_hi = (-math.inf, math.inf) if self.bath_range is None else self.bath_range
-        j = min(n, n_d)
-        errors = metric_errors(
-            np.ascontiguousarray(a_pts[:j]),
-            np.ascontiguousarray(a_rho[:j]),
-            tpts,
-            tcurv,
-            np.ascontiguousarray(d_lo[:n_d]),
-            np.ascontiguousarray(d_hi[:n_d]),
-            half,
-            k,
-            w,
-            bool(mp.allow_reflection),
-            float(b_lo),
-            float(b_hi),
-        )[0]
-        return squared_sum(errors, j)
 
     def goal_reward(
         self, achieved_goal: np.ndarray, desired_goal: np.ndarray, info: Any = None
@@ -954,47 +873,15 @@ class BathprintEnvV1(BathprintEnvBase):
         ag = np.asarray(achieved_goal, np.float64)
         dg = np.asarray(desired_goal, np.float64)
         single = ag.ndim == 1
-        ag2 = np.ascontiguousarray(np.atleast_2d(ag))
-        dg2 = np.ascontiguousarray(np.atleast_2d(dg))
-        out = np.empty(len(ag2))
-        # the operations of _split_goal and _goal_sse per sample, in one compiled loop
-        mp = self.metric_params
-        half, k = self._goal_spans()
-        b_lo, b_hi = (-math.inf, math.inf) if self.bath_range is None else self.bath_range
-        goal_rewards(
-            ag2,
-            dg2,
-            self.n_target_samples,
-            bool(self.scores_shape),
-            bool(self.scores_density),
-            float(FREE_DENSITY[0]),
-            float(FREE_DENSITY[1]),
-            half,
-            k,
-            bool(mp.w_curvature > 0),
-            self._goal_weights(),
-            bool(mp.allow_reflection),
-            float(b_lo),
-            float(b_hi),
-            out,
+        out = self.goals.rewards(
+            np.ascontiguousarray(np.atleast_2d(ag)), np.ascontiguousarray(np.atleast_2d(dg))
         )
         return float(out[0]) if single else out
 
     def _goal_reward_one_by_one(self, achieved: np.ndarray, desired: np.ndarray) -> np.ndarray:
-        """:meth:`goal_reward` of rows of goals, sample by sample in Python (``_split_goal``,
-        ``_goal_sse``): the reference the compiled batch matches bit for bit (tests,
-        benchmarks/bench_hindsight.py)."""
-        out = np.empty(len(achieved))
-        for i in range(len(achieved)):
-            a_pts, a_rho, _, n, n_prev = self._split_goal(achieved[i])
-            d_pts, d_lo, d_hi, n_d, _ = self._split_goal(desired[i])
-            if n_d <= 0:
-                out[i] = 0.0
-                continue
-            before = self._goal_sse(a_pts, a_rho, n_prev, d_pts, d_lo, d_hi, n_d)
-            after = self._goal_sse(a_pts, a_rho, n, d_pts, d_lo, d_hi, n_d)
-            out[i] = (before - after) / n_d
-        return out
+        """:meth:`goal_reward` of rows of goals, sample by sample in Python: the reference
+        the compiled batch matches bit for bit (tests, benchmarks/bench_hindsight.py)."""
+        return self.goals.rewards_one_by_one(achieved, desired)
 
     def _obs_out(self, obs: np.ndarray) -> Any:
         if not self.goal_conditioned:
