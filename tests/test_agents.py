@@ -24,7 +24,7 @@ from bathprint.agents.train import checkpoints, train
 from bathprint.analysis.theory import bending_stiffness, coil_radius
 from bathprint.cli import main as cli_main
 from bathprint.envs import ENV_IDS, make
-from bathprint.envs.core import (
+from bathprint.envs.observation import (
     OBS_CURVATURE_MM,
     OBS_DENSITY_REF_KG_M3,
     OBS_DENSITY_SCALE_KG_M3,
@@ -197,10 +197,10 @@ def test_feedforward_sets_the_inner_fraction_for_the_density_aim():
 
 
 def test_cli_errors_name_the_problem(tmp_path, capsys):
-    assert cli_main(["evaluate", "no_such_policy", "--env", "CoilRadius"]) == 2
+    assert cli_main(["evaluate", "no_such_policy", "--env", "CoilRadius-v0"]) == 2
     assert "no_such_policy" in capsys.readouterr().err
-    assert cli_main(["train", "--algo", "ppo", "--env", "CoilRadius", "--timesteps", "0"]) == 2
-    assert cli_main(["baselines", "show", "--env", "CoilRadius"]) == 0
+    assert cli_main(["train", "--algo", "ppo", "--env", "CoilRadius-v0", "--timesteps", "0"]) == 2
+    assert cli_main(["baselines", "show", "--env", "CoilRadius-v0"]) == 0
     assert "feedforward_prefactor" in capsys.readouterr().out
 
 

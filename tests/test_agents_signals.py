@@ -116,7 +116,7 @@ def _alive(pids: set[int]) -> set[int]:
 @pytest.mark.timeout(PROGRESS_WAIT_S + 180)
 def test_sigterm_saves_at_the_step_marks_interrupted_and_resume_finishes(tmp_path, capsys):
     run = tmp_path / "run"
-    args = ["train", "--algo", "ppo", "--env", "CoilRadius", "--out", str(run), "--quiet"]
+    args = ["train", "--algo", "ppo", "--env", "CoilRadius-v0", "--out", str(run), "--quiet"]
     proc, err = _start([*args, "--hyperparams", str(_hyperparams_file(tmp_path))], tmp_path, "a")
     seen = _wait_for_episodes(proc, run, 4, PROGRESS_WAIT_S)  # two updates done, training under way
     workers = _descendants(proc.pid) if Path("/proc").is_dir() else set()
@@ -162,7 +162,7 @@ def test_ctrl_c_to_the_whole_process_group_stops_cleanly(tmp_path):
             "--algo",
             "ppo",
             "--env",
-            "CoilRadius",
+            "CoilRadius-v0",
             "--out",
             str(run),
             "--quiet",
@@ -190,7 +190,7 @@ def test_sigterm_ends_evaluate_with_143_and_a_message(tmp_path):
             "evaluate",
             "random",
             "--env",
-            "CoilRadius",
+            "CoilRadius-v0",
             "--episodes",
             "16",
             "--images",

@@ -56,7 +56,7 @@ def _train_argv(hp_file: Path, out: Path, *extra: str) -> list[str]:
         "--algo",
         "ppo",
         "--env",
-        "CoilRadius",
+        "CoilRadius-v0",
         "--hyperparams",
         str(hp_file),
         "--out",
@@ -140,7 +140,7 @@ def test_sac_keys_are_checked_against_sac(tmp_path, capsys):
         "--algo",
         "sac",
         "--env",
-        "CoilRadius",
+        "CoilRadius-v0",
         "--hyperparams",
         str(_write_hp(tmp_path, hp)),
         "--out",
@@ -265,7 +265,7 @@ def test_a_stuck_folder_says_what_is_wrong_and_how_to_start_over(tmp_path, capsy
         "status": "failed",
     }
     (out / "run.json").write_text(json.dumps(stuck))
-    argv = ["train", "--algo", "ppo", "--env", "CoilRadius", "--out", str(out), "--quiet"]
+    argv = ["train", "--algo", "ppo", "--env", "CoilRadius-v0", "--out", str(out), "--quiet"]
     _refused(
         capsys,
         [*argv, "--resume"],
@@ -284,7 +284,7 @@ def test_a_stuck_folder_says_what_is_wrong_and_how_to_start_over(tmp_path, capsy
 def test_resume_refuses_settings_it_would_ignore(tmp_path, capsys):
     out = tmp_path / "run"
     train("ppo", ENV, timesteps=80, out=out, hyperparams=_tiny(), progress=False)
-    argv = ["train", "--algo", "ppo", "--env", "CoilRadius", "--out", str(out), "--resume"]
+    argv = ["train", "--algo", "ppo", "--env", "CoilRadius-v0", "--out", str(out), "--resume"]
     _refused(
         capsys,
         [*argv, "--hyperparams", str(_write_hp(tmp_path, _tiny()))],
@@ -293,7 +293,7 @@ def test_resume_refuses_settings_it_would_ignore(tmp_path, capsys):
     _refused(capsys, [*argv, "--seed", "5"], "--seed = 5", "started with seed 0")
     _refused(
         capsys,
-        ["train", "--algo", "sac", "--env", "CoilRadius", "--out", str(out), "--resume"],
+        ["train", "--algo", "sac", "--env", "CoilRadius-v0", "--out", str(out), "--resume"],
         "is a ppo run",
     )
 
@@ -318,7 +318,7 @@ def test_a_corrupt_run_json_is_refused_by_resume_rerun_and_evaluate(
     out = tmp_path / "run"
     out.mkdir()
     (out / "run.json").write_text(text)
-    argv = ["train", "--algo", "ppo", "--env", "CoilRadius", "--out", str(out), "--quiet"]
+    argv = ["train", "--algo", "ppo", "--env", "CoilRadius-v0", "--out", str(out), "--quiet"]
     _refused(capsys, [*argv, "--resume"], "run.json", *needles)
     _refused(capsys, argv, "run.json", *needles)
     _refused(
@@ -327,7 +327,7 @@ def test_a_corrupt_run_json_is_refused_by_resume_rerun_and_evaluate(
             "evaluate",
             str(out),
             "--env",
-            "CoilRadius",
+            "CoilRadius-v0",
             "--episodes",
             "1",
             "--out",
@@ -353,7 +353,9 @@ def test_a_corrupt_run_json_is_refused_by_resume_rerun_and_evaluate(
 )
 def test_play_refuses_values_it_would_change(tmp_path, capsys, extra, needles):
     out = tmp_path / "play"
-    _refused(capsys, ["play", "CoilRadius", "--out", str(out), *extra], "bathprint play:", *needles)
+    _refused(
+        capsys, ["play", "CoilRadius-v0", "--out", str(out), *extra], "bathprint play:", *needles
+    )
     assert not out.exists()
 
 
@@ -361,7 +363,7 @@ def test_evaluate_refuses_more_episodes_than_held_out_targets(tmp_path, capsys):
     out = tmp_path / "eval"
     _refused(
         capsys,
-        ["evaluate", "random", "--env", "CoilRadius", "--episodes", "100", "--out", str(out)],
+        ["evaluate", "random", "--env", "CoilRadius-v0", "--episodes", "100", "--out", str(out)],
         "episodes = 100",
         "16 targets",
         "allowed 1..16",
@@ -378,7 +380,7 @@ def test_evaluate_checks_every_policy_before_the_first_runs(tmp_path, capsys):
             "random",
             "no_such_run",
             "--env",
-            "CoilRadius",
+            "CoilRadius-v0",
             "--episodes",
             "1",
             "--out",
@@ -412,7 +414,7 @@ def test_missing_statistics_of_an_observation_normalised_run_are_refused(
             "evaluate",
             str(run),
             "--env",
-            "CoilRadius",
+            "CoilRadius-v0",
             "--episodes",
             "1",
             "--out",
@@ -439,7 +441,7 @@ def test_missing_statistics_are_recorded_when_they_do_not_matter(obs_normalised_
                 "evaluate",
                 str(run),
                 "--env",
-                "CoilRadius",
+                "CoilRadius-v0",
                 "--episodes",
                 "1",
                 "--images",
@@ -468,7 +470,7 @@ def test_a_bare_model_without_statistics_is_evaluated_with_a_warning(
                 "evaluate",
                 str(model),
                 "--env",
-                "CoilRadius",
+                "CoilRadius-v0",
                 "--episodes",
                 "1",
                 "--images",
@@ -491,7 +493,7 @@ def test_evaluate_refuses_a_run_on_another_environment(obs_normalised_run, tmp_p
     out = tmp_path / "eval"
     _refused(
         capsys,
-        ["evaluate", str(obs_normalised_run), "--env", "WriteShape", "--out", str(out)],
+        ["evaluate", str(obs_normalised_run), "--env", "WriteShape-v0", "--out", str(out)],
         f"trained on {ENV}, not on bathprint/WriteShape-v0",
         f"--env {ENV}",
     )
@@ -502,7 +504,7 @@ def test_a_damaged_checkpoint_is_named_on_resume(tmp_path, capsys):
     out = tmp_path / "run"
     train("ppo", ENV, timesteps=160, out=out, hyperparams=_tiny(), progress=False)
     (out / "checkpoints" / "model_160_steps.zip").write_bytes(b"not a zip")
-    argv = ["train", "--algo", "ppo", "--env", "CoilRadius", "--out", str(out), "--resume"]
+    argv = ["train", "--algo", "ppo", "--env", "CoilRadius-v0", "--out", str(out), "--resume"]
     _refused(
         capsys,
         [*argv, "--timesteps", "240", "--quiet"],
@@ -537,13 +539,13 @@ def test_evaluate_writes_the_policies_side_by_side(tmp_path, capsys, monkeypatch
     import numpy as np
     from PIL import Image
 
-    import bathprint.envs.core as core
+    from bathprint.envs.base import BathprintEnvBase
 
     # small stand-in frames: the layout is under test here, not the drawing (which costs
     # most of an evaluation's time and is tested with the environments)
     calls = iter(range(10**6))  # each frame differs (a GIF merges identical frames)
     monkeypatch.setattr(
-        core.BathprintEnv, "render", lambda self: np.full((40, 60, 3), next(calls) % 256, np.uint8)
+        BathprintEnvBase, "render", lambda self: np.full((40, 60, 3), next(calls) % 256, np.uint8)
     )
     gif = tmp_path / "cmp.gif"
     argv = ["evaluate", "constant", "oracle", "--env", "CoilRadius-v1", "--episodes", "1",

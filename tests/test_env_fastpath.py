@@ -20,10 +20,12 @@ import bathprint.envs as E
 from bathprint.core import layout as L
 from bathprint.core.extrusion import extruded_length, flow_rate, inner_volume
 from bathprint.core.model import flow_cumulative
-from bathprint.envs import core
+from bathprint.envs import observation as ob
 from bathprint.envs._kernels import pairwise_sum
+from bathprint.envs.base import ML_MIN
 from bathprint.envs.metric import MetricParams, PrintedSamples, evaluate
 from bathprint.envs.targets import Target, discrete_curvature
+from bathprint.envs.v0 import BathprintEnvV0
 
 
 # ------------------------------------------------------------------ references (numpy)
@@ -63,7 +65,7 @@ def reference_evaluate(
     return np.sqrt(err2), float(np.sqrt(np.mean(err2))), shape, curv, dn
 
 
-def reference_observe(env: core.BathprintEnv) -> np.ndarray:
+def reference_observe(env: BathprintEnvV0) -> np.ndarray:
     """The observation as first written with numpy, from the environment's state."""
     tgt = env.target
     u, x, v, rho = env._u, env._x, env._v, env._rho
@@ -72,22 +74,22 @@ def reference_observe(env: core.BathprintEnv) -> np.ndarray:
         idx = np.searchsorted(u, uq, side="right") - 1
         return rho[np.clip(idx, 0, len(rho) - 1)]
 
-    xv = env._interp(u[-1] - core._OBS_QUERY_MM, np.concatenate([x, v], axis=1))
+    xv = env._interp(u[-1] - ob.QUERY_MM, np.concatenate([x, v], axis=1))
     parts = [
-        (xv[core._OBS_TIP, :3] - x[-1]).ravel() / core.OBS_LENGTH_MM,
-        xv[core._OBS_VEL, 3:].ravel() / core.OBS_SPEED_MM_S,
-        discrete_curvature(xv[core._OBS_BACK, :3], 2)[core._OBS_CURV_INDEX] * core.OBS_CURVATURE_MM,
-        (density_at(u[-1] - np.array(core.DENS_OFFSETS_MM)) - core.OBS_DENSITY_REF_KG_M3)
-        / core.OBS_DENSITY_SCALE_KG_M3,
+        (xv[ob.QUERY_TIP, :3] - x[-1]).ravel() / ob.OBS_LENGTH_MM,
+        xv[ob.QUERY_VEL, 3:].ravel() / ob.OBS_SPEED_MM_S,
+        discrete_curvature(xv[ob.QUERY_BACK, :3], 2)[ob.CURV_INDEX] * ob.OBS_CURVATURE_MM,
+        (density_at(u[-1] - np.array(ob.DENS_OFFSETS_MM)) - ob.OBS_DENSITY_REF_KG_M3)
+        / ob.OBS_DENSITY_SCALE_KG_M3,
     ]
-    s = env._printed_mm + np.array(core.TARGET_OFFSETS_MM)
+    s = env._printed_mm + np.array(ob.TARGET_OFFSETS_MM)
     idx = np.clip(np.round(s / tgt.spacing_mm).astype(int), 0, tgt.n_samples - 1)
     aim = tgt.density_aim(env.rho_gel)[idx]
     feats = np.stack(
         [
-            tgt.curvature_1_mm[idx] * core.OBS_CURVATURE_MM,
-            tgt.torsion_1_mm[idx] * core.OBS_CURVATURE_MM,
-            (aim - core.OBS_DENSITY_REF_KG_M3) / core.OBS_DENSITY_SCALE_KG_M3,
+            tgt.curvature_1_mm[idx] * ob.OBS_CURVATURE_MM,
+            tgt.torsion_1_mm[idx] * ob.OBS_CURVATURE_MM,
+            (aim - ob.OBS_DENSITY_REF_KG_M3) / ob.OBS_DENSITY_SCALE_KG_M3,
         ],
         axis=1,
     )
@@ -100,11 +102,11 @@ def reference_observe(env: core.BathprintEnv) -> np.ndarray:
         off_obs = 2 * (off - env.offset_range[0]) / off_span - 1
     a = env.controls_to_action(c["q_outer_ml_min"], c["q_inner_ml_min"])
     q_in = a[env.action_names.index("q_inner")] if "q_inner" in env.action_names else -1.0
-    needle = (env._needle_mm - env.needle_start_mm) / core.OBS_NEEDLE_MM
+    needle = (env._needle_mm - env.needle_start_mm) / ob.OBS_NEEDLE_MM
     parts.append(np.array([a[0], q_in, off_obs, *needle]))
     m = env._metric
     j = env._scored()
-    recent = m.errors[max(0, j - core.RECENT_SAMPLES) : j]
+    recent = m.errors[max(0, j - ob.RECENT_SAMPLES) : j]
     miss = env.metric_params.missing_error
     parts.append(
         np.array(
@@ -116,8 +118,8 @@ def reference_observe(env: core.BathprintEnv) -> np.ndarray:
             ]
         )
     )
-    obs = np.nan_to_num(np.concatenate(parts), nan=0.0, posinf=core.OBS_CLIP, neginf=-core.OBS_CLIP)
-    return np.clip(obs, -core.OBS_CLIP, core.OBS_CLIP).astype(np.float32)
+    obs = np.nan_to_num(np.concatenate(parts), nan=0.0, posinf=ob.OBS_CLIP, neginf=-ob.OBS_CLIP)
+    return np.clip(obs, -ob.OBS_CLIP, ob.OBS_CLIP).astype(np.float32)
 
 
 def sum_rtol(n: int) -> float:
@@ -183,7 +185,7 @@ def test_compiled_set_flow_equals_the_numpy_reference() -> None:
     for _ in range(100):  # past 64 knots: the table is cut and its cumulative start moves
         t = a.t + rng.uniform(1e-4, 0.02)
         a.fstate[0] = b.fstate[0] = t  # only the time matters to set_flow
-        qo, qi = rng.uniform(0.25, 2.0) * core.ML_MIN, rng.uniform(0.0, 0.2) * core.ML_MIN
+        qo, qi = rng.uniform(0.25, 2.0) * ML_MIN, rng.uniform(0.0, 0.2) * ML_MIN
         a.set_flow(qo, qi)
         _reference_set_flow(b.model, t, qo, qi)
         np.testing.assert_array_equal(b.model.flow, a.model.flow)

@@ -17,6 +17,7 @@ import bathprint
 import bathprint.envs as E
 from bathprint import SimulationError
 from bathprint.envs.metric import MetricParams, PrintedSamples, evaluate, windowed_kabsch_rmsd
+from bathprint.envs.observation import OBS_SIZE
 from bathprint.envs.targets import CoilScheduleFamily, TargetSampler, params_key
 
 DRAFT = {"accuracy": "draft"}
@@ -46,7 +47,9 @@ def test_register_envs_is_idempotent_and_makes_every_id() -> None:
     for env_id in E.ENV_IDS:
         assert env_id in gymnasium.registry
         assert env_id.startswith("bathprint/")
-    assert E.resolve_id("coilradius") == "bathprint/CoilRadius-v0"
+    assert E.resolve_id("coilradius") == "bathprint/CoilRadius-v1"  # a bare name: the newest
+    assert E.resolve_id("writeshape") == "bathprint/WriteShape-v2"
+    assert E.resolve_id("CoilRadius-v0") == "bathprint/CoilRadius-v0"
     with pytest.raises(ValueError, match="unknown environment"):
         E.resolve_id("Nope")
 
@@ -62,7 +65,7 @@ def test_register_envs_is_idempotent_and_makes_every_id() -> None:
 def test_spaces(env_id: str, n_actions: int) -> None:
     env = gymnasium.make(env_id, **DRAFT)
     assert env.action_space == gymnasium.spaces.Box(-1, 1, (n_actions,), np.float32)
-    assert env.observation_space.shape == (E.core.OBS_SIZE,)
+    assert env.observation_space.shape == (OBS_SIZE,)
     assert env.observation_space.dtype == np.float32
     assert env.metadata["render_fps"] > 0
     assert set(env.metadata["render_modes"]) == {"human", "rgb_array"}
@@ -78,8 +81,9 @@ def test_spaces(env_id: str, n_actions: int) -> None:
 def test_gymnasium_and_sb3_checkers_pass(env_id: str) -> None:
     with warnings.catch_warnings():
         warnings.simplefilter("error")  # any checker warning fails the test
-        # but Gymnasium's note that a v0 has a newer version (v1) is its versioning convention
+        # but the notes that an older version has a newer one are the versioning convention
         warnings.filterwarnings("ignore", ".*is out of date", DeprecationWarning)
+        warnings.filterwarnings("ignore", ".*is deprecated: ", DeprecationWarning)
         gym_check_env(gymnasium.make(env_id, **DRAFT).unwrapped)  # renders both modes too
         gym_check_env(gymnasium.make(env_id, needle_velocity=True, **DRAFT).unwrapped)
         sb3_check_env(gymnasium.make(env_id, **DRAFT).unwrapped, warn=True)
@@ -337,7 +341,7 @@ def test_make_vec(mode: str) -> None:
         "bathprint/BuoyantLayers-v0", num_envs=2, vectorization_mode=mode, **DRAFT
     )
     obs, _ = venv.reset(seed=0)
-    assert obs.shape == (2, E.core.OBS_SIZE)
+    assert obs.shape == (2, OBS_SIZE)
     for _ in range(5):
         obs, rew, term, trunc, info = venv.step(venv.action_space.sample())
     assert np.isfinite(obs).all() and rew.shape == (2,) and "metric" in info
@@ -353,7 +357,7 @@ def test_sb3_subproc_vec_env() -> None:
     obs = venv.reset()
     for _ in range(5):
         obs, rew, done, infos = venv.step(np.stack([venv.action_space.sample()] * 2))
-    assert obs.shape == (2, E.core.OBS_SIZE) and np.isfinite(obs).all()
+    assert obs.shape == (2, OBS_SIZE) and np.isfinite(obs).all()
     venv.close()
 
 
@@ -365,7 +369,7 @@ def test_make_from_config() -> None:
     env = E.make_from_config(json.loads(json.dumps(cfg)))  # survives a JSON round trip
     assert env.action_space.shape == (5,)
     assert env.unwrapped.accuracy == "draft"
-    assert env.reset(seed=0)[0].shape == (E.core.OBS_SIZE,)
+    assert env.reset(seed=0)[0].shape == (OBS_SIZE,)
     with pytest.raises(ValueError, match="'id'"):
         E.make_from_config({"kwargs": {}})
     with pytest.raises(ValueError, match="unknown keys"):
@@ -375,7 +379,7 @@ def test_make_from_config() -> None:
 # ------------------------------------------------------------------ play
 def test_play_writes_an_animation_and_the_metric(tmp_path) -> None:
     out = tmp_path / "play"
-    argv = ["BuoyantLayers", "--policy", "constant", "--seed", "1", "--out", str(out)]
+    argv = ["BuoyantLayers-v0", "--policy", "constant", "--seed", "1", "--out", str(out)]
     assert E.play_main([*argv, "--frame-every", "30"]) == 0
     summary = json.loads((out / "metrics.json").read_text())
     (ep,) = summary["episodes"]

@@ -13,7 +13,7 @@ import pytest
 from gymnasium.utils.env_checker import check_env as gym_check_env
 
 import bathprint.envs as E
-from bathprint.envs.core import OBS_CLIP, OBS_LENGTH_MM
+from bathprint.envs.observation import OBS_CLIP, OBS_LENGTH_MM
 from bathprint.envs.spec import SpecError
 
 V2 = "bathprint/WriteShape-v2"

@@ -92,12 +92,12 @@ def test_page_is_self_contained(page: Path):
 def test_view_refusals(tmp_path: Path, capsys):
     for argv in (
         ["view"],  # neither a run nor --env
-        ["view", str(tmp_path), "--env", "CoilRadius"],  # both
+        ["view", str(tmp_path), "--env", "CoilRadius-v0"],  # both
         ["view", str(tmp_path / "missing")],
         ["view", str(tmp_path)],  # a directory without trajectory.npz
         ["view", "--env", "NoSuchEnv"],
-        ["view", "--env", "CoilRadius", "--policy", str(tmp_path / "no_run")],
-        ["view", "--env", "CoilRadius", "--target-index", "999"],
+        ["view", "--env", "CoilRadius-v0", "--policy", str(tmp_path / "no_run")],
+        ["view", "--env", "CoilRadius-v0", "--target-index", "999"],
     ):
         capsys.readouterr()
         assert main(argv) == 2, argv
@@ -271,7 +271,7 @@ def test_episode_page_in_browser(browser, tmp_path: Path):
         [
             "view",
             "--env",
-            "CoilRadius",
+            "CoilRadius-v0",
             "--policy",
             "constant",
             "--accuracy",

@@ -317,12 +317,12 @@ def evaluate_many(
         summaries.append(summary)
         panels.append((f"{label}: metric {eps[0].metrics['metric']:.3f}", eps[0].frames))
     if side_by_side is not None:
-        from bathprint.envs.core import BathprintEnv
+        from bathprint.envs.base import BathprintEnvBase
         from bathprint.envs.play import side_by_side as compose
         from bathprint.envs.play import write_animation
 
         Path(side_by_side).parent.mkdir(parents=True, exist_ok=True)
-        fps = float(BathprintEnv.metadata["render_fps"])
+        fps = float(BathprintEnvBase.metadata["render_fps"])
         frames = compose(panels, scale=SIDE_BY_SIDE_SCALE, every=SIDE_BY_SIDE_EVERY)
         write_animation(frames, Path(side_by_side), fps / SIDE_BY_SIDE_EVERY)
     first = summaries[0]

@@ -13,7 +13,7 @@ trained agent and a baseline alike::
   training targets (``agents/baselines.yml``).
 - :class:`FeedforwardPolicy`: the paper's scaling law inverted. It reads the target just
   ahead of the needle from the observation (curvature, torsion, density aim; see
-  :data:`bathprint.envs.core.OBS_LAYOUT`) and sets
+  :data:`bathprint.envs.observation.OBS_LAYOUT`) and sets
 
   * Q_i for the density aim: phi = (rho_gel - rho_aim) / (rho_gel - rho_inner), rho the
     composite's volume-weighted density, and Q_i = phi Q_o / (1 - phi); for an arc (planar
@@ -37,7 +37,7 @@ from typing import Any, Protocol
 
 import numpy as np
 
-from bathprint.envs.core import (
+from bathprint.envs.observation import (
     OBS_CURVATURE_MM,
     OBS_DENSITY_REF_KG_M3,
     OBS_DENSITY_SCALE_KG_M3,

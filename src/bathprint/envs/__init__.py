@@ -2,27 +2,30 @@
 
 >>> import gymnasium, bathprint.envs
 >>> bathprint.envs.register_envs()          # idempotent; ``import bathprint`` will call it
->>> env = gymnasium.make("bathprint/CoilRadius-v0", accuracy="draft")
+>>> env = gymnasium.make("bathprint/CoilRadius-v1", accuracy="draft")
 >>> obs, info = env.reset(seed=0)
 >>> obs, reward, terminated, truncated, info = env.step(env.action_space.sample())
 
 =============================  ===========================================================
 id                             task
 =============================  ===========================================================
-``bathprint/CoilRadius-v1``    track a coil-radius schedule with the flow (printed targets)
-``bathprint/WriteShape-v2``    WriteShape-v1 with the target's positions near the needle
-``bathprint/WriteShape-v1``    write a 3D curve with the needle and the flow
-``bathprint/BuoyantLayers-v1`` parts that settle at target heights, the oil pump lagging
-``bathprint/CoilRadius-v0``    track a schedule of coil radius (and pitch) along the length
-``bathprint/WriteShape-v0``    write a 3D curve: helices, straight pieces, arcs, float/sink
-``bathprint/BuoyantLayers-v0`` parts that settle at target heights in a gradient bath
+``bathprint/CoilRadius-v1``    track a coil-radius schedule with the flow (newest)
+``bathprint/WriteShape-v2``    WriteShape-v1 with the target's positions near the needle (newest)
+``bathprint/BuoyantLayers-v1`` parts that settle at target heights, the oil pump lagging (newest)
+``bathprint/WriteShape-v1``    write a 3D curve with the needle and the flow (deprecated)
+``bathprint/CoilRadius-v0``    a schedule of coil radius (and pitch) (deprecated)
+``bathprint/WriteShape-v0``    a 3D curve: helices, straight pieces, arcs (deprecated)
+``bathprint/BuoyantLayers-v0`` parts that settle at target heights (deprecated)
 =============================  ===========================================================
 
-Version 1 (:mod:`bathprint.envs.v1`, ``docs/envs/``) is the suite to use; version 0 stays as
-it was for reproducing older results. ``WriteShape-v2`` is version 1's protocol (printed
-targets, train / validation / test sets) with a new observation. Specs (scene, ranges,
-targets, metric) live in ``envs/*.toml``; the metric is in :mod:`bathprint.envs.metric`.
-``bathprint play`` is :func:`play_main`.
+Versioning follows Gymnasium's: a registered version never changes its results (a change is
+a new version); a bare name (``bathprint/CoilRadius``, or ``CoilRadius`` here) makes the
+newest version (:func:`newest_id`); making an older one raises a DeprecationWarning naming
+the newest (``docs/envs/``, Version History). Each version is its own class:
+:mod:`bathprint.envs.v0` and :mod:`bathprint.envs.v1` (the printed-target protocol of
+versions 1 and 2) on :mod:`bathprint.envs.base`, which holds what they share. Specs (scene,
+ranges, targets, metric) live in ``envs/*.toml``; the metric is in
+:mod:`bathprint.envs.metric`. ``bathprint play`` is :func:`play_main`.
 """
 
 from __future__ import annotations
@@ -59,14 +62,33 @@ def register_envs() -> list[str]:
     return list(ENV_IDS)
 
 
+def _name_version(env_id: str) -> tuple[str, int]:
+    """``bathprint/CoilRadius-v1`` -> (``bathprint/CoilRadius``, 1)."""
+    name, _, version = env_id.rpartition("-v")
+    return name, int(version)
+
+
+def newest_id(env_id: str) -> str:
+    """The newest registered version of an environment (a full id, e.g.
+    ``bathprint/WriteShape-v0`` -> ``bathprint/WriteShape-v2``)."""
+    name = _name_version(env_id)[0]
+    versions = [i for i in ENV_IDS if _name_version(i)[0] == name]
+    if not versions:
+        raise ValueError(f"unknown environment {env_id!r}; known: {', '.join(ENV_IDS)}")
+    return max(versions, key=lambda i: _name_version(i)[1])
+
+
 def resolve_id(name: str) -> str:
     """Full id of an environment given as ``bathprint/CoilRadius-v1``, ``CoilRadius-v1`` or
-    ``CoilRadius`` (case-insensitive; the bare name is version 0, as it always was)."""
+    ``CoilRadius`` (case-insensitive; a bare name is the newest version, as in Gymnasium)."""
     key = name.lower().removeprefix(f"{NAMESPACE}/")
     for env_id in ENV_IDS:
-        short = env_id.removeprefix(f"{NAMESPACE}/").lower()
-        if key in (short, short.removesuffix("-v0")):
+        if key == env_id.removeprefix(f"{NAMESPACE}/").lower():
             return env_id
+    for env_id in ENV_IDS:
+        bare = _name_version(env_id)[0].removeprefix(f"{NAMESPACE}/").lower()
+        if key == bare:
+            return newest_id(env_id)
     raise ValueError(f"unknown environment {name!r}; known: {', '.join(ENV_IDS)}")
 
 
@@ -132,6 +154,7 @@ __all__ = [
     "printed_targets",
     "make",
     "make_from_config",
+    "newest_id",
     "play_main",
     "register_envs",
     "resolve_id",

@@ -376,7 +376,7 @@ def observe(
     errors: np.ndarray,
     clip: float,
 ) -> np.ndarray:
-    """The observation vector (float32, ``bathprint.envs.core.OBS_LAYOUT``), NaN -> 0 and
+    """The observation vector (float32, ``bathprint.envs.observation.OBS_LAYOUT``), NaN -> 0 and
     clipped to +-clip.
 
     ``layout`` = (query offsets behind the tip (tip | velocity | back sampling), n_tip, n_vel,

@@ -142,7 +142,7 @@ def observe_v1(
 @njit(cache=True)
 def _split_goal(g, size, shape_on, density_on, free_lo, free_hi):
     """A goal vector's samples (size x 3), densities lo and hi, count and previous count
-    (:meth:`bathprint.envs.v1.BathprintEnvV1._split_goal`); views of ``g`` where it holds
+    (:meth:`bathprint.envs.goals.GoalLayout.split`); views of ``g`` where it holds
     them, new arrays only for what it does not score."""
     k = 3 * size if shape_on else 0
     if shape_on:
@@ -161,7 +161,7 @@ def _split_goal(g, size, shape_on, density_on, free_lo, free_hi):
 @njit(cache=True)
 def _goal_sse(a_pts, a_rho, count, tpts, tcurv, tlo, thi, half, k, w, reflect, b_lo, b_hi):
     """Sum of squared errors of the first ``count`` achieved samples against the desired
-    goal's (:meth:`bathprint.envs.v1.BathprintEnvV1._goal_sse`)."""
+    goal's (:meth:`bathprint.envs.goals.GoalLayout.sse`)."""
     j = min(count, tpts.shape[0])
     errors = metric_errors(
         a_pts[:j], a_rho[:j], tpts, tcurv, tlo, thi, half, k, w, reflect, b_lo, b_hi

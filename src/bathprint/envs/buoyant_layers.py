@@ -2,12 +2,15 @@
 
 from __future__ import annotations
 
-from bathprint.envs.core import BathprintEnv
+from bathprint.envs.v0 import BathprintEnvV0
 from bathprint.envs.v1 import BathprintEnvV1
 
 
-class BuoyantLayersEnv(BathprintEnv):
+class BuoyantLayersEnv(BathprintEnvV0):
     """
+    Deprecated: ``bathprint/BuoyantLayers-v1`` is the newest version (making this one warns);
+    registered so that results made with it reproduce.
+
     ## Description
 
     The paper's density-gradient column (Fig. 3E): the bath's density rises linearly from
@@ -46,7 +49,7 @@ class BuoyantLayersEnv(BathprintEnv):
     ## Observation Space
 
     ``Box(-10, 10, (94,), float32)``: the shared layout (see ``CoilRadiusEnv`` and
-    ``bathprint.envs.core.OBS_LAYOUT``); here the useful parts are the printed density
+    ``bathprint.envs.observation.OBS_LAYOUT``); here the useful parts are the printed density
     (slice 54-59) and the target's density aim (every third entry of slice 60-83).
 
     ## Rewards

@@ -2,12 +2,15 @@
 
 from __future__ import annotations
 
-from bathprint.envs.core import BathprintEnv
+from bathprint.envs.v0 import BathprintEnvV0
 from bathprint.envs.v1 import BathprintEnvV1
 
 
-class CoilRadiusEnv(BathprintEnv):
+class CoilRadiusEnv(BathprintEnvV0):
     """
+    Deprecated: ``bathprint/CoilRadius-v1`` is the newest version (making this one warns);
+    registered so that results made with it reproduce.
+
     ## Description
 
     A soft alginate filament (22G needle, d = 0.41 mm) is extruded downwards into a viscous
@@ -42,7 +45,7 @@ class CoilRadiusEnv(BathprintEnv):
     ## Observation Space
 
     ``Box(-10, 10, (94,), float32)``, the same layout in every bathprint environment
-    (``bathprint.envs.core.OBS_LAYOUT``); lengths / 10 mm, speeds / 100 mm/s,
+    (``bathprint.envs.observation.OBS_LAYOUT``); lengths / 10 mm, speeds / 100 mm/s,
     curvatures x 3 mm, densities as (rho - 1054) / 50 kg/m^3; clipped to +-10, never NaN:
 
     | slice | content |

@@ -1,5 +1,13 @@
-"""The shape metric: ONE number for how far a printed filament is from its target, used as
-the reward (its decrease per step) and for evaluation alike.
+"""The shape metric M: ONE number for how far a printed filament is from its target, used
+for the reward and for evaluation alike. Every version scores with M; the reward differs:
+
+- version 0 (``*-v0``): the reward of a step is M_before - M_after, on the filament as it
+  is at each step; an episode's return is M_0 - M_final = ``missing_error`` - M_final.
+- versions 1 and 2 (``*-v1``, ``WriteShape-v2``): a sample is recorded once it is scored
+  and keeps that value; the reward of a step is the decrease of sum_j e_j^2 / N over the
+  recorded samples (S_before - S_after), so an episode's return is -M_final^2, with no
+  constant progress term; a diverged episode's last reward counts the unscored samples as
+  missing. ``info["metric"]`` is M in every version.
 
 Both curves are sampled at the same printed arclengths s_j = j h, j = 0..N-1 (h: the
 target's spacing; the printed curve by its material arclength, so the comparison is
@@ -27,7 +35,6 @@ missing one, so ending an episode early never pays). The metric is
     M = sqrt( mean_j e_j^2 )   over all N target samples,
 
 so M = missing_error before anything is printed and M is the target's RMS error at the end.
-The reward of a step is M_before - M_after; an episode's return is M_0 - M_final.
 """
 
 from __future__ import annotations

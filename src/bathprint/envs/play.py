@@ -252,7 +252,7 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of ``bathprint play``; returns the exit code."""
-    from bathprint.agents.signals import SignalStop, exit_code, signal_name
+    from bathprint.signals import SignalStop, exit_code, signal_name
 
     args = _parser().parse_args(argv)
     try:

@@ -11,7 +11,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 if TYPE_CHECKING:
-    from bathprint.envs.core import BathprintEnv
+    from bathprint.envs.base import BathprintEnvBase as BathprintEnv
 
 FIGSIZE_IN = (9.0, 4.0)
 DPI = 80

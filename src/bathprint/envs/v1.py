@@ -1,7 +1,7 @@
 """Version 1 of the bathprint environments: :class:`BathprintEnvV1`.
 
-What changes from version 0 (``bathprint.envs.core.BathprintEnv``), every change one that
-changes results (hence the new ids):
+What differs from version 0 (:mod:`bathprint.envs.v0`), every difference one that changes
+results (hence the new ids); :mod:`bathprint.envs.base` holds what both share:
 
 - targets are printed by the environment itself from random smooth control sequences
   (:mod:`bathprint.envs.printed`): reachable by construction; three fixed, disjoint target
@@ -41,38 +41,45 @@ import os
 import pickle
 from typing import Any, ClassVar
 
-import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 
-from bathprint.envs._kernels import metric_errors, printed_at, read_state
-from bathprint.envs._kernels_v1 import goal_rewards, observe_v1, record_samples, squared_sum
-from bathprint.envs.accuracy import ACCURACY_PRESETS
-from bathprint.envs.core import (
-    _OBS_CURV_INDEX,
-    _OBS_QUERY_MM,
-    CURV_OFFSETS_MM,
-    DENS_OFFSETS_MM,
+from bathprint.envs._kernels import metric_errors, printed_at
+from bathprint.envs._kernels_v1 import observe_v1, record_samples, squared_sum
+from bathprint.envs.base import (
     ML_MIN,
     MM,
+    BathprintEnvBase,
+    advance_to,
+    check_accuracy,
+    check_render_mode,
+    check_scene_overrides,
+    is_index,
+    move_needle_within,
+    set_flows,
+)
+from bathprint.envs.goals import GoalLayout
+from bathprint.envs.metric import MetricParams, MetricValue, PrintedSamples, prepare
+from bathprint.envs.observation import (
+    CURV_INDEX,
+    CURV_OFFSETS_MM,
+    DENS_OFFSETS_MM,
     OBS_CLIP,
     OBS_CURVATURE_MM,
     OBS_DENSITY_REF_KG_M3,
     OBS_DENSITY_SCALE_KG_M3,
     OBS_LENGTH_MM,
     OBS_SPEED_MM_S,
-    RAMP_S,
+    QUERY_MM,
     RECENT_SAMPLES,
     TARGET_OFFSETS_MM,
     TIP_OFFSETS_MM,
     VEL_OFFSETS_MM,
-    BathprintEnv,
+    layout_slices,
 )
-from bathprint.envs.metric import MetricParams, MetricValue, PrintedSamples, prepare
-from bathprint.envs.needle import move_needle
 from bathprint.envs.printed import PrintedTargets
 from bathprint.envs.spec import load_spec
-from bathprint.envs.targets import FREE_DENSITY, Target, discrete_curvature, load_target_file
+from bathprint.envs.targets import FREE_DENSITY, Target, load_target_file
 from bathprint.errors import ConfigError, SimulationError
 
 TARGET_SETS = ("train", "validation", "test")
@@ -80,12 +87,9 @@ GOAL_POSITION_MM = 1000.0  # bound of the goals' positions (the bath is 125 mm d
 _INNER_LAG_ITERATIONS = 4  # fixed-point iterations for a step's duration under the lag
 
 
-def _is_int(x: Any) -> bool:
-    return isinstance(x, int | np.integer) and not isinstance(x, bool)
-
-
-class BathprintEnvV1(BathprintEnv):
-    """Base class of the version-1 environments; see the module doc and the subclasses."""
+class BathprintEnvV1(BathprintEnvBase):
+    """The printed-target protocol of versions 1 and 2 (a version's spec says what it
+    observes); see the module doc and the environments' docstrings."""
 
     version: ClassVar[int] = 1
 
@@ -104,6 +108,8 @@ class BathprintEnvV1(BathprintEnv):
         spec_file: str | None = None,
         _printer: bool = False,
     ) -> None:
+        if not _printer:
+            self._warn_if_superseded()
         self._check_kwargs(
             render_mode,
             accuracy,
@@ -139,39 +145,8 @@ class BathprintEnvV1(BathprintEnv):
             )
         self._init_scene(accuracy, scene_overrides)
         self._init_controls(needle_velocity)
-        ep = sd.episode
-        self.lead_in_mm = float(ep.get("lead_in_mm", 0.0))
-        self.settle_length_mm = float(ep.get("settle_length_mm", 20.0))
-        self.warmup_length_mm = float(ep.get("warmup_length_mm", 30.0))
-        self.n_start_states = int(ep.get("start_states", 1))
-        self.max_substeps = int(ep.get("max_substeps", 2000))
-        self.metric_params = MetricParams.from_dict(sd.metric)
-        self.success_metric_max = float(sd.success.get("metric_max", 0.1))
-        tg = sd.target
-        self.target_spacing_mm = float(tg["spacing_mm"])
-        self.target_length_mm = float(tg["length_mm"])
-        self.n_target_samples = int(round(self.target_length_mm / self.target_spacing_mm)) + 1
-        if tg.get("family") != "printed":
-            raise ConfigError(
-                f"{sd.path}: target.family = {tg.get('family')!r}; version 1 has 'printed'"
-            )
-        self.printed: PrintedTargets | None = None if _printer else PrintedTargets(self)
-        self.fixed_target: Target | None = None
-        if target_file is not None:
-            try:
-                self.fixed_target = load_target_file(target_file, self.target_spacing_mm)
-            except (ValueError, FileNotFoundError) as exc:
-                raise ConfigError(f"target_file = {target_file!r}: {exc}") from None
-            if self.goal_conditioned and self.fixed_target.n_samples > self.n_target_samples:
-                raise ConfigError(
-                    f"target_file = {target_file!r}: {self.fixed_target.n_samples} samples; "
-                    f"goal_conditioned=True allows at most {self.n_target_samples} "
-                    f"({self.target_length_mm:g} mm)"
-                )
-        if target_index is not None:
-            self._check_index(target_index, "target_index")
-        self.target_index = target_index
-        self._eval_cursor = 0
+        self._init_episode()
+        self._init_targets(target_file, target_index, _printer)
         self._init_observation()
 
         self.sim = None
@@ -192,15 +167,8 @@ class BathprintEnvV1(BathprintEnv):
         goal_conditioned: Any,
         scene_overrides: Any,
     ) -> None:
-        modes = BathprintEnv.metadata["render_modes"]
-        if render_mode is not None and not (isinstance(render_mode, str) and render_mode in modes):
-            raise ConfigError(
-                f"render_mode = {render_mode!r}; allowed: None, " + ", ".join(map(repr, modes))
-            )
-        if not isinstance(accuracy, str) or accuracy not in ACCURACY_PRESETS:
-            raise ConfigError(
-                f"accuracy = {accuracy!r}; allowed: " + ", ".join(map(repr, ACCURACY_PRESETS))
-            )
+        check_render_mode(render_mode)
+        check_accuracy(accuracy)
         if isinstance(target_set, str) and target_set == "eval":
             raise ConfigError(
                 "target_set = 'eval' is version 0's held-out set; version 1 has 'train', "
@@ -221,17 +189,11 @@ class BathprintEnvV1(BathprintEnv):
             )
         if not isinstance(goal_conditioned, bool):
             raise ConfigError(f"goal_conditioned = {goal_conditioned!r}; allowed: True, False")
-        if scene_overrides is not None and not (
-            isinstance(scene_overrides, dict) and all(isinstance(k, str) for k in scene_overrides)
-        ):
-            raise ConfigError(
-                f"scene_overrides = {scene_overrides!r}; allowed: None or a mapping of dotted "
-                "scene keys to values, e.g. {'bath.viscosity_pa_s': 1.0}"
-            )
+        check_scene_overrides(scene_overrides)
         if target_file is not None and not isinstance(target_file, str):
             raise ConfigError(f"target_file = {target_file!r}; allowed: None or a path")
         if target_index is not None:
-            if not _is_int(target_index):
+            if not is_index(target_index):
                 raise ConfigError(
                     f"target_index = {target_index!r}; allowed: an integer (a validation or "
                     "test target)"
@@ -249,7 +211,7 @@ class BathprintEnvV1(BathprintEnv):
 
     def _check_index(self, index: Any, name: str) -> None:
         """A target index of the fixed set in use: an integer in 0..size-1 (never wrapped)."""
-        if not _is_int(index):
+        if not is_index(index):
             raise ConfigError(f"{name} = {index!r}; allowed: an integer")
         if self.target_set not in ("validation", "test") or self.printed is None:
             raise ConfigError(
@@ -261,6 +223,51 @@ class BathprintEnvV1(BathprintEnv):
                 f"{name} = {index!r}; the {self.target_set} set of {self.env_id} has {n} "
                 f"targets: allowed 0..{n - 1}"
             )
+
+    def _init_episode(self) -> None:
+        """Lengths and budgets of an episode, the metric and success (the spec's
+        ``[episode]``, ``[metric]``, ``[success]``)."""
+        sd = self.spec_data
+        ep = sd.episode
+        self.lead_in_mm = float(ep.get("lead_in_mm", 0.0))
+        self.settle_length_mm = float(ep.get("settle_length_mm", 20.0))
+        self.warmup_length_mm = float(ep.get("warmup_length_mm", 30.0))
+        self.n_start_states = int(ep.get("start_states", 1))
+        self.max_substeps = int(ep.get("max_substeps", 2000))
+        self.metric_params = MetricParams.from_dict(sd.metric)
+        self.success_metric_max = float(sd.success.get("metric_max", 0.1))
+
+    def _init_targets(
+        self, target_file: str | None, target_index: int | None, printer: bool
+    ) -> None:
+        """The printed target family (none in a printer, which is given its targets), or
+        the file's target; the fixed set's index."""
+        sd = self.spec_data
+        tg = sd.target
+        self.target_spacing_mm = float(tg["spacing_mm"])
+        self.target_length_mm = float(tg["length_mm"])
+        self.n_target_samples = int(round(self.target_length_mm / self.target_spacing_mm)) + 1
+        if tg.get("family") != "printed":
+            raise ConfigError(
+                f"{sd.path}: target.family = {tg.get('family')!r}; version 1 has 'printed'"
+            )
+        self.printed: PrintedTargets | None = None if printer else PrintedTargets(self)
+        self.fixed_target: Target | None = None
+        if target_file is not None:
+            try:
+                self.fixed_target = load_target_file(target_file, self.target_spacing_mm)
+            except (ValueError, FileNotFoundError) as exc:
+                raise ConfigError(f"target_file = {target_file!r}: {exc}") from None
+            if self.goal_conditioned and self.fixed_target.n_samples > self.n_target_samples:
+                raise ConfigError(
+                    f"target_file = {target_file!r}: {self.fixed_target.n_samples} samples; "
+                    f"goal_conditioned=True allows at most {self.n_target_samples} "
+                    f"({self.target_length_mm:g} mm)"
+                )
+        if target_index is not None:
+            self._check_index(target_index, "target_index")
+        self.target_index = target_index
+        self._eval_cursor = 0
 
     def _init_controls(self, needle_velocity: bool | str | None) -> None:
         ctl = self.spec_data.control
@@ -301,6 +308,14 @@ class BathprintEnvV1(BathprintEnv):
         self.scores_shape = mp.w_shape > 0 or mp.w_curvature > 0
         self.scores_density = mp.w_density > 0
         self.observes_density = self.scores_density or "q_inner" in self.action_names
+        self.goals = GoalLayout(
+            self.n_target_samples,
+            self.scores_shape,
+            self.scores_density,
+            mp,
+            self.target_spacing_mm,
+            self.bath_range,
+        )
         feats = (["curvature", "torsion"] if self.scores_shape else []) + (
             ["density_lo", "density_hi"] if self.scores_density else []
         )
@@ -339,8 +354,6 @@ class BathprintEnvV1(BathprintEnv):
             ]
         )
         self._obs_tgt_off = np.array(TARGET_OFFSETS_MM)
-        # densities stand-in where they are neither observed nor scored (not read)
-        self._rho_unread = np.array([self.rho_gel])
         flat = spaces.Box(-OBS_CLIP, OBS_CLIP, (size,), np.float32)
         if not self.goal_conditioned:
             self.observation_space = flat
@@ -349,8 +362,8 @@ class BathprintEnvV1(BathprintEnv):
         self.goal_size = (3 * n if self.scores_shape else 0) + (2 * n if self.scores_density else 0)
         self.goal_size += 2
         low, high = (
-            self._goal_vector(np.full((n, 3), -GOAL_POSITION_MM), np.zeros(n), np.zeros(n), 0, 0),
-            self._goal_vector(
+            self.goals.vector(np.full((n, 3), -GOAL_POSITION_MM), np.zeros(n), np.zeros(n), 0, 0),
+            self.goals.vector(
                 np.full((n, 3), GOAL_POSITION_MM),
                 np.full(n, FREE_DENSITY[1]),
                 np.full(n, FREE_DENSITY[1]),
@@ -366,11 +379,7 @@ class BathprintEnvV1(BathprintEnv):
 
     def obs_slices(self) -> dict[str, slice]:
         """Name -> slice of the (flat) observation vector."""
-        out, k = {}, 0
-        for name, n in self.obs_layout:
-            out[name] = slice(k, k + n)
-            k += n
-        return out
+        return layout_slices(self.obs_layout)
 
     # ------------------------------------------------------------------ actions
     def action_to_controls(self, action: np.ndarray) -> dict[str, Any]:
@@ -536,7 +545,7 @@ class BathprintEnvV1(BathprintEnv):
     def reset(
         self, *, seed: int | None = None, options: dict[str, Any] | None = None
     ) -> tuple[Any, dict[str, Any]]:
-        gym.Env.reset(self, seed=seed)
+        super().reset(seed=seed)
         options = dict(options or {})
         if seed is not None:
             self._eval_cursor = 0
@@ -551,7 +560,7 @@ class BathprintEnvV1(BathprintEnv):
         start = self.target.params.get("start_state", drawn)
         if "start_state" in options:
             start = options["start_state"]
-            if not (_is_int(start) and 0 <= start < self.n_start_states):
+            if not (is_index(start) and 0 <= start < self.n_start_states):
                 raise ConfigError(
                     f"options['start_state'] = {start!r}; allowed 0..{self.n_start_states - 1}"
                 )
@@ -595,71 +604,13 @@ class BathprintEnvV1(BathprintEnv):
             info = self._info()
             info["sim_error"] = self._error_message
             return self._obs_out(self._last_obs), 0.0, False, True, info
-        sim = self.sim
-        old = self._controls
-        qo = c["q_outer_ml_min"]
-        ds = self.control_length_mm * MM * self.needle_area  # volume to extrude (m^3)
-        cap = self.phi_max / (1.0 - self.phi_max) * qo * (1.0 - 1e-9)
-        qi = c["q_inner_ml_min"]
-        tau = self.inner_lag_s
-        if tau > 0:  # the oil flow follows its command: its mean over the step
-            q0, q_cmd = self._inner_now_ml_min, c["q_inner_ml_min"]
-            for _ in range(_INNER_LAG_ITERATIONS):
-                dt_est = ds / ((qo + qi) * ML_MIN)
-                qi = q_cmd + (q0 - q_cmd) * tau / dt_est * (1.0 - math.exp(-dt_est / tau))
-            qi = min(max(qi, 0.0), cap)
-        q_new = (qo + qi) * ML_MIN
-        t0 = sim.t
-        if qo != old["q_outer_ml_min"] or qi != old["q_inner_ml_min"]:
-            q_old = (old["q_outer_ml_min"] + old["q_inner_ml_min"]) * ML_MIN
-            sim.set_flow(qo * ML_MIN, qi * ML_MIN)
-            dt = RAMP_S + (ds - 0.5 * (q_old + q_new) * RAMP_S) / q_new
-        else:
-            dt = ds / q_new
-        if tau > 0:
-            q_cmd = c["q_inner_ml_min"]
-            q_end = q_cmd + (self._inner_now_ml_min - q_cmd) * math.exp(-dt / tau)
-            self._inner_now_ml_min = min(max(q_end, 0.0), cap)
-        c["q_inner_command_ml_min"] = c["q_inner_ml_min"]
-        c["q_inner_ml_min"] = qi
-        c["inner_fraction"] = qi / (qo + qi)
-        if c["inclusion_offset"] is not None and c["inclusion_offset"] != old["inclusion_offset"]:
-            sim.set_inclusion_offset(c["inclusion_offset"])
-        t1 = t0 + dt
-        if self.needle_axes:
-            goal = np.clip(
-                self._needle_mm + c["vel"] * dt, self.needle_box_mm[:, 0], self.needle_box_mm[:, 1]
-            )
-            c["vel"] = (goal - self._needle_mm) / dt
-            move_needle(sim, c["vel"] * MM, t1)
-            self._needle_mm = goal
-        self._controls = c
+        t_end = self._apply_controls(c)
         self._steps += 1
-        error: str | None = None
         try:
-            sim.advance(t1, max_steps=self.max_substeps)
-            if sim.t < t1 - 1e-12 * max(1.0, t1):
-                raise SimulationError(
-                    f"step budget used up ({self.max_substeps} integrator steps for one "
-                    "environment step; episode.max_substeps)",
-                    sim.t,
-                    -1,
-                )
+            advance_to(self.sim, t_end, self.max_substeps)
             self._snapshot()
         except SimulationError as exc:
-            error = str(exc)
-            cause = exc.cause
-        if error is not None:
-            self._diverged = True
-            self._error_message = error
-            # unscored samples count as missing: the return is -M^2 of the diverged print
-            n = self.target.n_samples
-            miss2 = self.metric_params.missing_error**2
-            reward = -(n - self._n_scored) * miss2 / n
-            info = self._info()
-            info["sim_error"] = error
-            info["sim_error_cause"] = cause
-            return self._obs_out(self._last_obs), float(reward), False, True, info
+            return self._diverge(exc)
         sse_before = self._sse
         self._record()
         self._metric = self._evaluate()
@@ -675,23 +626,66 @@ class BathprintEnvV1(BathprintEnv):
             info["is_success"] = bool(self._metric.value <= self.success_metric_max)
         return self._obs_out(obs), float(reward), bool(terminated), False, info
 
-    # ------------------------------------------------------------------ scoring
-    def _snapshot(self) -> None:
-        """Read the simulation once per step (as version 0; the densities only where the
-        environment observes or scores them)."""
-        if self.observes_density:
-            super()._snapshot()
-            return
+    def _inner_flow(self, qo: float, q_cmd: float, cap: float) -> float:
+        """The oil flow (ml/min) the step extrudes at: the command, or under the lag
+        (``control.inner_lag_s``) its mean over the step (a fixed point: the step's duration
+        depends on the flow)."""
+        tau = self.inner_lag_s
+        if not tau > 0:
+            return q_cmd
+        ds = self.control_length_mm * MM * self.needle_area  # volume to extrude (m^3)
+        q0, qi = self._inner_now_ml_min, q_cmd
+        for _ in range(_INNER_LAG_ITERATIONS):
+            dt_est = ds / ((qo + qi) * ML_MIN)
+            qi = q_cmd + (q0 - q_cmd) * tau / dt_est * (1.0 - math.exp(-dt_est / tau))
+        return min(max(qi, 0.0), cap)
+
+    def _apply_controls(self, c: dict[str, Any]) -> float:
+        """Set the simulation to the step's controls ``c`` (flows, the lagged oil flow,
+        offset, needle velocity clipped to the box; ``c`` is updated with what is applied)
+        and return the time (s) the step ends at."""
         sim = self.sim
         assert sim is not None
-        x, v = sim.centerline(), sim.velocities()
-        u, finite = read_state(x, v, sim.rest_lengths(), MM)  # x, v: m -> mm in place
-        if not finite:
-            raise SimulationError("non-finite state read by the environment", sim.t, -1)
-        self._x, self._u, self._v = x, u, v
-        self._rho = self._rho_unread
-        self._printed_mm = float(u[-1] - self._u0_mm)
+        old = self._controls
+        qo = c["q_outer_ml_min"]
+        ds = self.control_length_mm * MM * self.needle_area  # volume to extrude (m^3)
+        cap = self.phi_max / (1.0 - self.phi_max) * qo * (1.0 - 1e-9)
+        qi = self._inner_flow(qo, c["q_inner_ml_min"], cap)
+        t0 = sim.t
+        dt = set_flows(sim, qo, qi, old["q_outer_ml_min"], old["q_inner_ml_min"], ds)
+        tau = self.inner_lag_s
+        if tau > 0:
+            q_cmd = c["q_inner_ml_min"]
+            q_end = q_cmd + (self._inner_now_ml_min - q_cmd) * math.exp(-dt / tau)
+            self._inner_now_ml_min = min(max(q_end, 0.0), cap)
+        c["q_inner_command_ml_min"] = c["q_inner_ml_min"]
+        c["q_inner_ml_min"] = qi
+        c["inner_fraction"] = qi / (qo + qi)
+        if c["inclusion_offset"] is not None and c["inclusion_offset"] != old["inclusion_offset"]:
+            sim.set_inclusion_offset(c["inclusion_offset"])
+        t1 = t0 + dt
+        if self.needle_axes:
+            self._needle_mm, c["vel"] = move_needle_within(
+                sim, self._needle_mm, c["vel"], dt, self.needle_box_mm, t1
+            )
+        self._controls = c
+        return t1
 
+    def _diverge(self, exc: SimulationError) -> tuple[Any, float, bool, bool, dict[str, Any]]:
+        """End the episode where the simulation diverged: truncated, the last finite
+        observation; the unscored samples count as missing, so the return is -M^2 of the
+        diverged print."""
+        self._diverged = True
+        self._error_message = str(exc)
+        n = self.target.n_samples
+        miss2 = self.metric_params.missing_error**2
+        reward = -(n - self._n_scored) * miss2 / n
+        info = self._info()
+        info["sim_error"] = self._error_message
+        info["sim_error_cause"] = exc.cause
+        return self._obs_out(self._last_obs), float(reward), False, True, info
+
+    # ------------------------------------------------------------------ scoring
     def _prepare_target(self) -> None:
         tgt = self.target
         assert tgt is not None
@@ -714,7 +708,7 @@ class BathprintEnvV1(BathprintEnv):
         self._target_key = tgt.key
         self._prepared_target = tgt
         if self.goal_conditioned:
-            self._desired_goal = self._goal_vector(
+            self._desired_goal = self.goals.vector(
                 tgt.points_mm, tgt.density_lo_kg_m3, tgt.density_hi_kg_m3, n, n
             )
 
@@ -808,10 +802,10 @@ class BathprintEnvV1(BathprintEnv):
             self._v,
             self._u,
             self._rho,
-            _OBS_QUERY_MM,
+            QUERY_MM,
             len(TIP_OFFSETS_MM),
             len(VEL_OFFSETS_MM),
-            _OBS_CURV_INDEX,
+            CURV_INDEX,
             self._obs_dens_off,
             self._obs_scales,
             self._target_features,
@@ -858,101 +852,11 @@ class BathprintEnvV1(BathprintEnv):
         return out
 
     # ------------------------------------------------------------------ goals
-    def _goal_vector(
-        self, pts: np.ndarray, lo: np.ndarray, hi: np.ndarray, n: int, n_prev: int
-    ) -> np.ndarray:
-        """[points (N x 3) mm | density lo (N) | density hi (N) | n | n_prev], N = the spec's
-        samples, padded with zeros; points only if shape is scored, the band only if density
-        is."""
-        size = self.n_target_samples
-        parts = []
-        if self.scores_shape:
-            p = np.zeros((size, 3))
-            p[: len(pts)] = pts[:size]
-            parts.append(p.ravel())
-        if self.scores_density:
-            for band in (lo, hi):
-                b = np.zeros(size)
-                b[: len(band)] = band[:size]
-                parts.append(b)
-        parts.append(np.array([float(n), float(n_prev)]))
-        return np.concatenate(parts)
-
     def _achieved_goal(self) -> np.ndarray:
         j = self._n_scored
-        return self._goal_vector(
+        return self.goals.vector(
             self._rec_pts[:j], self._rec_rho[:j], self._rec_rho[:j], j, self._n_scored_prev
         )
-
-    def _split_goal(self, g: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, int, int]:
-        size = self.n_target_samples
-        k = 0
-        pts = np.zeros((size, 3))
-        lo = np.full(size, FREE_DENSITY[0])
-        hi = np.full(size, FREE_DENSITY[1])
-        if self.scores_shape:
-            pts = np.ascontiguousarray(g[: 3 * size].reshape(size, 3))
-            k = 3 * size
-        if self.scores_density:
-            lo = np.ascontiguousarray(g[k : k + size])
-            hi = np.ascontiguousarray(g[k + size : k + 2 * size])
-        return pts, lo, hi, int(round(g[-2])), int(round(g[-1]))
-
-    def _goal_spans(self) -> tuple[int, int]:
-        """The metric's alignment half-window and curvature span, in target samples."""
-        mp = self.metric_params
-        h = self.target_spacing_mm
-        half = max(1, int(round(0.5 * mp.window_mm / h)))
-        return half, max(1, int(round(mp.curvature_span_mm / h)))
-
-    def _goal_weights(self) -> np.ndarray:
-        """The metric's weights and scales as :func:`metric_errors` takes them."""
-        mp = self.metric_params
-        return np.array(
-            [
-                mp.w_shape,
-                mp.w_curvature,
-                mp.w_density,
-                mp.length_scale_mm,
-                mp.density_scale_kg_m3,
-                mp.missing_error**2,
-            ]
-        )
-
-    def _goal_sse(
-        self,
-        a_pts: np.ndarray,
-        a_rho: np.ndarray,
-        n: int,
-        d_pts: np.ndarray,
-        d_lo: np.ndarray,
-        d_hi: np.ndarray,
-        n_d: int,
-    ) -> float:
-        """Sum of squared errors of the first n achieved samples against the desired goal's
-        first n_d samples (the metric of the environment)."""
-        mp = self.metric_params
-        half, k = self._goal_spans()
-        tpts = np.ascontiguousarray(d_pts[:n_d])
-        tcurv = discrete_curvature(tpts, k) if mp.w_curvature > 0 else np.zeros(0)
-        w = self._goal_weights()
-        b_lo, b_hi = (-math.inf, math.inf) if self.bath_range is None else self.bath_range
-        j = min(n, n_d)
-        errors = metric_errors(
-            np.ascontiguousarray(a_pts[:j]),
-            np.ascontiguousarray(a_rho[:j]),
-            tpts,
-            tcurv,
-            np.ascontiguousarray(d_lo[:n_d]),
-            np.ascontiguousarray(d_hi[:n_d]),
-            half,
-            k,
-            w,
-            bool(mp.allow_reflection),
-            float(b_lo),
-            float(b_hi),
-        )[0]
-        return squared_sum(errors, j)
 
     def goal_reward(
         self, achieved_goal: np.ndarray, desired_goal: np.ndarray, info: Any = None
@@ -969,47 +873,15 @@ class BathprintEnvV1(BathprintEnv):
         ag = np.asarray(achieved_goal, np.float64)
         dg = np.asarray(desired_goal, np.float64)
         single = ag.ndim == 1
-        ag2 = np.ascontiguousarray(np.atleast_2d(ag))
-        dg2 = np.ascontiguousarray(np.atleast_2d(dg))
-        out = np.empty(len(ag2))
-        # the operations of _split_goal and _goal_sse per sample, in one compiled loop
-        mp = self.metric_params
-        half, k = self._goal_spans()
-        b_lo, b_hi = (-math.inf, math.inf) if self.bath_range is None else self.bath_range
-        goal_rewards(
-            ag2,
-            dg2,
-            self.n_target_samples,
-            bool(self.scores_shape),
-            bool(self.scores_density),
-            float(FREE_DENSITY[0]),
-            float(FREE_DENSITY[1]),
-            half,
-            k,
-            bool(mp.w_curvature > 0),
-            self._goal_weights(),
-            bool(mp.allow_reflection),
-            float(b_lo),
-            float(b_hi),
-            out,
+        out = self.goals.rewards(
+            np.ascontiguousarray(np.atleast_2d(ag)), np.ascontiguousarray(np.atleast_2d(dg))
         )
         return float(out[0]) if single else out
 
     def _goal_reward_one_by_one(self, achieved: np.ndarray, desired: np.ndarray) -> np.ndarray:
-        """:meth:`goal_reward` of rows of goals, sample by sample in Python (``_split_goal``,
-        ``_goal_sse``): the reference the compiled batch matches bit for bit (tests,
-        benchmarks/bench_hindsight.py)."""
-        out = np.empty(len(achieved))
-        for i in range(len(achieved)):
-            a_pts, a_rho, _, n, n_prev = self._split_goal(achieved[i])
-            d_pts, d_lo, d_hi, n_d, _ = self._split_goal(desired[i])
-            if n_d <= 0:
-                out[i] = 0.0
-                continue
-            before = self._goal_sse(a_pts, a_rho, n_prev, d_pts, d_lo, d_hi, n_d)
-            after = self._goal_sse(a_pts, a_rho, n, d_pts, d_lo, d_hi, n_d)
-            out[i] = (before - after) / n_d
-        return out
+        """:meth:`goal_reward` of rows of goals, sample by sample in Python: the reference
+        the compiled batch matches bit for bit (tests, benchmarks/bench_hindsight.py)."""
+        return self.goals.rewards_one_by_one(achieved, desired)
 
     def _obs_out(self, obs: np.ndarray) -> Any:
         if not self.goal_conditioned:

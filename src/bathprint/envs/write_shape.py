@@ -2,12 +2,15 @@
 
 from __future__ import annotations
 
-from bathprint.envs.core import BathprintEnv
+from bathprint.envs.v0 import BathprintEnvV0
 from bathprint.envs.v1 import BathprintEnvV1
 
 
-class WriteShapeEnv(BathprintEnv):
+class WriteShapeEnv(BathprintEnvV0):
     """
+    Deprecated: ``bathprint/WriteShape-v2`` is the newest version (making this one warns);
+    registered so that results made with it reproduce.
+
     ## Description
 
     The coiling gel filament of ``CoilRadius-v0`` used as a pen: the target is a 3D curve
@@ -45,7 +48,7 @@ class WriteShapeEnv(BathprintEnv):
     ## Observation Space
 
     ``Box(-10, 10, (94,), float32)``: the layout shared by all bathprint environments, see
-    ``CoilRadiusEnv`` and ``bathprint.envs.core.OBS_LAYOUT`` (filament near the needle,
+    ``CoilRadiusEnv`` and ``bathprint.envs.observation.OBS_LAYOUT`` (filament near the needle,
     recent curvature and density, target curvature / torsion / density aim from 30 mm behind
     to 20 mm ahead, current controls, progress).
 
@@ -78,6 +81,9 @@ class WriteShapeEnv(BathprintEnv):
 
 class WriteShapeEnvV1(BathprintEnvV1):
     """
+    Deprecated: ``bathprint/WriteShape-v2`` is the newest version (making this one warns);
+    registered so that results made with it reproduce.
+
     ## Description
 
     Writing with the needle, as the fluid-rope-trick work of Chaudhary, Christ, Hart &
@@ -107,7 +113,7 @@ class WriteShapeEnvV1(BathprintEnvV1):
     env_id = "bathprint/WriteShape-v1"
 
 
-class WriteShapeEnvV2(WriteShapeEnvV1):
+class WriteShapeEnvV2(BathprintEnvV1):
     """
     ## Description
 

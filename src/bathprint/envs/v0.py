@@ -1,28 +1,36 @@
-"""The machinery shared by the bathprint environments: :class:`BathprintEnv`.
+"""Version 0 of the bathprint environments: :class:`BathprintEnvV0`.
 
-Each environment (one file each: ``coil_radius.py``, ``write_shape.py``,
-``buoyant_layers.py``) is this class with its spec file (``envs/*.toml``) and its docstring.
-A step prints a fixed length of filament (``control.length_mm``) at the flow rates the
-action sets: the simulator is advanced by exactly the time that extrudes that length.
+Targets are drawn from analytic families (coil schedules, sections of helices, straight
+pieces and arcs, layers) and scored on the filament as it is at each step; the reward is
+the decrease of the metric M (:mod:`bathprint.envs.metric`), so an episode's return is
+``missing_error - M_final``. One observation layout
+(:data:`bathprint.envs.observation.OBS_LAYOUT`, 94 entries) serves the three environments;
+the fixed held-out set is ``target_set="eval"``. Superseded by version 1
+(:mod:`bathprint.envs.v1`); registered so that results made with it reproduce.
 """
 
 from __future__ import annotations
 
-import hashlib
-import json
 import math
 import pickle
-from pathlib import Path
 from typing import Any, ClassVar
 
-import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 
-from bathprint.core import layout as L
-from bathprint.core.simulation import Simulation
-from bathprint.envs._kernels import interp_rows, observe, printed_at, read_state
-from bathprint.envs.accuracy import ACCURACY_PRESETS, accuracy_overrides
+from bathprint.envs._kernels import observe, printed_at
+from bathprint.envs.base import (
+    MM,
+    BathprintEnvBase,
+    advance_to,
+    check_accuracy,
+    check_path,
+    check_render_mode,
+    check_scene_overrides,
+    is_index,
+    move_needle_within,
+    set_flows,
+)
 from bathprint.envs.metric import (
     MetricParams,
     MetricValue,
@@ -31,7 +39,15 @@ from bathprint.envs.metric import (
     evaluate_prepared,
     prepare,
 )
-from bathprint.envs.needle import move_needle
+from bathprint.envs.observation import (
+    KERNEL_LAYOUT_V0,
+    OBS_CLIP,
+    OBS_CURVATURE_MM,
+    OBS_DENSITY_REF_KG_M3,
+    OBS_DENSITY_SCALE_KG_M3,
+    OBS_NEEDLE_MM,
+    OBS_SIZE,
+)
 from bathprint.envs.spec import EnvSpecData, load_spec
 from bathprint.envs.targets import (
     CoilScheduleFamily,
@@ -41,96 +57,20 @@ from bathprint.envs.targets import (
     TargetSampler,
     load_target_file,
 )
-from bathprint.errors import ConfigError, SceneError, SimulationError
+from bathprint.errors import ConfigError, SimulationError
 
-ML_MIN = 1e-6 / 60.0  # m^3/s per ml/min
-MM = 1e-3  # m per mm
-RAMP_S = 1e-6  # Simulation.set_flow ramps to the new flow over 1 us
-
-# --- observation layout (the same for every environment) ------------------------------
-OBS_LENGTH_MM = 10.0  # positions are divided by this
-OBS_SPEED_MM_S = 100.0  # velocities are divided by this
-OBS_CURVATURE_MM = 3.0  # curvatures (1/mm) are multiplied by this
-OBS_DENSITY_REF_KG_M3 = 1054.0  # densities are given as (rho - ref) / scale
-OBS_DENSITY_SCALE_KG_M3 = 50.0
-OBS_NEEDLE_MM = 10.0  # needle displacement is divided by this
-OBS_CLIP = 10.0  # every entry is clipped to [-OBS_CLIP, OBS_CLIP]
-
-TIP_OFFSETS_MM = (1.0, 2.0, 3.0, 4.0, 6.0, 8.0, 10.0, 13.0, 16.0, 20.0, 25.0, 30.0)
-VEL_OFFSETS_MM = (2.0, 6.0, 13.0, 25.0)
-CURV_OFFSETS_MM = (4.0, 8.0, 13.0, 18.0, 25.0, 30.0)
-DENS_OFFSETS_MM = (0.5, 2.0, 5.0, 10.0, 20.0, 30.0)
-TARGET_OFFSETS_MM = (-30.0, -20.0, -10.0, 0.0, 5.0, 10.0, 15.0, 20.0)
-RECENT_SAMPLES = 10
-_BACK_STEP_MM = 0.5  # sampling of the filament behind the tip for its curvature
-_BACK_MM = np.arange(0.0, max(CURV_OFFSETS_MM) + 2.0 + 1e-9, _BACK_STEP_MM)
-# all material coordinates (behind the tip) the observation interpolates, in one query
-_OBS_QUERY_MM = np.concatenate([TIP_OFFSETS_MM, VEL_OFFSETS_MM, _BACK_MM])
-_OBS_TIP = slice(0, len(TIP_OFFSETS_MM))
-_OBS_VEL = slice(_OBS_TIP.stop, _OBS_TIP.stop + len(VEL_OFFSETS_MM))
-_OBS_BACK = slice(_OBS_VEL.stop, _OBS_VEL.stop + len(_BACK_MM))
-_OBS_CURV_INDEX = np.round(np.array(CURV_OFFSETS_MM) / _BACK_STEP_MM).astype(np.int64)
-# the layout as the observation kernel takes it (bathprint.envs._kernels.observe)
-_OBS_KERNEL_LAYOUT = (
-    _OBS_QUERY_MM,
-    len(TIP_OFFSETS_MM),
-    len(VEL_OFFSETS_MM),
-    _OBS_CURV_INDEX,
-    np.array(DENS_OFFSETS_MM),
-    np.array(TARGET_OFFSETS_MM),
-    np.array(
-        [
-            OBS_LENGTH_MM,
-            OBS_SPEED_MM_S,
-            OBS_CURVATURE_MM,
-            OBS_DENSITY_REF_KG_M3,
-            OBS_DENSITY_SCALE_KG_M3,
-        ]
-    ),
-    RECENT_SAMPLES,
-)
-
-OBS_LAYOUT: tuple[tuple[str, int], ...] = (
-    ("tip_relative_positions", 3 * len(TIP_OFFSETS_MM)),
-    ("velocities", 3 * len(VEL_OFFSETS_MM)),
-    ("printed_curvature", len(CURV_OFFSETS_MM)),
-    ("printed_density", len(DENS_OFFSETS_MM)),
-    ("target_curvature_torsion_density", 3 * len(TARGET_OFFSETS_MM)),
-    ("controls", 6),
-    ("progress", 4),
-)
-OBS_SIZE = sum(n for _, n in OBS_LAYOUT)
-
-
-def obs_slices() -> dict[str, slice]:
-    """Name -> slice of the observation vector."""
-    out, k = {}, 0
-    for name, n in OBS_LAYOUT:
-        out[name] = slice(k, k + n)
-        k += n
-    return out
-
-
-class SceneConfigError(ConfigError, SceneError):
-    """A scene an environment's arguments (or spec) make is invalid: a ConfigError naming
-    ``scene_overrides``, and still a SceneError."""
+__all__ = ["BathprintEnvV0"]
 
 
 def _check_index_type(index: Any, name: str = "target_index") -> None:
-    if isinstance(index, bool) or not isinstance(index, int | np.integer):
+    if not is_index(index):
         raise ConfigError(f"{name} = {index!r}; allowed: an integer (an evaluation target)")
 
 
-# Warm-up states are the same for every instance with the same scene: computed once per
-# process and kept pickled (a Simulation pickles; loading one takes ~0.2 ms).
-_START_STATES: dict[str, bytes] = {}
+class BathprintEnvV0(BathprintEnvBase):
+    """Version 0's machinery; see the module doc and the environments' docstrings."""
 
-
-class BathprintEnv(gym.Env[np.ndarray, np.ndarray]):
-    """Base class; see the subclasses' docstrings for the environments themselves."""
-
-    metadata: ClassVar[dict[str, Any]] = {"render_modes": ["human", "rgb_array"], "render_fps": 10}
-    env_id: ClassVar[str] = ""
+    version: ClassVar[int] = 0
 
     def __init__(
         self,
@@ -145,38 +85,47 @@ class BathprintEnv(gym.Env[np.ndarray, np.ndarray]):
         spec_overrides: dict[str, Any] | None = None,
         spec_file: str | None = None,
     ) -> None:
-        if render_mode is not None and (
-            not isinstance(render_mode, str) or render_mode not in self.metadata["render_modes"]
-        ):
-            raise ConfigError(
-                f"render_mode = {render_mode!r}; allowed: None, "
-                + ", ".join(repr(m) for m in self.metadata["render_modes"])
-            )
+        self._warn_if_superseded()
+        self._check_kwargs(
+            render_mode, accuracy, target_set, target_index, target_file, scene_overrides,
+            spec_file,
+        )  # fmt: skip
+        self.render_mode = render_mode
+        self.accuracy = accuracy
+        self.target_set = target_set
+        self.spec_data: EnvSpecData = load_spec(
+            None if spec_file else self.env_id, spec_file, spec_overrides
+        )
+        self._init_scene(accuracy, scene_overrides)
+        self._init_controls(needle_velocity)
+        self._init_episode()
+        self._init_targets(target_file, target_index)
+        self.observes_density = True
+        self.sim = None
+        self.target: Target | None = None
+        self._prepared_target: Target | None = None
+        self._figure: Any = None
+        self._diverged = False
+
+    # ------------------------------------------------------------------ construction
+    @staticmethod
+    def _check_kwargs(
+        render_mode: Any,
+        accuracy: Any,
+        target_set: Any,
+        target_index: Any,
+        target_file: Any,
+        scene_overrides: Any,
+        spec_file: Any,
+    ) -> None:
+        """Refuse bad arguments before any work (ConfigError naming the argument)."""
+        check_render_mode(render_mode)
         if target_set not in ("train", "eval"):
             raise ConfigError(f"target_set = {target_set!r}; allowed: 'train', 'eval'")
-        if not isinstance(accuracy, str) or accuracy not in ACCURACY_PRESETS:
-            raise ConfigError(
-                f"accuracy = {accuracy!r}; allowed: " + ", ".join(map(repr, ACCURACY_PRESETS))
-            )
-        if scene_overrides is not None and not (
-            isinstance(scene_overrides, dict) and all(isinstance(k, str) for k in scene_overrides)
-        ):
-            raise ConfigError(
-                f"scene_overrides = {scene_overrides!r}; allowed: None or a mapping of dotted "
-                "scene keys to values, e.g. {'bath.viscosity_pa_s': 1.0}"
-            )
-        if target_file is not None:
-            if not isinstance(target_file, str | Path):
-                raise ConfigError(
-                    f"target_file = {target_file!r}; allowed: a path to a CSV or NPY polyline"
-                )
-            if not Path(target_file).is_file():
-                raise ConfigError(f"target_file = {str(target_file)!r} does not exist")
-        if spec_file is not None:
-            if not isinstance(spec_file, str | Path):
-                raise ConfigError(f"spec_file = {spec_file!r}; allowed: a path to a spec TOML")
-            if not Path(spec_file).is_file():
-                raise ConfigError(f"spec_file = {str(spec_file)!r} does not exist")
+        check_accuracy(accuracy)
+        check_scene_overrides(scene_overrides)
+        check_path(target_file, "target_file", "a path to a CSV or NPY polyline")
+        check_path(spec_file, "spec_file", "a path to a spec TOML")
         if target_index is not None:
             _check_index_type(target_index)
             if target_set != "eval":
@@ -189,18 +138,10 @@ class BathprintEnv(gym.Env[np.ndarray, np.ndarray]):
                     f"target_index = {target_index!r} and target_file = {target_file!r}: a "
                     "target file is the only target; give one of them"
                 )
-        self.render_mode = render_mode
-        self.accuracy = accuracy
-        self.target_set = target_set
-        self.spec_data: EnvSpecData = load_spec(
-            None if spec_file else self.env_id, spec_file, spec_overrides
-        )
-        sd = self.spec_data
-        ctl, ep = sd.control, sd.episode
 
-        self._init_scene(accuracy, scene_overrides)
-
-        # --- controls ------------------------------------------------------------------
+    def _init_controls(self, needle_velocity: bool | str) -> None:
+        """The action's components and ranges (the spec's ``[control]``), the spaces."""
+        ctl = self.spec_data.control
         self.control_length_mm = float(ctl["length_mm"])
         self.q_outer_range = tuple(float(x) for x in ctl["q_outer_ml_min"])
         self.q_inner_range = tuple(float(x) for x in ctl.get("q_inner_ml_min", [0.0, 0.0]))
@@ -225,13 +166,19 @@ class BathprintEnv(gym.Env[np.ndarray, np.ndarray]):
         self.action_space = spaces.Box(-1.0, 1.0, (len(self.action_names),), np.float32)
         self.observation_space = spaces.Box(-OBS_CLIP, OBS_CLIP, (OBS_SIZE,), np.float32)
 
-        # --- episode, targets, metric ------------------------------------------------
+    def _init_episode(self) -> None:
+        """Lengths and budgets of an episode and the metric (the spec's ``[episode]``,
+        ``[metric]``)."""
+        ep = self.spec_data.episode
         self.settle_length_mm = float(ep.get("settle_length_mm", 20.0))
         self.warmup_length_mm = float(ep.get("warmup_length_mm", 30.0))
         self.n_start_states = int(ep.get("start_states", 1))
         self.max_substeps = int(ep.get("max_substeps", 2000))
-        self.metric_params = MetricParams.from_dict(sd.metric)
-        tg = sd.target
+        self.metric_params = MetricParams.from_dict(self.spec_data.metric)
+
+    def _init_targets(self, target_file: str | None, target_index: int | None) -> None:
+        """The target family and its evaluation set, or the file's target."""
+        tg = self.spec_data.target
         self.target_spacing_mm = float(tg["spacing_mm"])
         self.sampler = TargetSampler(
             self._make_family(tg), int(tg.get("eval_size", 16)), int(tg.get("eval_seed", 0))
@@ -243,52 +190,6 @@ class BathprintEnv(gym.Env[np.ndarray, np.ndarray]):
             self._check_index(target_index, "target_index")
         self.target_index = target_index
         self._eval_cursor = 0
-
-        self.sim: Simulation | None = None
-        self.target: Target | None = None
-        self._prepared_target: Target | None = None
-        self._figure: Any = None
-        self._diverged = False
-
-    # ------------------------------------------------------------------ construction
-    def _init_scene(self, accuracy: str, scene_overrides: dict[str, Any] | None) -> None:
-        """The scene (spec overrides, accuracy preset, ``scene_overrides``; the flow set to
-        the warm-up's) and the constants read from it: needle, densities, bath."""
-        sd = self.spec_data
-        ep = sd.episode
-        self.warmup_q_outer = float(ep.get("warmup_q_outer_ml_min", 0.5))
-        overrides: dict[str, Any] = dict(sd.scene.get("overrides", {}))
-        overrides.update(accuracy_overrides(accuracy))
-        overrides.update(scene_overrides or {})
-        overrides.update(
-            {
-                "flow.schedule": [],
-                "flow.q_outer_ml_min": self.warmup_q_outer,
-                "flow.q_inner_ml_min": 0.0,
-            }
-        )
-        self.scene_base = str(sd.scene.get("base", "gelation_coiling_22G"))
-        try:
-            probe = Simulation(self.scene_base, overrides)  # validates the scene
-        except SceneError as exc:
-            raise SceneConfigError(
-                f"scene {self.scene_base!r} with the spec's overrides and scene_overrides = "
-                f"{scene_overrides!r}: {exc}"
-            ) from exc
-        self.scene_overrides = overrides
-        m = probe.model
-        self.needle_area = m.needle_area  # m^2
-        self.rho_gel = float(m.p.exit_density)
-        self.phi_max = float(probe.scene.inclusions.max_inner_fraction)
-        self.has_inclusions = bool(m.p.inclusions)
-        self.needle_start_mm = np.array(m.needle[0, 1:4] / MM)
-        self.needle_direction = np.array(m.needle[0, 4:7])
-        grad = float(m.p.bath_density_gradient)  # kg/m^3 per m of depth
-        rho_top = float(m.p.bath_density_top)
-        depth_m = -float(m.p.floor_z)
-        self.depth_mm = depth_m / MM
-        self.bath_range = (rho_top, rho_top + grad * depth_m) if grad > 0 else None
-        self.rho_bath_needle = rho_top + grad * max(-self.needle_start_mm[2] * MM, 0.0)
 
     def _check_index(self, index: Any, name: str) -> None:
         """An evaluation target index: an integer in 0..eval_size-1 (never wrapped)."""
@@ -314,26 +215,6 @@ class BathprintEnv(gym.Env[np.ndarray, np.ndarray]):
             grad_mm = (self.bath_range[1] - self.bath_range[0]) / self.depth_mm
             return LayersFamily(params, float(tg["length_mm"]), h, self.bath_range[0], grad_mm)
         raise ConfigError(f"target.family = {family!r}; allowed: coil_schedule, sections, layers")
-
-    def _start_state(self, index: int) -> bytes:
-        """Pickled warm-up state number ``index`` (needle imperfection seed + index)."""
-        seed = int(self.scene_overrides.get("seed", 0)) + index
-        key_src = json.dumps(
-            [self.scene_base, self.scene_overrides, seed, self.warmup_length_mm],
-            sort_keys=True,
-            default=str,
-        )
-        key = hashlib.sha1(key_src.encode()).hexdigest()
-        if key not in _START_STATES:
-            ov = dict(self.scene_overrides)
-            ov["seed"] = seed
-            v = self.warmup_q_outer * ML_MIN / self.needle_area  # m/s
-            total_mm = self.warmup_length_mm + 200.0  # capacity estimate only (arrays grow)
-            ov["duration_s"] = total_mm * MM / v
-            sim = Simulation(self.scene_base, ov)
-            sim.advance(self.warmup_length_mm * MM / v)
-            _START_STATES[key] = pickle.dumps(sim)
-        return _START_STATES[key]
 
     # ------------------------------------------------------------------ actions
     def action_to_controls(self, action: np.ndarray) -> dict[str, Any]:
@@ -379,11 +260,6 @@ class BathprintEnv(gym.Env[np.ndarray, np.ndarray]):
         """Printed length of a full episode: the target plus the settling length (mm)."""
         assert self.target is not None
         return self.target.length_mm + self.settle_length_mm
-
-    @property
-    def episode_steps(self) -> int:
-        """Steps of a full episode (the environment terminates after this many)."""
-        return int(math.ceil(self.episode_length_mm / self.control_length_mm - 1e-9))
 
     def _choose_target(self, options: dict[str, Any]) -> tuple[Target, int]:
         if "target" in options:
@@ -443,54 +319,14 @@ class BathprintEnv(gym.Env[np.ndarray, np.ndarray]):
             info = self._info()
             info["sim_error"] = self._error_message
             return self._last_obs.copy(), 0.0, False, True, info
-        sim = self.sim
-        old = self._controls
-        qo, qi = c["q_outer_ml_min"], c["q_inner_ml_min"]
-        t0 = sim.t
-        q_new = (qo + qi) * ML_MIN
-        ds = self.control_length_mm * MM * self.needle_area  # volume to extrude (m^3)
-        if qo != old["q_outer_ml_min"] or qi != old["q_inner_ml_min"]:
-            q_old = (old["q_outer_ml_min"] + old["q_inner_ml_min"]) * ML_MIN
-            sim.set_flow(qo * ML_MIN, qi * ML_MIN)
-            # the 1 us ramp extrudes (q_old + q_new)/2 * 1 us; the rest at q_new
-            dt = RAMP_S + (ds - 0.5 * (q_old + q_new) * RAMP_S) / q_new
-        else:
-            dt = ds / q_new
-        if c["inclusion_offset"] is not None and c["inclusion_offset"] != old["inclusion_offset"]:
-            sim.set_inclusion_offset(c["inclusion_offset"])
-        t1 = t0 + dt
-        if self.needle_axes:
-            target = np.clip(
-                self._needle_mm + c["vel"] * dt, self.needle_box_mm[:, 0], self.needle_box_mm[:, 1]
-            )
-            c["vel"] = (target - self._needle_mm) / dt
-            move_needle(sim, c["vel"] * MM, t1)
-            self._needle_mm = target
-            self._needle_obs = ((target - self.needle_start_mm) / OBS_NEEDLE_MM).tolist()
-        self._controls = c
+        t_end = self._apply_controls(c)
         self._steps += 1
         before = self._metric.value
-        error: str | None = None
         try:
-            sim.advance(t1, max_steps=self.max_substeps)
-            if sim.t < t1 - 1e-12 * max(1.0, t1):
-                raise SimulationError(
-                    f"step budget used up ({self.max_substeps} integrator steps for one "
-                    "environment step; episode.max_substeps)",
-                    sim.t,
-                    -1,
-                )
+            advance_to(self.sim, t_end, self.max_substeps)
             self._snapshot()
         except SimulationError as exc:
-            error = str(exc)
-            cause = exc.cause
-        if error is not None:
-            self._diverged = True
-            self._error_message = error
-            info = self._info()
-            info["sim_error"] = error
-            info["sim_error_cause"] = cause
-            return self._last_obs.copy(), 0.0, False, True, info
+            return self._diverge(exc)
         self._metric = self._evaluate()
         reward = before - self._metric.value
         terminated = self._printed_mm >= self._episode_length_mm - 1e-6
@@ -500,20 +336,46 @@ class BathprintEnv(gym.Env[np.ndarray, np.ndarray]):
             self.render()
         return obs, float(reward), bool(terminated), False, self._info()
 
-    # ------------------------------------------------------------------ state -> numbers
-    def _snapshot(self) -> None:
-        """Read the simulation once per step: positions (mm), material coordinate u (mm from
-        the free end), densities, velocities (mm/s)."""
+    def _apply_controls(self, c: dict[str, Any]) -> float:
+        """Set the simulation to the step's controls ``c`` (flows, offset, needle velocity,
+        clipped to the box: ``c["vel"]`` is updated) and return the time (s) it ends at."""
         sim = self.sim
         assert sim is not None
-        x, v = sim.centerline(), sim.velocities()
-        u, finite = read_state(x, v, sim.rest_lengths(), MM)  # x, v: m -> mm in place
-        if not finite:
-            raise SimulationError("non-finite state read by the environment", sim.t, -1)
-        self._x, self._u, self._v = x, u, v
-        self._rho = np.ascontiguousarray(sim.material()[:, L.MAT_DENSITY])
-        self._printed_mm = float(u[-1] - self._u0_mm)
+        old = self._controls
+        t0 = sim.t
+        ds = self.control_length_mm * MM * self.needle_area  # volume to extrude (m^3)
+        dt = set_flows(
+            sim,
+            c["q_outer_ml_min"],
+            c["q_inner_ml_min"],
+            old["q_outer_ml_min"],
+            old["q_inner_ml_min"],
+            ds,
+        )
+        if c["inclusion_offset"] is not None and c["inclusion_offset"] != old["inclusion_offset"]:
+            sim.set_inclusion_offset(c["inclusion_offset"])
+        t1 = t0 + dt
+        if self.needle_axes:
+            self._needle_mm, c["vel"] = move_needle_within(
+                sim, self._needle_mm, c["vel"], dt, self.needle_box_mm, t1
+            )
+            self._needle_obs = ((self._needle_mm - self.needle_start_mm) / OBS_NEEDLE_MM).tolist()
+        self._controls = c
+        return t1
 
+    def _diverge(
+        self, exc: SimulationError
+    ) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
+        """End the episode where the simulation diverged: truncated, reward 0, the last
+        finite observation; ``info`` says why."""
+        self._diverged = True
+        self._error_message = str(exc)
+        info = self._info()
+        info["sim_error"] = self._error_message
+        info["sim_error_cause"] = exc.cause
+        return self._last_obs.copy(), 0.0, False, True, info
+
+    # ------------------------------------------------------------------ state -> numbers
     def _prepare_target(self) -> None:
         """Per-target constants: the metric's, the observed target features, the key."""
         tgt = self.target
@@ -534,12 +396,6 @@ class BathprintEnv(gym.Env[np.ndarray, np.ndarray]):
         self._episode_length_mm = self.episode_length_mm
         self._target_key = tgt.key
         self._prepared_target = tgt
-
-    def _interp(self, u_query: np.ndarray, values: np.ndarray) -> np.ndarray:
-        """Rows of ``values`` (one per node) at material coordinates ``u_query`` (mm)."""
-        out = np.empty((len(u_query), values.shape[1]))
-        interp_rows(self._u, values, np.ascontiguousarray(u_query, np.float64), out)
-        return out
 
     def _scored(self) -> int:
         """Number of target samples that are printed and settled."""
@@ -605,7 +461,7 @@ class BathprintEnv(gym.Env[np.ndarray, np.ndarray]):
             self._v,
             self._u,
             self._rho,
-            _OBS_KERNEL_LAYOUT,
+            KERNEL_LAYOUT_V0,
             self._target_features,
             progress,
             controls,
@@ -635,26 +491,3 @@ class BathprintEnv(gym.Env[np.ndarray, np.ndarray]):
             "target_index": self._target_index,
             "start_state": self._start_index,
         }
-
-    # ------------------------------------------------------------------ rendering
-    def render(self) -> np.ndarray | None:
-        if self.render_mode is None:
-            gym.logger.warn(
-                "render() called without a render_mode; pass render_mode='rgb_array' or 'human'"
-            )
-            return None
-        from bathprint.envs.render import draw, show
-
-        frame = draw(self)
-        if self.render_mode == "rgb_array":
-            return frame
-        show(self, frame)
-        return None
-
-    def close(self) -> None:
-        if getattr(self, "_window", None) is not None:
-            from bathprint.envs.render import close
-
-            close(self)
-        self._figure = None
-        super().close()
