@@ -1,6 +1,6 @@
 """``bathprint play``: run a policy in an environment and write an animation and the metric.
 
-    bathprint play CoilRadius --policy random --episodes 1 --seed 0 --out runs/play
+    bathprint play CoilRadius-v1 --policy random --episodes 1 --seed 0 --out runs/play
 
 writes ``DIR/episode_K.gif`` (with Pillow, which matplotlib already needs; ``--format mp4``
 needs ``imageio[ffmpeg]``): the filament being written beside its target, one frame per
