@@ -25,7 +25,7 @@ def _version() -> str:
 
 
 def _cmd_simulate(args: argparse.Namespace) -> int:
-    from bathprint.core.run import simulate
+    from bathprint import simulate
     from bathprint.core.scene import load_scene, parse_override
     from bathprint.paths import check_output_dir
 

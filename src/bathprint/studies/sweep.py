@@ -301,7 +301,7 @@ def _run_point(scene_data: dict[str, Any], overrides: dict[str, Any]) -> dict[st
     """Run one point (in a worker); every error is returned, never raised."""
     t0 = time.perf_counter()
     try:
-        from bathprint.core.run import simulate
+        from bathprint.run import simulate
 
         result = simulate(scene_data, overrides, progress=False)
     except Exception as exc:
