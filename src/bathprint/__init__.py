@@ -1,11 +1,5 @@
 """bathprint: simulate and learn to print soft gelling filaments in a reacting bath."""
 
-from bathprint._cache import ensure_fresh_cache
-
-ensure_fresh_cache()
-
-# ruff: noqa: E402
-
 from bathprint.core import layout
 from bathprint.core.scene import Scene, builtin_scene_names, load_scene
 from bathprint.core.simulation import Simulation
