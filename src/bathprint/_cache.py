@@ -6,7 +6,9 @@ it calls (in another module) does. Before the first kernel of a process compiles
 through, and :func:`bathprint.warmup.ensure_compiled`), :func:`ensure_fresh_cache` hashes
 the kernel source files and wipes the package's cached machine code when the hash differs
 from the one stored beside it, so an edited or upgraded install never runs stale kernels.
-Importing bathprint reads and deletes nothing.
+A kernel that calls none in another module needs no check (numba invalidates it itself);
+those that do (the simulator's, the environments' step) run on a compiled model, after the
+check. Importing bathprint reads and deletes nothing.
 """
 
 from __future__ import annotations
