@@ -18,8 +18,8 @@ from hypothesis import strategies as st
 
 from bathprint.core import scene as S
 from bathprint.core.layout import EFFECT_NAMES
-from bathprint.core.run import simulate
 from bathprint.errors import SceneError, SimulationError
+from bathprint.run import simulate
 
 BASE = "paper_simulation"
 # a very short run: every example that loads is also simulated

@@ -16,6 +16,7 @@ import numpy as np
 import pytest
 
 import bathprint
+from bathprint import executor
 from bathprint.provenance import code_version
 from bathprint.studies import sweep
 from bathprint.studies.reproduce.cli import add_arguments
@@ -383,7 +384,7 @@ def test_a_real_signal_keeps_rows_stops_workers_and_a_rerun_resumes(tmp_path, si
 def test_pool_workers_ignore_sigint_and_sigterm() -> None:
     old = {s: signal.getsignal(s) for s in (signal.SIGINT, signal.SIGTERM)}
     try:
-        sweep._init_pool_worker()
+        executor.ignore_signals()
         assert signal.getsignal(signal.SIGINT) is signal.SIG_IGN
         assert signal.getsignal(signal.SIGTERM) is signal.SIG_IGN
     finally:

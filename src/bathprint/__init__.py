@@ -1,17 +1,11 @@
 """bathprint: simulate and learn to print soft gelling filaments in a reacting bath."""
 
-from bathprint._cache import ensure_fresh_cache
-
-ensure_fresh_cache()
-
-# ruff: noqa: E402
-
 from bathprint.core import layout
-from bathprint.core.run import Result, simulate
 from bathprint.core.scene import Scene, builtin_scene_names, load_scene
 from bathprint.core.simulation import Simulation
 from bathprint.envs import register_envs
 from bathprint.errors import SceneError, SimulationError
+from bathprint.run import Result, simulate
 
 register_envs()  # gymnasium.make("bathprint/CoilRadius-v0"), WriteShape-v0, BuoyantLayers-v0
 

@@ -1,9 +1,14 @@
 """Keep numba's on-disk cache consistent with the kernel sources.
 
 numba invalidates a cached function only when its own file changes, not when a kernel
-it calls (in another module) does. At import we hash the kernel source files and wipe
-the package's cached machine code when the hash differs from the one stored beside it,
-so an edited or upgraded install never runs stale kernels.
+it calls (in another module) does. Before the first kernel of a process compiles or loads
+(:func:`bathprint.core.model.compile_model`, which every simulation and environment goes
+through, and :func:`bathprint.warmup.ensure_compiled`), :func:`ensure_fresh_cache` hashes
+the kernel source files and wipes the package's cached machine code when the hash differs
+from the one stored beside it, so an edited or upgraded install never runs stale kernels.
+A kernel that calls none in another module needs no check (numba invalidates it itself);
+those that do (the simulator's, the environments' step) run on a compiled model, after the
+check. Importing bathprint reads and deletes nothing.
 """
 
 from __future__ import annotations
@@ -13,7 +18,8 @@ import hashlib
 from pathlib import Path
 
 _PACKAGE = Path(__file__).resolve().parent
-_STAMP = _PACKAGE / "__pycache__" / "kernel_sources.sha1"
+_STAMP_NAME = "kernel_sources.sha1"  # in the package's top __pycache__
+_CHECKED = False  # this process has checked the cache (once is enough: sources are loaded)
 
 
 @functools.cache
@@ -32,17 +38,30 @@ def _sources_hash() -> str:
     return h.hexdigest()
 
 
+def wipe_if_stale(package: Path, digest: str) -> bool:
+    """Delete the cached numba code (``*.nbi``, ``*.nbc``) under ``package`` unless the
+    stamp in ``package/__pycache__`` holds ``digest``; then store ``digest`` there.
+    Returns whether it wiped."""
+    stamp = package / "__pycache__" / _STAMP_NAME
+    if stamp.exists() and stamp.read_text() == digest:
+        return False
+    for pattern in ("*.nbi", "*.nbc"):
+        for f in package.rglob(pattern):
+            f.unlink(missing_ok=True)
+    stamp.parent.mkdir(exist_ok=True)
+    stamp.write_text(digest)
+    return True
+
+
 def ensure_fresh_cache() -> None:
-    """Delete cached numba code (*.nbi, *.nbc) if any kernel source changed since it was built."""
+    """Once per process, before any kernel loads: delete the package's cached numba code if
+    any kernel source changed since it was built (:func:`wipe_if_stale`)."""
+    global _CHECKED
+    if _CHECKED:
+        return
+    _CHECKED = True
     try:
-        digest = _sources_hash()
-        if _STAMP.exists() and _STAMP.read_text() == digest:
-            return
-        for pattern in ("*.nbi", "*.nbc"):
-            for f in _PACKAGE.rglob(pattern):
-                f.unlink(missing_ok=True)
-        _STAMP.parent.mkdir(exist_ok=True)
-        _STAMP.write_text(digest)
+        wipe_if_stale(_PACKAGE, _sources_hash())
     except OSError:
         # a read-only install: numba falls back to its own cache locations
         pass

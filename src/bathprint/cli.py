@@ -25,7 +25,7 @@ def _version() -> str:
 
 
 def _cmd_simulate(args: argparse.Namespace) -> int:
-    from bathprint.core.run import simulate
+    from bathprint import simulate
     from bathprint.core.scene import load_scene, parse_override
     from bathprint.paths import check_output_dir
 
@@ -125,10 +125,11 @@ def _cmd_view(args: argparse.Namespace) -> int:
     if args.run_dir is not None:
         path = view.run_page(args.run_dir, args.out, colour=args.colour)
     else:
+        from bathprint.agents.episode_view import episode_page
         from bathprint.paths import check_output_file
 
         out = check_output_file(args.out or "episode.html", "--out")
-        path, info = view.episode_page(
+        path, info = episode_page(
             args.env,
             args.policy,
             out,

@@ -13,6 +13,8 @@ import sys
 import time
 from pathlib import Path
 
+from bathprint._cache import ensure_fresh_cache
+
 _DONE = False  # the kernels are in this process's memory
 
 
@@ -51,6 +53,7 @@ def ensure_compiled(announce: bool = True, environments: bool = False) -> float:
     global _DONE
     if _DONE and not environments:
         return 0.0
+    ensure_fresh_cache()  # a stale cache is wiped first, and then reads as cold
     cold = kernels_cached() is False
     if cold and announce:
         print(

@@ -46,7 +46,7 @@ import json
 import shutil
 import signal
 import sys
-from collections.abc import Iterator, Sequence
+from collections.abc import Sequence
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any
@@ -55,12 +55,12 @@ import numpy as np
 
 from bathprint.envs import printed_targets
 from bathprint.errors import ConfigError
+from bathprint.executor import SERIAL, check_scheduler, run_tasks
 from bathprint.interrupt import exit_code, signals_interrupt
 
 #: keys of a campaign file and of one of its run groups
 CAMPAIGN_KEYS = ("out", "episodes", "baselines", "reference", "runs", "seed")
 GROUP_KEYS = ("name", "env", "algo", "hyperparams", "seeds", "timesteps", "n_envs", "set")
-SERIAL = "serial"
 
 
 def parse_seeds(text: Any) -> list[int]:
@@ -402,95 +402,17 @@ def _tasks(camp: Campaign) -> list[tuple[str, dict[str, Any]]]:
     return tasks
 
 
-def _iter_serial(tasks: list[tuple[str, dict[str, Any]]]) -> Iterator[tuple[int, Any]]:
-    for i, (kind, payload) in enumerate(tasks):
-        try:
-            yield i, _task(kind, payload)
-        except (KeyboardInterrupt, SystemExit):
-            raise
-        except Exception as exc:
-            yield i, exc
-
-
-def _iter_pool(tasks: list[tuple[str, dict[str, Any]]], workers: int) -> Iterator[tuple[int, Any]]:
-    from concurrent.futures import ProcessPoolExecutor, as_completed
-
-    from bathprint.studies.sweep import _mp_context, stop_pool
-
-    pool = ProcessPoolExecutor(max_workers=max(1, min(workers, len(tasks))),
-                               mp_context=_mp_context())
-    finished = False
-    try:
-        futures = {pool.submit(_task, kind, payload): i for i, (kind, payload) in enumerate(tasks)}
-        for fut in as_completed(futures):
-            try:
-                yield futures[fut], fut.result()
-            except Exception as exc:
-                yield futures[fut], exc
-        finished = True
-    finally:  # interrupted: stop the workers now (their runs resume from checkpoints)
-        if finished:
-            pool.shutdown(wait=True)
-        else:
-            stop_pool(pool)
-
-
-def _iter_dask(tasks: list[tuple[str, dict[str, Any]]], scheduler: str,
-               workers: int) -> Iterator[tuple[int, Any]]:
-    import logging
-
-    from distributed import Client, LocalCluster, as_completed
-
-    from bathprint.studies.sweep import LOCAL_DASK
-
-    cluster = None
-    if scheduler == LOCAL_DASK:
-        cluster = LocalCluster(n_workers=max(1, min(workers, len(tasks))), threads_per_worker=1,
-                               processes=True, dashboard_address=None,
-                               silence_logs=logging.ERROR)
-        client = Client(cluster, set_as_default=False)
-    else:
-        try:
-            client = Client(scheduler, set_as_default=False)
-        except (OSError, TimeoutError, ValueError, TypeError) as exc:
-            raise ConfigError(f"scheduler = {scheduler!r}: cannot connect ({exc})") from None
-    futures: dict[Any, int] = {}
-    try:
-        for i, (kind, payload) in enumerate(tasks):
-            futures[client.submit(_task, kind, payload, pure=False)] = i
-        for fut in as_completed(list(futures), loop=client.loop):
-            i = futures.pop(fut)
-            try:
-                yield i, fut.result()
-            except Exception as exc:
-                yield i, exc
-    finally:
-        if futures:
-            try:
-                client.cancel(list(futures))
-            except Exception:
-                pass
-        client.close()
-        if cluster is not None:
-            cluster.close()
-
-
 def run_campaign(camp: Campaign, workers: int = 1, scheduler: str | None = None,
                  progress: bool = True) -> dict[str, Path]:
     """Train and evaluate everything not done yet, then write each environment's results;
     returns {env_id: results.md}. A failed run is reported and left out of the table."""
-    from bathprint.studies.sweep import check_scheduler
-
     check_scheduler(scheduler, "--scheduler")
     tasks = _tasks(camp)
-    if scheduler == SERIAL or (scheduler is None and workers <= 1):
-        it = _iter_serial(tasks)
-    elif scheduler is None:
-        it = _iter_pool(tasks, workers)
-    else:
-        it = _iter_dask(tasks, scheduler, workers)
+    if scheduler is None and workers <= 1:
+        scheduler = SERIAL
     failures = []
-    for i, outcome in it:
+
+    def report(i: int, outcome: Any) -> None:
         kind, payload = tasks[i]
         what = payload["spec"]["run_dir"] if kind == "train" else payload["out"]
         if isinstance(outcome, BaseException):
@@ -503,6 +425,9 @@ def run_campaign(camp: Campaign, workers: int = 1, scheduler: str | None = None,
                 extra = (f" ({outcome['timesteps_done']} steps, "
                          f"{outcome['wall_time_s']:.0f} s, {outcome['state_before']})")
             print(f"campaign: {what} done{extra}", flush=True)
+
+    # interrupted: the workers are stopped now (their runs resume from checkpoints)
+    run_tasks(_task, tasks, report, scheduler, workers)
     written = {env_id: write_results(camp, env_id) for env_id in camp.envs}
     if failures:
         raise RuntimeError(f"{len(failures)} task(s) failed: " + "; ".join(failures))

@@ -43,7 +43,7 @@ from bathprint.envs import printed_targets, target_set_size
 from bathprint.errors import ConfigError
 
 
-def _run_settings(
+def run_settings(
     spec: str, accuracy: str | None, env_id: str | None = None
 ) -> tuple[dict[str, Any], Any]:
     """(environment kwargs, wrapper entry) a policy was trained with (run directories and
@@ -128,7 +128,7 @@ def evaluate_policy_spec(
         raise ConfigError(
             f"target_set = {target_set!r}; allowed for {env_id}: " + ", ".join(map(repr, allowed))
         )
-    kwargs, wrapper = _run_settings(spec, accuracy, env_id)
+    kwargs, wrapper = run_settings(spec, accuracy, env_id)
     env = make(env_id, render_mode="rgb_array", target_set=target_set, **kwargs)
     if wrapper:
         env = wrapper_factory(wrapper)(env)
@@ -307,7 +307,7 @@ def evaluate_many(
                 "an existing run directory or model .zip"
             )
         trained_files(spec)
-        _run_settings(spec, accuracy, resolve_id(env_id))
+        run_settings(spec, accuracy, resolve_id(env_id))
     summaries = []
     panels: list[tuple[str, list[np.ndarray]]] = []
     for spec in specs:

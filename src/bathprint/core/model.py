@@ -13,6 +13,7 @@ from functools import cached_property
 
 import numpy as np
 
+from bathprint._cache import ensure_fresh_cache
 from bathprint.core import layout as L
 from bathprint.core import records
 from bathprint.core.composite import INNER_FLUIDS
@@ -281,6 +282,7 @@ def _hydrodynamics(scene: Scene, p: np.record, radius: float) -> None:
 
 def compile_model(scene: Scene) -> Model:
     """Turn a validated scene into the arrays of a :class:`Model`."""
+    ensure_fresh_cache()  # before any kernel of this process loads from numba's cache
     params = records.new_params()
     p = params.view(np.recarray)[0]
     d = scene.needle.inner_diameter_mm * MM

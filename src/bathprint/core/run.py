@@ -1,23 +1,14 @@
-"""Run a scene to its end, saving frames: :func:`simulate` and :class:`Result`.
+"""A run's time loop, its summary and its trajectory file: the parts of a run the simulator
+owns (:func:`advance_frames`, :func:`summarize`, :func:`load_trajectory`).
 
-Outputs (``bathprint simulate --out DIR``):
-- ``trajectory.npz``: ``positions_m`` (all frames' nodes stacked, shape (total, 3)),
-  ``frame_start`` (frame k is rows frame_start[k]:frame_start[k+1]), ``time_s``,
-  ``material`` (final per-segment records) and ``material_columns``;
-- ``summary.json``: wall time (``compile_s``, numba compiling or loading its kernels
-  before the run, is kept apart), steps, rejected steps, final length, mass balance, and
-  ``measurements`` for the analyses other modules add;
-- ``scene.toml``: the scene as run (``bathprint simulate DIR/scene.toml`` repeats it);
-- ``filament.png``: the final filament coloured by material age (``bathprint view DIR``
-  makes an interactive 3D page of all frames).
+:func:`bathprint.simulate` (:mod:`bathprint.run`) composes them with the measurements and
+the picture into a run's outputs; this module imports nothing above :mod:`bathprint.core`.
 """
 
 from __future__ import annotations
 
-import json
 import math
 import time
-from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -26,55 +17,28 @@ import numpy as np
 from bathprint.core import layout as L
 from bathprint.core.extrusion import extruded_length
 from bathprint.core.model import ML_MIN, contact_damping_time, effective_numerics
-from bathprint.core.scene import Scene, load_scene
 from bathprint.core.simulation import Simulation
 from bathprint.provenance import code_version
 
 
-@dataclass
-class Result:
-    """Frames and summary of a finished run."""
-
-    scene: Scene
-    time_s: np.ndarray
-    frames: list[np.ndarray]
-    material: np.ndarray
-    summary: dict[str, Any] = field(default_factory=dict)
-
-    @property
-    def final(self) -> np.ndarray:
-        """Centreline (m) of the last frame, free end first."""
-        return self.frames[-1]
-
-    def save(self, out_dir: str | Path, plot: bool = True) -> Path:
-        """Write trajectory.npz, summary.json and (optionally) filament.png into out_dir."""
-        out = Path(out_dir)
-        out.mkdir(parents=True, exist_ok=True)
-        counts = [len(f) for f in self.frames]
-        np.savez_compressed(
-            out / "trajectory.npz",
-            positions_m=np.concatenate(self.frames) if self.frames else np.zeros((0, 3)),
-            frame_start=np.concatenate([[0], np.cumsum(counts)]).astype(np.int64),
-            time_s=self.time_s,
-            material=self.material,
-            material_columns=np.array(L.MATERIAL_COLUMNS),
-        )
-        (out / "summary.json").write_text(json.dumps(self.summary, indent=2))
-        from bathprint.core.scene import scene_to_toml  # the scene as run (bathprint view)
-
-        (out / "scene.toml").write_text(scene_to_toml(self.scene))
-        if plot:
-            from bathprint.viz.plotting import plot_filament
-
-            plot_filament(
-                self.final,
-                self.material,
-                self.summary.get("time_s", 0.0),
-                out / "filament.png",
-                title=self.scene.name,
-                measurements=self.summary.get("measurements"),
-            )
-        return out
+def write_trajectory(
+    path: str | Path, time_s: np.ndarray, frames: list[np.ndarray], material: np.ndarray
+) -> Path:
+    """Write a run's frames as ``trajectory.npz``: ``positions_m`` (all frames' nodes
+    stacked, shape (total, 3)), ``frame_start`` (frame k is rows
+    frame_start[k]:frame_start[k+1]), ``time_s``, ``material`` (final per-segment records)
+    and ``material_columns``. :func:`load_trajectory` reads it back."""
+    path = Path(path)
+    counts = [len(f) for f in frames]
+    np.savez_compressed(
+        path,
+        positions_m=np.concatenate(frames) if frames else np.zeros((0, 3)),
+        frame_start=np.concatenate([[0], np.cumsum(counts)]).astype(np.int64),
+        time_s=time_s,
+        material=material,
+        material_columns=np.array(L.MATERIAL_COLUMNS),
+    )
+    return path
 
 
 def load_trajectory(path: str | Path) -> tuple[np.ndarray, list[np.ndarray], np.ndarray]:
@@ -181,49 +145,18 @@ def _contact_law(sim: Simulation) -> dict[str, Any]:
     return {"contact": law}
 
 
-def measure_run(sim: Simulation, frames: list[np.ndarray], times: np.ndarray) -> dict[str, Any]:
-    """The Fig. 2 measurements of a run (:mod:`bathprint.analysis.measure`), for summary.json."""
-    from bathprint.analysis.measure import measure_all
-
-    needle = sim.model.needle
-    z_floor = float(sim.model.p.floor_z) if "floor" in sim.scene.effects else None
-    return measure_all(
-        frames,
-        times,
-        needle[0, 1:4].copy(),
-        needle[0, 4:7].copy(),
-        sim.model.node_spacing,
-        sim.model.radius,
-        z_floor=z_floor,
-    )
-
-
 def _node_steps(sim: Simulation) -> float:
-    # accumulated during the run by simulate(); fall back to steps x current nodes
+    # accumulated during the run by advance_frames(); fall back to steps x current nodes
     return float(getattr(sim, "_node_steps", sim.counts()["steps"] * sim.n_nodes))
 
 
-def simulate(
-    scene: str | Path | Scene | dict,
-    overrides: dict[str, Any] | None = None,
-    out_dir: str | Path | None = None,
-    progress: bool | None = None,
-) -> Result:
-    """Run a scene (built-in name, TOML path, dict or Scene) to its duration.
-
-    Returns a :class:`Result`; with ``out_dir`` also writes its files (a file there, or a
-    directory that cannot be written, raises OptionError before the run). A progress bar is
-    shown when ``progress`` is true (default: when the run is long and stderr is a TTY).
-    """
-    from bathprint.warmup import ensure_compiled
-
-    load_scene(scene, overrides)  # bad input is refused before anything compiles
-    if out_dir is not None:  # refused now, not after the run (OptionError)
-        from bathprint.paths import check_output_dir
-
-        check_output_dir(out_dir, "out_dir")
-    compile_s = ensure_compiled(announce=True)
-    sim = Simulation(scene, overrides)
+def advance_frames(
+    sim: Simulation, progress: bool | None = None
+) -> tuple[np.ndarray, list[np.ndarray], float]:
+    """Advance ``sim`` to its scene's duration, saving the centreline every
+    ``outputs.frame_interval_s``: returns (frame times (s), frames (m), wall seconds of the
+    loop). Records the node-steps the loop took for :func:`summarize`. A progress bar is
+    shown when ``progress`` is true (None: when stderr is a TTY)."""
     sc = sim.scene
     n_frames = max(1, int(math.ceil(sc.duration_s / sc.outputs.frame_interval_s - 1e-9)))
     times = np.minimum(np.arange(1, n_frames + 1) * sc.outputs.frame_interval_s, sc.duration_s)
@@ -246,13 +179,7 @@ def simulate(
             bar.close()
     wall = time.perf_counter() - wall0
     sim._node_steps = node_steps
-    summary = summarize(sim, wall)
-    summary["compile_s"] = compile_s
-    summary["measurements"] = measure_run(sim, frames, np.array(t_out))
-    result = Result(sc, np.array(t_out), frames, sim.material(), summary)
-    if out_dir is not None:
-        result.save(out_dir, plot=sc.outputs.plot)
-    return result
+    return np.array(t_out), frames, wall
 
 
 def _progress(progress: bool | None, total: float):

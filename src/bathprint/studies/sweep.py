@@ -28,12 +28,13 @@ Row fields::
 Non-finite floats are written as null. If the same ``run_id`` appears twice (a failed
 run retried with ``retry_failed=True``) the last row is the one that counts.
 
-Backends: a local process pool (default), a Dask cluster (``scheduler="tcp://host:8786"``),
-a temporary local Dask cluster (``"local-dask"``) or the calling process (``"serial"``).
-The process pool uses the ``forkserver`` (else ``spawn``) start method, so a script that
-calls :func:`run_sweep` must guard its entry point with ``if __name__ == "__main__":``.
-Dask workers need bathprint installed; the scene file is read by the driver and sent
-to them, so TOML paths need not exist on the workers.
+Backends (:mod:`bathprint.executor`): a local process pool (default), a Dask cluster
+(``scheduler="tcp://host:8786"``), a temporary local Dask cluster (``"local-dask"``) or the
+calling process (``"serial"``). The process pool uses the ``forkserver`` (else ``spawn``)
+start method, so a script that calls :func:`run_sweep` must guard its entry point with
+``if __name__ == "__main__":``. Dask (the ``dask`` extra) workers need bathprint installed;
+the scene file is read by the driver and sent to them, so TOML paths need not exist on the
+workers.
 """
 
 from __future__ import annotations
@@ -44,8 +45,6 @@ import hashlib
 import itertools
 import json
 import math
-import multiprocessing
-import operator
 import os
 import signal
 import sys
@@ -53,8 +52,6 @@ import time
 import traceback
 import warnings
 from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
-from concurrent.futures import ProcessPoolExecutor
-from concurrent.futures import as_completed as futures_as_completed
 from concurrent.futures.process import BrokenProcessPool
 from contextlib import contextmanager
 from contextvars import ContextVar
@@ -64,6 +61,7 @@ from typing import Any
 
 from bathprint.core.scene import parse_override, read_scene_data
 from bathprint.errors import OptionError, SceneError, SimulationError
+from bathprint.executor import check_scheduler, check_workers, ignore_signals, run_tasks
 from bathprint.interrupt import atomic, exit_code, signals_interrupt
 from bathprint.paths import check_output_file
 from bathprint.provenance import code_version
@@ -71,7 +69,6 @@ from bathprint.provenance import code_version
 __all__ = [
     "add_arguments",
     "check_points",
-    "check_scheduler",
     "default_extract",
     "expand_grid",
     "latest_rows",
@@ -86,11 +83,6 @@ __all__ = [
 
 Grid = Mapping[str, Any] | Sequence[Mapping[str, Any]]
 Extract = Callable[[dict[str, Any]], Mapping[str, Any]]
-
-#: Special values of ``scheduler`` (anything else is a Dask scheduler address).
-LOCAL_DASK = "local-dask"
-SERIAL = "serial"
-
 
 # --------------------------------------------------------------------------- grid, ids
 
@@ -301,7 +293,7 @@ def _run_point(scene_data: dict[str, Any], overrides: dict[str, Any]) -> dict[st
     """Run one point (in a worker); every error is returned, never raised."""
     t0 = time.perf_counter()
     try:
-        from bathprint.core.run import simulate
+        from bathprint.run import simulate
 
         result = simulate(scene_data, overrides, progress=False)
     except Exception as exc:
@@ -319,172 +311,24 @@ def _run_point(scene_data: dict[str, Any], overrides: dict[str, Any]) -> dict[st
     }
 
 
-def _init_pool_worker() -> None:
-    # Ctrl-C and SIGTERM (also when sent to the whole process group) are the driver's
-    # business: it cancels pending work and kills the workers (SIGKILL).
-    signal.signal(signal.SIGINT, signal.SIG_IGN)
-    signal.signal(signal.SIGTERM, signal.SIG_IGN)
-
-
-def _mp_context() -> multiprocessing.context.BaseContext:
-    method = "forkserver" if "forkserver" in multiprocessing.get_all_start_methods() else "spawn"
-    return multiprocessing.get_context(method)
-
-
-Task = tuple[int, dict[str, Any]]  # (index into the points to run, overrides)
 Outcome = dict[str, Any]  # what _run_point returns
 
 
-def _iter_serial(scene_data: dict[str, Any], tasks: list[Task]) -> Iterator[tuple[int, Outcome]]:
-    for i, overrides in tasks:
-        yield i, _run_point(scene_data, overrides)
-
-
-def _iter_pool(
-    scene_data: dict[str, Any], tasks: list[Task], workers: int
-) -> Iterator[tuple[int, Outcome]]:
-    pool = ProcessPoolExecutor(
-        max_workers=max(1, min(workers, len(tasks))),
-        mp_context=_mp_context(),
-        initializer=_init_pool_worker,
-    )
-    finished = False
-    try:
-        futures = {pool.submit(_run_point, scene_data, ov): i for i, ov in tasks}
-        for fut in futures_as_completed(futures):
-            try:
-                outcome = fut.result()
-            except BrokenProcessPool as exc:
-                raise RuntimeError(
-                    "a sweep worker process died (crash or out of memory); the rows written "
-                    "so far are kept: rerun the sweep to resume"
-                ) from exc
-            except Exception as exc:
-                outcome = {"status": "failed", "error": _error_info(exc), "wall_time_s": None}
-            yield futures.pop(fut), outcome
-        finished = True
-    finally:
-        if finished:
-            pool.shutdown(wait=True)
-        else:  # interrupted or failed: drop queued work and stop the running runs now
-            stop_pool(pool)
-
-
-def stop_pool(pool: ProcessPoolExecutor) -> None:
-    """Stop a process pool now: drop its queued work, kill its workers, and wait for its
-    management thread.
-
-    The workers are killed by pid: they ignore SIGTERM, and when a SIGTERM to the process
-    group has ended the forkserver, ``proc.is_alive()`` wrongly says False. The management
-    thread closes its wake-up pipe when it sees the workers gone; left running, it can
-    close it while the interpreter's exit hook writes to it (``OSError: Bad file
-    descriptor``, printed as an ignored exception after a clean stop, Python 3.11).
-    """
-    procs = list((getattr(pool, "_processes", None) or {}).values())
-    pool.shutdown(wait=False, cancel_futures=True)
-    for proc in procs:
-        try:
-            os.kill(proc.pid, signal.SIGKILL)
-        except (ProcessLookupError, PermissionError, TypeError, ValueError):
-            pass
-    for proc in procs:
-        try:
-            proc.join(timeout=5.0)
-        except (ValueError, AssertionError):  # closed by the pool / not our child
-            pass
-    manager = getattr(pool, "_executor_manager_thread", None)
-    if manager is not None and manager.is_alive():
-        manager.join(timeout=5.0)
-
-
-def _iter_dask(
-    scene_data: dict[str, Any], tasks: list[Task], scheduler: str, workers: int, progress: bool
-) -> Iterator[tuple[int, Outcome]]:
-    import logging
-
-    from distributed import Client, LocalCluster, as_completed
-
-    cluster = None
-    if scheduler == LOCAL_DASK:
-        try:
-            import bokeh  # noqa: F401
-
-            dashboard: str | None = ":0"
-        except ImportError:
-            dashboard = None
-        cluster = LocalCluster(
-            n_workers=max(1, min(workers, len(tasks))),
-            threads_per_worker=1,
-            processes=True,
-            dashboard_address=dashboard,
-            silence_logs=logging.ERROR,
-        )
-        client = Client(cluster, set_as_default=False)
-        if progress and dashboard is not None:
-            print(f"sweep: dask dashboard at {client.dashboard_link}", file=sys.stderr)
-    else:
-        try:
-            client = Client(scheduler, set_as_default=False)
-        except (OSError, TimeoutError, ValueError, TypeError) as exc:
-            raise OptionError(
-                f"scheduler = {scheduler!r}: cannot connect ({exc}); allowed: the address of "
-                f"a running Dask scheduler (tcp://host:8786), {LOCAL_DASK!r} or {SERIAL!r}"
-            ) from None
-    futures: dict[Any, int] = {}
-    try:
-        for i, ov in tasks:
-            futures[client.submit(_run_point, scene_data, ov, pure=False)] = i
-        for fut in as_completed(list(futures), loop=client.loop):
-            try:
-                outcome = fut.result()
-            except Exception as exc:  # e.g. KilledWorker: the task took its worker down
-                outcome = {"status": "failed", "error": _error_info(exc), "wall_time_s": None}
-            i = futures.pop(fut)
-            fut.release()
-            yield i, outcome
-    finally:
-        if futures:
-            try:
-                client.cancel(list(futures))
-            except Exception:  # the cluster may already be gone
-                pass
-        client.close()
-        if cluster is not None:
-            cluster.close()
+def _outcome(result: Outcome | BaseException) -> Outcome:
+    """A task's outcome; an error the worker could not return itself (a task that could not
+    be sent, a Dask worker lost) is a failed run. A dead pool worker ends the sweep: its
+    points were not run, so they are not recorded and a rerun resumes them."""
+    if isinstance(result, BrokenProcessPool):
+        raise RuntimeError(
+            "a sweep worker process died (crash or out of memory); the rows written "
+            "so far are kept: rerun the sweep to resume"
+        ) from result
+    if isinstance(result, BaseException):
+        return {"status": "failed", "error": _error_info(result), "wall_time_s": None}
+    return result
 
 
 # --------------------------------------------------------------------------- sweep
-
-
-def _check_workers(workers: Any, option: str) -> int:
-    """``workers`` as an int >= 1 (None: the number of CPUs)."""
-    if workers is None:
-        return os.cpu_count() or 1
-    try:
-        n = operator.index(workers)  # ints and numpy ints; not 2.5, not True
-    except TypeError:
-        n = 0
-    if isinstance(workers, bool) or n < 1:
-        raise OptionError(f"{option} = {workers!r}; allowed: an integer >= 1")
-    return n
-
-
-def check_scheduler(scheduler: Any, option: str = "scheduler") -> None:
-    """Refuse a ``scheduler`` that cannot be one: None, ``"local-dask"``, ``"serial"`` or a
-    Dask address (``tcp://host:port``, ``host:port``); Dask must be installed for the last two.
-    Whether a scheduler answers at the address is found when the sweep connects."""
-    if scheduler is None or scheduler == SERIAL:
-        return
-    allowed = f"{LOCAL_DASK!r}, {SERIAL!r} or a Dask scheduler address such as tcp://host:8786"
-    if not isinstance(scheduler, str) or ":" not in scheduler and scheduler != LOCAL_DASK:
-        raise OptionError(f"{option} = {scheduler!r}; allowed: {allowed}")
-    try:
-        import distributed  # noqa: F401
-    except ImportError:
-        raise OptionError(
-            f"{option} = {scheduler!r} needs Dask (pip install 'dask[distributed]'); "
-            "allowed without it: the default local process pool"
-        ) from None
 
 
 def check_points(
@@ -551,7 +395,7 @@ def run_sweep(
     for point in expand_grid(grid):
         overrides = _jsonable({**base, **point})  # plain types: what runs is what is recorded
         points.setdefault(run_id(scene_name, overrides), overrides)
-    workers = _check_workers(workers, "workers")
+    workers = check_workers(workers, "workers")
 
     out = _ResultsFile(Path(results_path))
     try:
@@ -569,26 +413,29 @@ def run_sweep(
             )
         if not todo:
             return [rows[rid] for rid in points]
-        tasks = [(k, points[rid]) for k, rid in enumerate(todo)]
-        if scheduler is None:
-            outcomes = _iter_pool(scene_data, tasks, workers)
-        elif scheduler == SERIAL:
-            outcomes = _iter_serial(scene_data, tasks)
-        else:
-            outcomes = _iter_dask(scene_data, tasks, scheduler, workers, progress)
         counts = {"ok": 0, "failed": 0}
         bar = tqdm(total=len(todo), unit="run", desc="sweep", disable=not progress)
-        try:
-            for k, outcome in outcomes:
-                rid = todo[k]
-                row = _make_row(rid, scene_name, points[rid], outcome, extract)
-                out.append(row)
-                rows[rid] = row
-                counts[row["status"]] += 1
-                bar.set_postfix(counts, refresh=False)
-                bar.update(1)
+
+        def record(k: int, result: Outcome | BaseException) -> None:
+            rid = todo[k]
+            row = _make_row(rid, scene_name, points[rid], _outcome(result), extract)
+            out.append(row)
+            rows[rid] = row
+            counts[row["status"]] += 1
+            bar.set_postfix(counts, refresh=False)
+            bar.update(1)
+
+        try:  # an early exit cancels the pending runs and stops the workers
+            run_tasks(
+                _run_point,
+                [(scene_data, points[rid]) for rid in todo],
+                record,
+                scheduler,
+                workers,
+                initializer=ignore_signals,
+                dashboard="sweep" if progress else None,
+            )
         finally:
-            outcomes.close()  # on an early exit: cancel pending runs, stop workers
             bar.close()
         return [rows[rid] for rid in points]
     finally:
@@ -835,7 +682,7 @@ def _check_args(args: argparse.Namespace) -> tuple[dict[str, list[Any]], dict[st
         check_output_file(args.csv, "--csv")
         if Path(args.csv).resolve() == Path(args.out).resolve():
             raise OptionError(f"--csv = {args.csv!r} is the results file; allowed: another path")
-    _check_workers(args.workers, "--workers")
+    check_workers(args.workers, "--workers")
     check_scheduler(args.scheduler, "--scheduler")
     axes: dict[str, list[Any]] = {}
     for text in args.grid:

@@ -10,7 +10,8 @@ summary beside it; the view rotates and zooms with the mouse.
 ``bathprint view --env ENV --policy POLICY`` plays one episode of an environment (a
 baseline, a trained run directory or a model ``.zip``, as ``bathprint evaluate`` takes) and
 writes the same page with the episode's target drawn beside the printed filament
-(:func:`episode_page`). :class:`RecordEpisode` records any episode stepped by hand.
+(:func:`bathprint.agents.episode_view.episode_page` plays it); :class:`RecordEpisode`
+records any episode, played by a policy or stepped by hand.
 
 What the colours are. Material records are saved for the final frame only. Segment j of an
 earlier frame is segment j of the final frame (nodes are born at the needle and keep their
@@ -39,7 +40,7 @@ __all__ = [
     "COLOUR_COLUMNS",
     "RecordEpisode",
     "ViewData",
-    "episode_page",
+    "format_value",
     "load_run",
     "run_page",
     "write_page",
@@ -155,7 +156,9 @@ def _needle_directions(
     return np.where(norm > 0, d / np.where(norm > 0, norm, 1.0), [[0.0, 0.0, -1.0]])
 
 
-def _fmt(x: Any, unit: str = "", digits: int = 4) -> str:
+def format_value(x: Any, unit: str = "", digits: int = 4) -> str:
+    """``x`` for the page's summary table: ``digits`` significant figures and its unit, or a
+    dash where there is no finite value."""
     if x is None:
         return "–"
     if isinstance(x, float):
@@ -171,28 +174,28 @@ def _run_summary(summary: dict[str, Any]) -> list[tuple[str, str]]:
 
     def mm(key: str) -> str:
         v = m.get(key)
-        return _fmt(1e3 * v if isinstance(v, int | float) else None, "mm")
+        return format_value(1e3 * v if isinstance(v, int | float) else None, "mm")
 
     rows = [
-        ("scene", _fmt(summary.get("scene"))),
-        ("simulated", _fmt(summary.get("time_s"), "s")),
-        ("wall time", _fmt(summary.get("wall_time_s"), "s", 3)),
+        ("scene", format_value(summary.get("scene"))),
+        ("simulated", format_value(summary.get("time_s"), "s")),
+        ("wall time", format_value(summary.get("wall_time_s"), "s", 3)),
         ("steps (rejected)", f"{summary.get('steps', '–')} ({summary.get('rejected_steps', '–')})"),
-        ("Newton iterations", _fmt(summary.get("newton_iterations"))),
+        ("Newton iterations", format_value(summary.get("newton_iterations"))),
         ("nodes (frozen)", f"{summary.get('nodes', '–')} ({summary.get('frozen_nodes', 0)})"),
         ("effects", ", ".join(summary.get("effects") or []) or "–"),
         (
             "exit speed",
-            _fmt(1e3 * summary["exit_speed_m_s"], "mm/s")
+            format_value(1e3 * summary["exit_speed_m_s"], "mm/s")
             if isinstance(summary.get("exit_speed_m_s"), int | float)
             else "–",
         ),
-        ("regime", _fmt(m.get("regime"))),
+        ("regime", format_value(m.get("regime"))),
         ("buckling length", mm("buckling_length_m")),
         ("coil radius", mm("coil_radius_m")),
         ("coil pitch", mm("coil_pitch_m")),
-        ("coil frequency", _fmt(m.get("coil_frequency_rad_s"), "rad/s")),
-        ("mass balance error", _fmt(mb.get("relative_error"), "", 2)),
+        ("coil frequency", format_value(m.get("coil_frequency_rad_s"), "rad/s")),
+        ("mass balance error", format_value(mb.get("relative_error"), "", 2)),
     ]
     return rows
 
@@ -311,13 +314,13 @@ class RecordEpisode:
             ("environment", title),
             *extra,
             ("steps", str(max(len(self.frames) - 1, 0))),
-            ("metric", _fmt(info.get("metric"))),
-            ("shape RMS", _fmt(info.get("shape_rms_mm"), "mm")),
-            ("curvature RMS", _fmt(info.get("curvature_rms_1_mm"), "1/mm")),
-            ("density RMS", _fmt(info.get("density_rms_kg_m3"), "kg/m³")),
-            ("printed", _fmt(info.get("printed_length_mm"), "mm")),
-            ("target", _fmt(info.get("target_key"))),
-            ("simulation error", _fmt(info.get("sim_error"))),
+            ("metric", format_value(info.get("metric"))),
+            ("shape RMS", format_value(info.get("shape_rms_mm"), "mm")),
+            ("curvature RMS", format_value(info.get("curvature_rms_1_mm"), "1/mm")),
+            ("density RMS", format_value(info.get("density_rms_kg_m3"), "kg/m³")),
+            ("printed", format_value(info.get("printed_length_mm"), "mm")),
+            ("target", format_value(info.get("target_key"))),
+            ("simulation error", format_value(info.get("sim_error"))),
         ]
         frames = self.frames
         needle = u.sim.model.needle
@@ -358,70 +361,6 @@ def _material_names() -> tuple[str, ...]:
     from bathprint.core.layout import MATERIAL_COLUMNS
 
     return tuple(MATERIAL_COLUMNS)
-
-
-def episode_page(
-    env_id: str,
-    policy: str = "random",
-    out: str | Path = "episode.html",
-    seed: int = 0,
-    target_index: int = 0,
-    accuracy: str | None = None,
-) -> tuple[Path, dict[str, Any]]:
-    """Play one deterministic episode of ``policy`` (a baseline name, a run directory or a
-    model ``.zip``) on held-out target ``target_index`` (version 0's evaluation set, a later
-    version's test set) and write its page; returns the path and the last step's info."""
-    from bathprint.agents.evaluate import _run_settings, default_target_set
-    from bathprint.agents.policies import load_policy
-    from bathprint.agents.wrappers import wrapper_factory
-    from bathprint.envs import make, resolve_id, target_set_size
-
-    try:
-        env_id = resolve_id(env_id)
-    except ValueError as exc:
-        raise OptionError(f"--env = {env_id!r}: {exc}") from None
-    kwargs, wrapper = _run_settings(policy, accuracy, env_id)
-    target_set = default_target_set(env_id)
-    env = make(env_id, target_set=target_set, **kwargs)
-    try:
-        if wrapper:
-            env = wrapper_factory(wrapper)(env)
-        n_eval = target_set_size(env.unwrapped, target_set)
-        if not 0 <= target_index < n_eval:
-            raise OptionError(
-                f"--target-index = {target_index}; the {target_set} set of {env_id} "
-                f"has {n_eval} targets: allowed 0..{n_eval - 1}"
-            )
-        try:
-            pol, label = load_policy(policy, env, env_id, seed=seed)
-        except FileNotFoundError as exc:
-            raise OptionError(f"--policy = {policy!r}: {exc}") from None
-        rec = RecordEpisode(env)
-        obs, info = env.reset(seed=seed, options={"target_index": target_index})
-        rec.capture(info)
-        state, start, done = None, np.ones(1, bool), False
-        ret = 0.0
-        while not done:
-            action, state = pol.predict(obs, state=state, episode_start=start, deterministic=True)
-            start = np.zeros(1, bool)
-            obs, reward, terminated, truncated, info = env.step(action)
-            ret += float(reward)
-            done = bool(terminated or truncated)
-            rec.capture(info)
-        data = rec.view_data(
-            env_id,
-            extra=[
-                ("policy", label),
-                ("seed", str(seed)),
-                ("target index", str(target_index)),
-                ("return", _fmt(ret)),
-            ],
-        )
-        info = dict(info)
-        info["return"] = ret
-    finally:
-        env.close()
-    return write_page(data, Path(out)), info
 
 
 # --------------------------------------------------------------------- the page

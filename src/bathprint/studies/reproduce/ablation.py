@@ -246,8 +246,8 @@ def time_variants(
     steps and regime, or the error. For choosing budgets before the full study."""
     import time
 
-    from bathprint.core.run import simulate
     from bathprint.errors import SimulationError
+    from bathprint.run import simulate
 
     runs, missing = plan(quick)
     chosen = [r for r in runs if r["set"] == set_name and r["point"] == tuple(point)]

@@ -59,12 +59,12 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 def check_args(args: argparse.Namespace) -> Path:
     """The output directory, once every option is known to be usable (OptionError if not)."""
+    from bathprint.executor import check_scheduler, check_workers
     from bathprint.paths import check_output_dir
-    from bathprint.studies.sweep import _check_workers, check_scheduler
 
     out = check_output_dir(args.out, "--out")
     if args.workers is not None:
-        _check_workers(args.workers, "--workers")
+        check_workers(args.workers, "--workers")
     check_scheduler(args.scheduler, "--scheduler")
     return out
 
