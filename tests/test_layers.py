@@ -28,6 +28,7 @@ FORBIDDEN: dict[str, tuple[str, ...]] = {
     ),
     "viz": ("bathprint.agents", "bathprint.studies"),
     "studies": ("bathprint.agents",),
+    "envs": ("bathprint.agents", "bathprint.studies", "bathprint.viz"),
     # the runner of independent tasks knows no task: sweeps and campaigns hand it theirs
     "executor.py": (
         "bathprint.core",
