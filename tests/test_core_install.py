@@ -102,7 +102,7 @@ def test_core_simulates_and_steps_an_environment_without_the_extras(core_env, tm
 
 
 def test_core_commands_run_without_the_extras(core_env, tmp_path):
-    """simulate, view --png, scenes, a sweep on a process pool, every command's --help."""
+    """scenes, simulate, view --png, a sweep on a process pool."""
     proc = _cli(["scenes"], core_env, tmp_path)
     assert proc.returncode == 0 and "paper_simulation" in proc.stdout, proc.stderr
     args = ["simulate", "paper_simulation", "--set", "duration_s=0.05", "--out", "run", "--quiet"]
@@ -116,11 +116,28 @@ def test_core_commands_run_without_the_extras(core_env, tmp_path):
     assert proc.returncode == 0, proc.stderr
     rows = [json.loads(line) for line in (tmp_path / "sweep.jsonl").read_text().splitlines()]
     assert len([r for r in rows if r.get("status") == "ok"]) == 2, rows
+
+
+def test_every_commands_help_builds_without_the_extras(core_env, tmp_path):
+    """The parser (every command's options and help) imports no optional module."""
+    code = textwrap.dedent(
+        f"""
+        import json, sys
+        from bathprint.cli import build_parser
+        parser = build_parser()
+        (action,) = parser._subparsers._group_actions
+        helps = {{name: p.format_help() for name, p in action.choices.items()}}
+        loaded = sorted(m for m in sys.modules if m.split(".")[0] in {OPTIONAL!r})
+        print(json.dumps({{"commands": sorted(helps), "loaded": loaded,
+                          "usage": all(h.startswith("usage: bathprint") for h in helps.values())}}))
+        """
+    )
+    proc = _python(code, core_env, tmp_path)
+    assert proc.returncode == 0, proc.stderr
+    out = json.loads(proc.stdout.strip().splitlines()[-1])
     from bathprint.cli import COMMANDS
 
-    for command in COMMANDS:
-        proc = _cli([command, "--help"], core_env, tmp_path)
-        assert proc.returncode == 0 and "usage: bathprint" in proc.stdout, (command, proc.stderr)
+    assert out["commands"] == sorted(COMMANDS) and out["usage"] and out["loaded"] == []
 
 
 @pytest.mark.parametrize(
