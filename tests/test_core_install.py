@@ -171,3 +171,27 @@ def test_tune_names_the_rl_extra(core_env, tmp_path):
     proc = _python(code, core_env, tmp_path)
     assert proc.returncode == 2, proc.stderr
     assert "'rl' extra" in proc.stderr and len(proc.stderr.strip().splitlines()) == 1
+
+
+def test_the_extras_of_pyproject_hold_what_the_code_needs():
+    """The core lists no optional package; ``dev`` and ``all`` hold every line of ``rl``,
+    ``dask`` and ``viewer`` (``all`` also ``hydro``); every module that
+    ``bathprint._extras`` maps to an extra comes with that extra."""
+    import re
+    import tomllib
+
+    project = tomllib.loads((Path(__file__).parents[1] / "pyproject.toml").read_text())["project"]
+    extras = project["optional-dependencies"]
+
+    def name(requirement: str) -> str:
+        return re.split(r"[\[<>=!~ ;]", requirement, maxsplit=1)[0].lower().replace("_", "-")
+
+    core = {name(r) for r in project["dependencies"]}
+    assert core == {"numpy", "numba", "scipy", "matplotlib", "gymnasium", "tqdm", "tomli-w"}
+    used = set(extras["rl"]) | set(extras["dask"]) | set(extras["viewer"])
+    assert used <= set(extras["dev"]), used - set(extras["dev"])
+    assert used | set(extras["hydro"]) == set(extras["all"])
+    package = {"yaml": "pyyaml", "distributed": "dask", "stable_baselines3": "stable-baselines3",
+               "sb3_contrib": "sb3-contrib"}
+    for module, extra in EXTRA_OF_MODULE.items():
+        assert package.get(module, module) in {name(r) for r in extras[extra]}, (module, extra)

@@ -1,9 +1,10 @@
 """Optional dependencies: import one, or say which ``pip install`` line brings it.
 
 The core (simulate, view as PNG, sweeps serially or on a process pool, the Gymnasium
-environments) needs only numpy, numba, scipy, matplotlib, gymnasium and tqdm. Everything
-else belongs to an extra of ``pyproject.toml``: ``rl`` (torch, stable-baselines3,
-sb3-contrib, rliable, optuna, tensorboard), ``dask``, ``viewer`` (plotly).
+environments) needs only numpy, numba, scipy, matplotlib, gymnasium, tqdm and tomli-w.
+Everything else belongs to an extra of ``pyproject.toml``: ``rl`` (torch,
+stable-baselines3, sb3-contrib, rliable, optuna, tensorboard, pyyaml, rich), ``dask``,
+``viewer`` (plotly).
 """
 
 from __future__ import annotations
