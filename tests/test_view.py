@@ -89,6 +89,28 @@ def test_page_is_self_contained(page: Path):
     assert np.allclose(data["x"], 1e3 * z["positions_m"][:, 0], atol=6e-4)  # mm, 3 decimals
 
 
+def test_png_draws_the_last_frame_as_filament_png_does(run_dir: Path, tmp_path: Path, capsys):
+    """view --png (or --out FILE.png) writes the picture simulate writes, from the run
+    directory alone; it refuses what only the page can do."""
+    import matplotlib.image as mpimg
+
+    assert main(["view", str(run_dir), "--png"]) == 0
+    drawn = mpimg.imread(run_dir / "view.png")
+    assert drawn.shape == mpimg.imread(run_dir / "filament.png").shape
+    assert np.array_equal(drawn, mpimg.imread(run_dir / "filament.png"))
+    out = tmp_path / "pic.png"
+    assert main(["view", str(run_dir), "--out", str(out)]) == 0 and out.stat().st_size > 10_000
+    capsys.readouterr()
+    for argv in (
+        ["view", "--env", "CoilRadius", "--png"],
+        ["view", str(run_dir), "--png", "--colour", "density"],
+        ["view", str(tmp_path / "missing"), "--png"],
+    ):
+        assert main(argv) == 2, argv
+        err = capsys.readouterr().err.strip()
+        assert err.startswith("bathprint view:") and "\n" not in err, (argv, err)
+
+
 def test_view_refusals(tmp_path: Path, capsys):
     for argv in (
         ["view"],  # neither a run nor --env

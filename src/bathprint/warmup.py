@@ -92,18 +92,24 @@ def _run_environments() -> None:
         env.close()
 
 
-def main(argv: list[str] | None = None) -> int:
-    """``bathprint warmup``: compile every kernel now (simulation and environments)."""
-    import argparse
+DESCRIPTION = (
+    "Compile the numba kernels now (simulator and environments), so that the first "
+    "simulation, environment or training run after an install starts at once."
+)
 
-    p = argparse.ArgumentParser(
-        prog="bathprint warmup",
-        description="Compile the numba kernels now (simulator and environments), so that the "
-        "first simulation, environment or training run after an install starts at once.",
-    )
-    p.parse_args(argv)
+
+def run_args(args: object = None) -> int:
+    """``bathprint warmup``: compile every kernel now (simulation and environments)."""
     cached = kernels_cached()
     seconds = ensure_compiled(announce=False, environments=True)
     state = {True: "loaded from the cache", False: "compiled", None: "compiled or loaded"}[cached]
     print(f"bathprint: kernels {state} in {seconds:.1f} s")
     return 0
+
+
+def main(argv: list[str] | None = None) -> int:
+    """``bathprint warmup`` as its own program (it takes no options)."""
+    import argparse
+
+    argparse.ArgumentParser(prog="bathprint warmup", description=DESCRIPTION).parse_args(argv)
+    return run_args()

@@ -56,12 +56,10 @@ from typing import Any
 import yaml
 
 from bathprint._resources import shared_dir
+from bathprint.agents.algos import ALGOS
 from bathprint.envs import printed_targets
 from bathprint.errors import ConfigError
 
-ALGOS = ("ppo", "sac", "tqc")
-#: off-policy algorithms (a replay buffer travels with their checkpoints)
-OFF_POLICY = ("sac", "tqc")
 #: the section of a hyperparameter file that holds bathprint's own keys
 BATHPRINT_SECTION = "bathprint"
 #: keys bathprint reads that rl-zoo3 reads too (the environment's entry)

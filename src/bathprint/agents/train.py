@@ -44,14 +44,14 @@ import shutil
 import signal
 import time
 import warnings
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+from bathprint.agents.algos import ALGOS, OFF_POLICY
 from bathprint.agents.hyperparams import (
-    ALGOS,
-    OFF_POLICY,
     agents_dir,
     algo_class,
     algo_kwargs_for,
@@ -145,31 +145,22 @@ def make_eval_env(env_id: str, env_kwargs: dict[str, Any], wrapper: dict[str, An
 
 
 def _make_callbacks(
-    run_dir: Path,
-    env_id: str,
-    env_kwargs: dict[str, Any],
-    normalize: dict[str, Any] | None,
-    n_envs: int,
-    run: dict[str, Any],
-    resumed_at: int,
-    algo: str,
-    seed: int,
-    base_wall_s: float = 0.0,
-    stop: Any = None,
-    evaluate_at_start: bool = False,
+    s: RunSettings, base_wall_s: float, stop: Any, evaluate_at_start: bool
 ) -> list[Any]:
+    """The run's checkpoints, validation (model selection) and episode log, in this order
+    (tests add theirs after them by replacing this function)."""
     from stable_baselines3.common.callbacks import CheckpointCallback
 
     from bathprint.agents.callbacks import EpisodeLogCallback, ValidationCallback
 
-    ckpt_freq = max(1, int(run.get("checkpoint_freq", 10_000)) // n_envs)
+    ckpt_freq = max(1, int(s.run.get("checkpoint_freq", 10_000)) // s.n_envs)
     evaluator = ValidationCallback(
-        make_eval_env(env_id, env_kwargs, run.get("wrapper")),
-        n_episodes=int(run.get("eval_episodes", 16)),
-        eval_freq=int(run.get("eval_freq", 10_000)),
-        log_dir=run_dir / "eval",
-        seed=seed + 10_000,
-        resumed_at=resumed_at,
+        make_eval_env(s.env_id, s.env_kwargs, s.wrapper),
+        n_episodes=int(s.run.get("eval_episodes", 16)),
+        eval_freq=int(s.run.get("eval_freq", 10_000)),
+        log_dir=s.run_dir / "eval",
+        seed=s.seed + 10_000,
+        resumed_at=s.resumed_at,
         base_wall_s=base_wall_s,
         stop=stop,
         evaluate_at_start=evaluate_at_start,
@@ -177,18 +168,14 @@ def _make_callbacks(
     return [
         CheckpointCallback(
             ckpt_freq,
-            str(run_dir / "checkpoints"),
+            str(s.run_dir / "checkpoints"),
             name_prefix="model",
-            save_replay_buffer=algo in OFF_POLICY,
-            save_vecnormalize=bool(normalize),
+            save_replay_buffer=s.algo in OFF_POLICY,
+            save_vecnormalize=bool(s.normalize),
         ),
         evaluator,
-        EpisodeLogCallback(run_dir / "episodes.csv", resumed_at, base_wall_s),
+        EpisodeLogCallback(s.run_dir / "episodes.csv", s.resumed_at, base_wall_s),
     ]
-
-
-def _obs_norm(normalize: dict[str, Any]) -> dict[str, Any]:
-    return {k: v for k, v in normalize.items() if k in ("norm_obs", "clip_obs", "gamma")}
 
 
 def save_checkpoint(model: Any, run_dir: Path, algo: str) -> Path:
@@ -473,6 +460,281 @@ def _resume_files(run_dir: Path, algo: str, normalize: Any) -> tuple[int, Path |
     return n, path
 
 
+@dataclass(frozen=True)
+class RunSettings:
+    """A run's settings, resolved and checked before anything is written: the algorithm,
+    the environment, the run folder, the seed and budget, and the hyperparameters split
+    into bathprint's own keys (``run``) and the algorithm's (``algo_kwargs``)."""
+
+    algo: str
+    env_id: str
+    run_dir: Path
+    seed: int
+    n_envs: int
+    total_timesteps: int  # environment steps the run ends at (over every session)
+    run: dict[str, Any]
+    algo_kwargs: dict[str, Any]
+    where: str  # where the settings come from, for messages
+    start_over: bool  # a failed start without checkpoints: its files are removed first
+    resumed_at: int  # steps of the checkpoint a resume continues (0: a fresh model)
+    checkpoint: Path | None  # that checkpoint
+
+    @property
+    def env_kwargs(self) -> dict[str, Any]:
+        return dict(self.run.get("env_kwargs", {}))
+
+    @property
+    def normalize(self) -> dict[str, Any] | None:
+        """VecNormalize's arguments, or None without normalisation."""
+        return self.run.get("normalize") or None
+
+    @property
+    def wrapper(self) -> dict[str, Any] | None:
+        return self.run.get("wrapper")
+
+    @property
+    def torch_threads(self) -> int:
+        return int(self.run.get("torch_threads", 1))
+
+    @property
+    def bc(self) -> dict[str, Any] | None:
+        """Behaviour cloning's settings (``bc_pretrain``), or None."""
+        return bc_settings(self.run.get("bc_pretrain"), self.where)
+
+
+@dataclass
+class Trainer:
+    """What a session trains with: the vector env, the model, its callbacks and the time
+    budget among them (None without ``time_budget_s``)."""
+
+    venv: Any
+    model: Any
+    callbacks: list[Any]
+    budget: Any = None
+
+    def close(self) -> None:
+        _close(self.venv, self.callbacks)
+
+
+@dataclass(frozen=True)
+class Outcome:
+    """How a session's ``learn`` ended: the signal that stopped it early, or the error it
+    raised (neither: it reached its budget), and its wall and CPU time (s)."""
+
+    signum: int | None
+    error: BaseException | None
+    wall_s: float
+    cpu_s: float
+
+
+def resolve_settings(
+    algo: str,
+    env_id: str,
+    run_dir: Path,
+    seed: int | None,
+    timesteps: int | None,
+    n_envs: int | None,
+    resume: bool,
+    hyperparams: dict[str, Any] | None,
+    hyperparams_file: str | Path | None,
+) -> tuple[RunSettings, dict[str, Any]]:
+    """(settings, run.json contents) of a new or resumed run: everything checked (the
+    files, the hyperparameters, one environment and the model on its spaces), nothing
+    written. Raises ConfigError, FileNotFoundError or FileExistsError."""
+    info, start_over, where = _plan(
+        algo, env_id, run_dir, seed, timesteps, resume, hyperparams, hyperparams_file
+    )
+    hp = info["hyperparams"]
+    run, algo_kwargs = split_hyperparams(hp)
+    n = int(n_envs or info.get("n_envs") or run.get("n_envs", 1))
+    info["n_envs"] = n
+    normalize = run.get("normalize") or None
+    resumed_at, ckpt = _resume_files(run_dir, algo, normalize) if resume else (0, None)
+    settings = RunSettings(
+        algo=algo,
+        env_id=env_id,
+        run_dir=run_dir,
+        seed=int(info["seed"]),
+        n_envs=n,
+        total_timesteps=int(info["n_timesteps"]),
+        run=run,
+        algo_kwargs=algo_kwargs,
+        where=where,
+        start_over=start_over,
+        resumed_at=resumed_at,
+        checkpoint=ckpt,
+    )
+    _preflight(algo, env_id, hp, n, settings.seed, where)
+    return settings, info
+
+
+def _load_model(s: RunSettings, venv: Any) -> Any:
+    """The checkpoint a resume continues, on ``venv`` (with its VecNormalize statistics
+    and, off-policy, its replay buffer). A damaged file is a ConfigError naming it."""
+    from stable_baselines3.common.vec_env import VecNormalize
+
+    assert s.checkpoint is not None
+    d = s.run_dir / "checkpoints"
+    try:
+        if s.normalize:
+            stats = d / f"model_vecnormalize_{s.resumed_at}_steps.pkl"
+            venv = VecNormalize.load(str(stats), venv)
+        model = _algo_class(s.algo).load(
+            s.checkpoint, env=venv, device="cpu", tensorboard_log=str(s.run_dir / "tb")
+        )
+        buffer = d / f"model_replay_buffer_{s.resumed_at}_steps.pkl"
+        if s.algo in OFF_POLICY and buffer.is_file():
+            model.load_replay_buffer(buffer)
+    except Exception as exc:  # a damaged file: say which, and what to do
+        raise ConfigError(
+            f"--resume: checkpoint {s.checkpoint.name} (or its statistics or replay "
+            f"buffer) cannot be loaded: {type(exc).__name__}: {exc}; delete "
+            f"{d}/*_{s.resumed_at}_steps.* to resume from the checkpoint before it"
+        ) from None
+    print(
+        f"resuming {s.run_dir} from {s.checkpoint.name} "
+        f"({s.resumed_at} of {s.total_timesteps} steps)"
+    )
+    return model
+
+
+def _new_model(s: RunSettings, venv: Any, info: dict[str, Any]) -> Any:
+    """A fresh model on ``venv`` (VecNormalize-wrapped when the run normalises), fitted
+    first by behaviour cloning with ``bc_pretrain`` (recorded in ``info`` and run.json)."""
+    from stable_baselines3.common.vec_env import VecNormalize
+
+    if s.normalize:
+        venv = VecNormalize(venv, **s.normalize)
+    policy, kwargs = policy_and_kwargs(s.algo, s.run, s.algo_kwargs, s.where)
+    model = _algo_class(s.algo)(
+        policy,
+        venv,
+        seed=s.seed,
+        device="cpu",
+        tensorboard_log=str(s.run_dir / "tb"),
+        verbose=0,
+        **kwargs,
+    )
+    bc = s.bc
+    if bc is not None:  # a fresh model only: a checkpoint keeps its weights
+        from bathprint.agents.imitation import pretrain
+
+        t_bc = time.perf_counter()
+        info["bc_pretrain"] = pretrain(model, s.env_id, s.env_kwargs, bc, s.seed)
+        info["bc_pretrain"]["wall_time_s"] = time.perf_counter() - t_bc
+        info["wall_time_s"] = float(info.get("wall_time_s", 0.0)) + float(
+            info["bc_pretrain"]["wall_time_s"]
+        )
+        _write_run(s.run_dir, info)
+        print(
+            f"bc_pretrain: {info['bc_pretrain']['demonstration_pairs']} pairs from "
+            f"{bc['targets']} training targets; action MSE "
+            f"{info['bc_pretrain']['mse_before']:.4f} -> {info['bc_pretrain']['mse_after']:.4f}"
+        )
+    return model
+
+
+def _build(s: RunSettings, info: dict[str, Any], stop: Any) -> Trainer:
+    """The vector env, the model (loaded or new) and the run's callbacks. Whatever stops
+    it (an error, a signal) marks the run failed or interrupted, closes what was built and
+    is raised again."""
+    from bathprint.agents.callbacks import RunInfoCallback, StopOnRequest, TimeBudget
+
+    venv: Any = None
+    callbacks: list[Any] = []
+    try:
+        venv = make_vec(
+            s.env_id, s.n_envs, s.seed, s.env_kwargs, s.run_dir / "monitor", s.wrapper,
+            str(s.run.get("vec_env", "subproc")),
+        )
+        model = _load_model(s, venv) if s.checkpoint is not None else _new_model(s, venv, info)
+        callbacks = _make_callbacks(
+            s, float(info.get("wall_time_s", 0.0)), stop,
+            evaluate_at_start=s.checkpoint is None and "bc_pretrain" in info,
+        )
+    except BaseException as exc:
+        with stop.shield():
+            interrupted = isinstance(exc, KeyboardInterrupt)
+            info["status"] = "interrupted" if interrupted else "failed"
+            if not interrupted:
+                info["error"] = f"{type(exc).__name__}: {exc}"
+            _write_run(s.run_dir, info)
+            _close(venv, callbacks)
+            if interrupted:
+                name = signal_name(getattr(exc, "signum", signal.SIGINT))
+                print(f"interrupted by {name} while starting: {s.run_dir} holds no new steps")
+        raise
+    bc = s.bc
+    if bc is not None and bc["critic_warmup_steps"] > 0:
+        from bathprint.agents.callbacks import CriticWarmup
+
+        callbacks.insert(0, CriticWarmup(bc["critic_warmup_steps"]))
+    callbacks.append(RunInfoCallback(functools.partial(_write_run, s.run_dir), info))
+    callbacks.append(StopOnRequest(stop))
+    budget = None
+    if s.run.get("time_budget_s"):
+        budget = TimeBudget(float(s.run["time_budget_s"]), float(info.get("wall_time_s", 0.0)))
+        callbacks.insert(0, budget)  # before the evaluation, which runs at its end
+    return Trainer(venv, model, callbacks, budget)
+
+
+def _learn(s: RunSettings, t: Trainer, stop: Any, progress: bool) -> Outcome:
+    """Train up to the run's budget; a signal or an error ends it early (recorded in the
+    outcome, not raised)."""
+    cpu0 = _cpu_seconds()
+    remaining = max(0, s.total_timesteps - int(t.model.num_timesteps))
+    t0 = time.perf_counter()
+    signum: int | None = None
+    error: BaseException | None = None
+    try:
+        if remaining > 0 and not stop.requested:
+            t.model.learn(
+                remaining,
+                callback=t.callbacks,
+                progress_bar=progress,
+                reset_num_timesteps=s.checkpoint is None,
+                tb_log_name="run",
+            )
+    except KeyboardInterrupt as exc:  # a second signal, or a KeyboardInterrupt raised
+        signum = getattr(exc, "signum", None) or stop.signum or signal.SIGINT
+    except BaseException as exc:
+        error = exc
+    if signum is None and stop.requested and int(t.model.num_timesteps) < s.total_timesteps:
+        signum = stop.signum
+    return Outcome(signum, error, time.perf_counter() - t0, _cpu_seconds() - cpu0)
+
+
+def _save(
+    s: RunSettings, t: Trainer, info: dict[str, Any], outcome: Outcome, base_wall: float
+) -> str:
+    """Record the session in run.json and save: the final model (done), a checkpoint
+    (interrupted) or nothing (failed). Returns the message to print after closing."""
+    info["wall_time_s"] = base_wall + outcome.wall_s
+    info["cpu_time_s"] = float(info.get("cpu_time_s", 0.0)) + outcome.cpu_s
+    info["timesteps_done"] = int(t.model.num_timesteps)
+    if t.budget is not None and t.budget.reached:
+        info["stopped_by"] = "time_budget"
+    message = ""
+    if outcome.error is not None:
+        info["status"] = "failed"
+        info["error"] = f"{type(outcome.error).__name__}: {outcome.error}"
+    elif outcome.signum is not None:
+        path = save_checkpoint(t.model, s.run_dir, s.algo)
+        info["status"] = "interrupted"
+        info["interrupted_by"] = signal_name(outcome.signum)
+        message = (
+            f"\ninterrupted by {signal_name(outcome.signum)}: saved {path} "
+            f"({t.model.num_timesteps} steps); continue with --resume"
+        )
+    else:
+        info["status"] = "done"
+        t.model.save(s.run_dir / "final_model.zip")
+        if s.normalize:
+            t.model.get_vec_normalize_env().save(str(s.run_dir / "vecnormalize.pkl"))
+    _write_run(s.run_dir, info)
+    return message
+
+
 def train(
     algo: str,
     env_id: str,
@@ -490,6 +752,10 @@ def train(
     reads it from another file of the same layout. ``seed`` defaults to 0 (on a resume, to
     the run's own).
 
+    The steps: :func:`resolve_settings` (checked, nothing written), the run folder and
+    run.json, :func:`_build` (environments, model, callbacks), :func:`_learn`, then
+    :func:`_save` (final model or checkpoint, run.json) and the training curve.
+
     Raises ConfigError (before writing anything) for settings that cannot work, and
     :class:`~bathprint.agents.signals.Interrupted` (a KeyboardInterrupt) after saving a
     checkpoint when SIGINT or SIGTERM stopped it."""
@@ -505,177 +771,41 @@ def train(
     with SignalStop(deferred=False) as stop:  # deferred once the run folder is written
         try:
             import torch
-            from stable_baselines3.common.vec_env import VecNormalize
 
-            from bathprint.agents.callbacks import RunInfoCallback, StopOnRequest, TimeBudget
-
-            cls = _algo_class(algo)
-            info, start_over, where = _plan(
-                algo, env_id, run_dir, seed, timesteps, resume, hyperparams, hyperparams_file
+            _algo_class(algo)  # stable-baselines3 loaded before the checks
+            s, info = resolve_settings(
+                algo, env_id, run_dir, seed, timesteps, n_envs, resume, hyperparams,
+                hyperparams_file,
             )
-            hp = info["hyperparams"]
-            seed = int(info["seed"])
-            run, algo_kwargs = split_hyperparams(hp)
-            n_envs = int(n_envs or info.get("n_envs") or run.get("n_envs", 1))
-            info["n_envs"] = n_envs
-            env_kwargs = dict(run.get("env_kwargs", {}))
-            normalize = run.get("normalize") or None
-            total = int(info["n_timesteps"])
-            resumed_at, ckpt = _resume_files(run_dir, algo, normalize) if resume else (0, None)
-            _preflight(algo, env_id, hp, n_envs, seed, where)
         except KeyboardInterrupt as exc:
             name = signal_name(getattr(exc, "signum", signal.SIGINT))
             print(f"interrupted by {name} before training started: nothing written")
             raise
-        torch.set_num_threads(int(run.get("torch_threads", 1)))
+        torch.set_num_threads(s.torch_threads)
         stop.deferred = True
         run_dir.mkdir(parents=True, exist_ok=True)
-        if start_over:
+        if s.start_over:
             _clear_run(run_dir)
         info["status"] = "running"
         _write_run(run_dir, info)
-        venv: Any = None
-        callbacks: list[Any] = []
-        try:
-            venv = make_vec(
-                env_id, n_envs, seed, env_kwargs, run_dir / "monitor", run.get("wrapper"),
-                str(run.get("vec_env", "subproc")),
-            )
-            if ckpt is not None:
-                d = run_dir / "checkpoints"
-                try:
-                    if normalize:
-                        stats = d / f"model_vecnormalize_{resumed_at}_steps.pkl"
-                        venv = VecNormalize.load(str(stats), venv)
-                    model = cls.load(
-                        ckpt, env=venv, device="cpu", tensorboard_log=str(run_dir / "tb")
-                    )
-                    buffer = d / f"model_replay_buffer_{resumed_at}_steps.pkl"
-                    if algo in OFF_POLICY and buffer.is_file():
-                        model.load_replay_buffer(buffer)
-                except Exception as exc:  # a damaged file: say which, and what to do
-                    raise ConfigError(
-                        f"--resume: checkpoint {ckpt.name} (or its statistics or replay "
-                        f"buffer) cannot be loaded: {type(exc).__name__}: {exc}; delete "
-                        f"{d}/*_{resumed_at}_steps.* to resume from the checkpoint before it"
-                    ) from None
-                print(f"resuming {run_dir} from {ckpt.name} ({resumed_at} of {total} steps)")
-            else:
-                if normalize:
-                    venv = VecNormalize(venv, **normalize)
-                policy, kwargs = policy_and_kwargs(algo, run, algo_kwargs, where)
-                model = cls(
-                    policy,
-                    venv,
-                    seed=seed,
-                    device="cpu",
-                    tensorboard_log=str(run_dir / "tb"),
-                    verbose=0,
-                    **kwargs,
-                )
-                bc = bc_settings(run.get("bc_pretrain"), where)
-                if bc is not None:  # a fresh model only: a checkpoint keeps its weights
-                    from bathprint.agents.imitation import pretrain
-
-                    t_bc = time.perf_counter()
-                    info["bc_pretrain"] = pretrain(model, env_id, env_kwargs, bc, seed)
-                    info["bc_pretrain"]["wall_time_s"] = time.perf_counter() - t_bc
-                    info["wall_time_s"] = float(info.get("wall_time_s", 0.0)) + float(
-                        info["bc_pretrain"]["wall_time_s"]
-                    )
-                    _write_run(run_dir, info)
-                    print(
-                        f"bc_pretrain: {info['bc_pretrain']['demonstration_pairs']} pairs from "
-                        f"{bc['targets']} training targets; action MSE "
-                        f"{info['bc_pretrain']['mse_before']:.4f} -> "
-                        f"{info['bc_pretrain']['mse_after']:.4f}"
-                    )
-            callbacks = _make_callbacks(
-                run_dir, env_id, env_kwargs, normalize, n_envs, run, resumed_at, algo, seed,
-                float(info.get("wall_time_s", 0.0)), stop,
-                evaluate_at_start=ckpt is None and "bc_pretrain" in info,
-            )
-        except BaseException as exc:
-            with stop.shield():
-                interrupted = isinstance(exc, KeyboardInterrupt)
-                info["status"] = "interrupted" if interrupted else "failed"
-                if not interrupted:
-                    info["error"] = f"{type(exc).__name__}: {exc}"
-                _write_run(run_dir, info)
-                _close(venv, callbacks)
-                if interrupted:
-                    name = signal_name(getattr(exc, "signum", signal.SIGINT))
-                    print(f"interrupted by {name} while starting: {run_dir} holds no new steps")
-            raise
-        bc = bc_settings(run.get("bc_pretrain"), where)
-        if bc is not None and bc["critic_warmup_steps"] > 0:
-            from bathprint.agents.callbacks import CriticWarmup
-
-            callbacks.insert(0, CriticWarmup(bc["critic_warmup_steps"]))
-        callbacks.append(RunInfoCallback(functools.partial(_write_run, run_dir), info))
-        callbacks.append(StopOnRequest(stop))
-        budget = None
-        if run.get("time_budget_s"):
-            budget = TimeBudget(float(run["time_budget_s"]), float(info.get("wall_time_s", 0.0)))
-            callbacks.insert(0, budget)  # before the evaluation, which runs at its end
-        info.update(_compute_info(n_envs, int(run.get("torch_threads", 1))))
+        trainer = _build(s, info, stop)
+        info.update(_compute_info(s.n_envs, s.torch_threads))
         info["train_target_set"] = "train"
         info["eval_target_set"] = eval_target_set(env_id)
-        cpu0 = _cpu_seconds()
-        remaining = max(0, total - int(model.num_timesteps))
         base_wall = float(info.get("wall_time_s", 0.0))  # time spent before this session
-        t0 = time.perf_counter()
-        signum: int | None = None
-        error: BaseException | None = None
-        try:
-            if remaining > 0 and not stop.requested:
-                model.learn(
-                    remaining,
-                    callback=callbacks,
-                    progress_bar=progress,
-                    reset_num_timesteps=ckpt is None,
-                    tb_log_name="run",
-                )
-        except KeyboardInterrupt as exc:  # a second signal, or a KeyboardInterrupt raised
-            signum = getattr(exc, "signum", None) or stop.signum or signal.SIGINT
-        except BaseException as exc:
-            error = exc
-        if signum is None and stop.requested and int(model.num_timesteps) < total:
-            signum = stop.signum
+        outcome = _learn(s, trainer, stop, progress)
         with stop.shield():
-            info["wall_time_s"] = base_wall + time.perf_counter() - t0
-            info["cpu_time_s"] = float(info.get("cpu_time_s", 0.0)) + _cpu_seconds() - cpu0
-            info["timesteps_done"] = int(model.num_timesteps)
-            if budget is not None and budget.reached:
-                info["stopped_by"] = "time_budget"
-            message = ""
-            if error is not None:
-                info["status"] = "failed"
-                info["error"] = f"{type(error).__name__}: {error}"
-            elif signum is not None:
-                path = save_checkpoint(model, run_dir, algo)
-                info["status"] = "interrupted"
-                info["interrupted_by"] = signal_name(signum)
-                message = (
-                    f"\ninterrupted by {signal_name(signum)}: saved {path} "
-                    f"({model.num_timesteps} steps); continue with --resume"
-                )
-            else:
-                info["status"] = "done"
-                model.save(run_dir / "final_model.zip")
-                if normalize:
-                    model.get_vec_normalize_env().save(str(run_dir / "vecnormalize.pkl"))
-            _write_run(run_dir, info)
-            _close(venv, callbacks)
+            message = _save(s, trainer, info, outcome, base_wall)
+            trainer.close()
             if message:
                 print(message)
-        if error is not None:
-            raise error
+        if outcome.error is not None:
+            raise outcome.error
         from bathprint.agents.curves import plot_training_curve
 
         plot_training_curve(run_dir)
-    if signum is not None:
-        raise Interrupted(signum)
+    if outcome.signum is not None:
+        raise Interrupted(outcome.signum)
     return run_dir
 
 

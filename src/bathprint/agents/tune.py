@@ -174,6 +174,13 @@ def main(argv: Sequence[str] | None = None) -> int:
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--out", default="runs/tune")
     args = ap.parse_args(argv)
+    from bathprint._extras import MissingExtraError, require_extra
+
+    try:
+        require_extra("rl", "tuning hyperparameters")
+    except MissingExtraError as exc:
+        print(f"tune: {exc}", file=sys.stderr)
+        return 2
     try:
         rec = tune(args.algo, args.env, args.hyperparams, args.trials, args.timesteps,
                    args.out, args.seed, args.n_envs)

@@ -574,19 +574,36 @@ def _format_summary(d: dict[str, object]) -> str:
     return "\n".join(lines)
 
 
-def main(argv: Sequence[str] | None = None) -> int:
-    """Command line ``theory [--json] [--n N]``: print the summary; returns the exit code."""
-    parser = argparse.ArgumentParser(
-        prog="bathprint theory", description="Scaling laws and onset of the extruded-rod buckling."
-    )
+def _chebyshev_degree(text: str) -> int:
+    n = int(text)
+    if n < 6:
+        raise argparse.ArgumentTypeError(f"must be >= 6 (got {n})")
+    return n
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    """The options of ``theory [--json] [--n N]``."""
     parser.add_argument("--json", action="store_true", help="print JSON instead of a table")
-    parser.add_argument("--n", type=int, default=DEFAULT_N, help="Chebyshev degree (>= 6)")
-    args = parser.parse_args(argv)
-    if args.n < 6:
-        parser.error("--n must be >= 6")
+    parser.add_argument(
+        "--n", type=_chebyshev_degree, default=DEFAULT_N, help="Chebyshev degree (>= 6)"
+    )
+
+
+def run_args(args: argparse.Namespace) -> int:
+    """Print the summary (a table, or JSON with ``--json``); returns the exit code."""
     d = summary_dict(args.n)
     print(json.dumps(d, indent=2) if args.json else _format_summary(d))
     return 0
+
+
+DESCRIPTION = "Scaling laws and onset of the extruded-rod buckling."
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Command line ``theory [--json] [--n N]``: print the summary; returns the exit code."""
+    parser = argparse.ArgumentParser(prog="bathprint theory", description=DESCRIPTION)
+    add_arguments(parser)
+    return run_args(parser.parse_args(argv))
 
 
 if __name__ == "__main__":

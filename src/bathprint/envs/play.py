@@ -35,10 +35,17 @@ from bathprint.errors import ConfigError
 POLICIES = ("random", "constant", "zero")
 
 
+DESCRIPTION = "Run a policy and write an animation and the metric."
+
+
 def _parser() -> argparse.ArgumentParser:
-    ap = argparse.ArgumentParser(
-        prog="bathprint play", description="Run a policy and write an animation and the metric."
-    )
+    ap = argparse.ArgumentParser(prog="bathprint play", description=DESCRIPTION)
+    add_arguments(ap)
+    return ap
+
+
+def add_arguments(ap: argparse.ArgumentParser) -> None:
+    """The options of ``bathprint play``."""
     ap.add_argument("env", help="environment id or short name, e.g. CoilRadius")
     ap.add_argument("--policy", choices=POLICIES, default="random")
     ap.add_argument("--episodes", type=int, default=1)
@@ -57,7 +64,6 @@ def _parser() -> argparse.ArgumentParser:
     ap.add_argument("--frame-every", type=int, default=2, help="render every Nth step")
     ap.add_argument("--format", default="gif", choices=("gif", "mp4"))
     ap.add_argument("--fps", type=float, default=None)
-    return ap
 
 
 def policy_action(name: str, env: Any, rng: np.random.Generator) -> np.ndarray:
@@ -250,11 +256,11 @@ def run(args: argparse.Namespace) -> dict[str, Any]:
     return summary
 
 
-def main(argv: Sequence[str] | None = None) -> int:
-    """Entry point of ``bathprint play``; returns the exit code."""
+def run_args(args: argparse.Namespace) -> int:
+    """Play from parsed options; returns the exit code (2 for a refused value, 130 / 143
+    after SIGINT / SIGTERM)."""
     from bathprint.signals import SignalStop, exit_code, signal_name
 
-    args = _parser().parse_args(argv)
     try:
         with SignalStop(deferred=False):
             run(args)
@@ -266,6 +272,11 @@ def main(argv: Sequence[str] | None = None) -> int:
         print(f"bathprint play: {exc}", file=sys.stderr)
         return 2
     return 0
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Entry point of ``bathprint play``; returns the exit code."""
+    return run_args(_parser().parse_args(argv))
 
 
 if __name__ == "__main__":

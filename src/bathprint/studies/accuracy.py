@@ -518,21 +518,19 @@ def preset_table(presets: Sequence[Row]) -> str:
     return "\n".join(lines)
 
 
-def main(argv: Sequence[str] | None = None) -> int:
-    """Run the study; ``--out DIR`` (required), ``--quick`` (about a minute). Exit codes: 0
-    done, 2 bad options (checked first), 130 / 143 interrupted by SIGINT / SIGTERM (the
-    points measured so far are kept; the same command resumes)."""
-    ap = argparse.ArgumentParser(
-        prog="bathprint bench accuracy",
-        description=__doc__,
-        formatter_class=argparse.RawDescriptionHelpFormatter,
-    )
+def add_arguments(ap: argparse.ArgumentParser) -> None:
+    """The options of ``bathprint bench accuracy``."""
     ap.add_argument("--out", required=True, help="output directory")
     ap.add_argument("--quick", action="store_true", help="fewer points, shorter coil run")
     ap.add_argument(
         "--fresh", action="store_true", help="discard points measured by an earlier run in --out"
     )
-    args = ap.parse_args(argv)
+
+
+def run_args(args: argparse.Namespace) -> int:
+    """Run the study from parsed options. Exit codes: 0 done, 2 bad options (checked first),
+    130 / 143 interrupted by SIGINT / SIGTERM (the points measured so far are kept; the
+    same command resumes)."""
     from bathprint.paths import check_output_dir
 
     try:
@@ -555,6 +553,18 @@ def main(argv: Sequence[str] | None = None) -> int:
                 file=sys.stderr,
             )
             return exit_code(exc)
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Run the study; ``--out DIR`` (required), ``--quick`` (about a minute); see
+    :func:`run_args` for the exit codes."""
+    ap = argparse.ArgumentParser(
+        prog="bathprint bench accuracy",
+        description=__doc__,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    add_arguments(ap)
+    return run_args(ap.parse_args(argv))
 
 
 def _run(out: Path, plan: Plan, name: str, fresh: bool) -> int:

@@ -151,3 +151,31 @@ def plot_filament(
     fig.savefig(out, dpi=110)
     plt.close(fig)
     return out
+
+
+def plot_run(run_dir: str | Path, out: str | Path) -> Path:
+    """Draw a run directory's last frame as :func:`plot_filament` draws ``filament.png``
+    (needs only the core: ``bathprint view RUN_DIR --png``). A missing or unreadable run
+    raises :class:`~bathprint.errors.OptionError` naming the file."""
+    from bathprint.core import layout
+    from bathprint.viz.view import load_run
+
+    times, frames, columns, summary, _ = load_run(run_dir)
+    birth = columns.get(layout.MATERIAL_COLUMNS[layout.MAT_BIRTH_TIME])
+    if birth is None:
+        from bathprint.errors import OptionError
+
+        raise OptionError(
+            f"{str(Path(run_dir) / 'trajectory.npz')!r} has no material birth times; allowed: "
+            "a trajectory written by bathprint simulate"
+        )
+    material = np.zeros((len(birth), layout.N_MAT))
+    material[:, layout.MAT_BIRTH_TIME] = birth
+    return plot_filament(
+        frames[-1],
+        material,
+        float(summary.get("time_s", times[-1])),
+        out,
+        title=str(summary.get("scene") or Path(run_dir).name),
+        measurements=summary.get("measurements"),
+    )

@@ -1,0 +1,7 @@
+"""``python -m bathprint.cli``: the ``bathprint`` command."""
+
+import sys
+
+from bathprint.cli import main
+
+sys.exit(main())

@@ -1,0 +1,85 @@
+"""``bathprint evaluate RUN_DIR_OR_POLICY [...] --env ENV [--episodes N] [--seed S]
+[--out DIR]``: deterministic rollouts on the held-out targets
+(:mod:`bathprint.agents.evaluate`). Needs the ``rl`` extra."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from typing import Any
+
+from bathprint.cli._common import interrupted, needs_extra
+
+PROG = "bathprint evaluate"
+
+
+def add_parser(sub: Any) -> argparse.ArgumentParser:
+    ap = sub.add_parser(
+        "evaluate",
+        help="held-out rollouts: bathprint evaluate POLICY... --env ENV",
+        description="Deterministic rollouts of policies on the held-out targets.",
+    )
+    ap.add_argument(
+        "policies",
+        nargs="+",
+        help="run directories, model .zip files, baselines (random, constant, feedforward, "
+        "feedforward_calibrated) or planners (oracle, mpc: version-1 environments)",
+    )
+    ap.add_argument("--env", required=True)
+    ap.add_argument("--episodes", type=int, default=16)
+    ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--out", default="runs/evaluate")
+    ap.add_argument(
+        "--accuracy",
+        choices=("draft", "balanced", "fine"),
+        default=None,
+        help="accuracy preset (default: the run's own, else draft)",
+    )
+    ap.add_argument("--images", type=int, default=3, help="episodes to draw as PNG")
+    ap.add_argument("--no-animation", action="store_true", help="skip the GIF of episode 0")
+    ap.add_argument(
+        "--side-by-side",
+        default=None,
+        metavar="GIF",
+        help="also write episode 0 of every policy side by side (in the order given, each "
+        "captioned with its final metric; 0.6 of the size, every second frame) to this .gif",
+    )
+    ap.add_argument("--quiet", action="store_true")
+    ap.set_defaults(run=run)
+    return ap
+
+
+@needs_extra(PROG, "rl", "evaluating policies")
+def run(args: argparse.Namespace) -> int:
+    from bathprint.agents.evaluate import evaluate_many, format_table
+    from bathprint.agents.signals import SignalStop, exit_code
+
+    if args.images < 0:
+        print(f"{PROG}: --images = {args.images}; must be >= 0", file=sys.stderr)
+        return 2
+    try:
+        with SignalStop(deferred=False):
+            summaries = evaluate_many(
+                args.policies,
+                args.env,
+                episodes=args.episodes,
+                seed=args.seed,
+                out=args.out,
+                accuracy=args.accuracy,
+                images=args.images,
+                animate=not args.no_animation,
+                progress=not args.quiet,
+                side_by_side=args.side_by_side,
+            )
+    except KeyboardInterrupt as exc:
+        print(
+            interrupted("evaluate", exc, "the policy being evaluated wrote nothing"),
+            file=sys.stderr,
+        )
+        return exit_code(exc)
+    except (ValueError, FileNotFoundError, RuntimeError) as exc:
+        print(f"{PROG}: {exc}", file=sys.stderr)
+        return 2
+    print(format_table(summaries), end="")
+    print(f"wrote {args.out}/table.md and one directory per policy")
+    return 0
