@@ -77,10 +77,12 @@ def _rel(path: Path) -> str:
 
 
 def _committed(path: Path) -> tuple[str, str]:
-    """(date, short commit) of the last commit of ``path``; ("", "") if uncommitted."""
+    """(date, short commit) of the last commit that changed ``path``'s content (a move
+    alone does not count); ("", "") if uncommitted."""
     if _git("status", "--porcelain", "--", _rel(path)):
         return "", ""
-    out = _git("log", "-1", "--format=%cs %h", "--", _rel(path)).split()
+    out = _git("log", "-1", "--follow", "--diff-filter=AM", "--format=%cs %h", "--", _rel(path))
+    out = out.split()
     return (out[0], out[1]) if len(out) == 2 else ("", "")
 
 
