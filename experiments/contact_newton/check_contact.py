@@ -1,5 +1,5 @@
 """The contact benchmarks on tiny budgets: their parts run, and their coil stacks are as
-their docs say (``benchmarks/bench_contact.py``, ``benchmarks/bench_contact_newton.py``)."""
+their docs say (``contact_cost.py``, ``contact_newton.py``)."""
 
 from __future__ import annotations
 
@@ -14,7 +14,7 @@ from bathprint.core import layout as L
 from bathprint.core.effects import hydrodynamics
 from bathprint.studies.reproduce import ablation
 
-BENCH = Path(__file__).resolve().parents[1] / "benchmarks"
+BENCH = Path(__file__).resolve().parents[2]  # experiments/
 
 
 @pytest.fixture
@@ -24,7 +24,7 @@ def bench(load_script, monkeypatch):
 
 
 def test_the_scene_parts_run_and_report_against_the_run_without_contact(bench, monkeypatch):
-    mod = bench("bench_contact_newton")
+    mod = bench("contact_newton/contact_newton")
     monkeypatch.setattr(mod, "SCENE_DURATION_S", 0.02)
     monkeypatch.setattr(mod, "NEAR_GAPS", (0.05, 0.3))
     monkeypatch.setattr(mod, "SEEDS", (1,))
@@ -63,7 +63,7 @@ def test_the_ratio_part_pairs_each_seed_and_summarises_the_ratios(bench, monkeyp
     """``--part ratio`` on a tiny budget: without and with contact for each seed, back to
     back, each contact run's ratio against its own seed's run without; the summary's mean
     lies in its interval and the count within the goal is the count of such seeds."""
-    mod = bench("bench_contact_newton")
+    mod = bench("contact_newton/contact_newton")
     monkeypatch.setattr(mod, "SCENE_DURATION_S", 0.02)
     monkeypatch.setattr(mod, "RATIO_SEEDS", (1, 2))
     rows = mod.ratio_report()  # the rows, with their summary printed
@@ -95,7 +95,7 @@ def test_the_observable_comparison_pairs_the_seeds_both_onsets_ran(bench):
     """What the pile looks like under two contact settings: the paired relative change over
     the seeds both ran (a seed missing from one set, or without the observable, drops out),
     its bootstrap interval, the first set's seed spread, and how many seeds keep the regime."""
-    mod = bench("bench_contact_newton")
+    mod = bench("contact_newton/contact_newton")
 
     def row(seed, variant, radius_mm, regime="drag_coiling"):
         r = {"seed": seed, "variant": variant, "regime": regime}
@@ -144,7 +144,7 @@ def test_the_ratio_parts_run_contact_by_its_defaults_and_by_its_sharp_onset(benc
     the studies of the solver name. The onset before contact is the default law."""
     from bathprint import Simulation
 
-    mod = bench("bench_contact_newton")
+    mod = bench("contact_newton/contact_newton")
     monkeypatch.setattr(mod, "SCENE_DURATION_S", 0.02)
     monkeypatch.setattr(mod, "RATIO_SEEDS", (3,))
     seen = _spy_scene_rows(mod, monkeypatch)
@@ -172,7 +172,7 @@ def test_the_inertia_ratio_part_lists_inertia_in_every_run(bench, monkeypatch):
     """``--part ratio_inertia``: the paired seeds with ``inertia`` in every run, without
     contact, with contact's defaults (its dashpot on, by "auto") and with its sharp onset
     and no dashpot."""
-    mod = bench("bench_contact_newton")
+    mod = bench("contact_newton/contact_newton")
     monkeypatch.setattr(mod, "SCENE_DURATION_S", 0.02)
     monkeypatch.setattr(mod, "RATIO_SEEDS", (2,))
     seen = _spy_scene_rows(mod, monkeypatch)
@@ -192,7 +192,7 @@ def test_the_inertia_ratio_part_lists_inertia_in_every_run(bench, monkeypatch):
 def test_the_overdamped_dashpot_part_reports_how_far_each_run_gets(bench, monkeypatch):
     """``--part dashpot_overdamped``: one row per dashpot, the time reached, and no failure
     on a short run."""
-    mod = bench("bench_contact_newton")
+    mod = bench("contact_newton/contact_newton")
     monkeypatch.setattr(mod, "SCENE_DURATION_S", 0.02)
     rows = mod.dashpot_overdamped_rows()
     assert [r["damping_time_s"] for r in rows] == list(mod.OVERDAMPED_DASHPOTS_S)
@@ -204,7 +204,7 @@ def test_the_overdamped_dashpot_part_reports_how_far_each_run_gets(bench, monkey
 def test_every_coil_stack_stands_under_the_bath_surface(bench):
     """The tallest stack (10^4 nodes, pitch 1.5 contact distances, about 98 mm) keeps its top
     5 mm under the surface; a short one stands at 50 mm below it."""
-    mod = bench("bench_contact")
+    mod = bench("contact_cost/contact_cost")
     tall = mod.coil_stack(10_000, False, 1.5).centerline()
     surface = 0.0  # the free surface is at z = 0 (m)
     assert tall[:, 2].max() == pytest.approx(surface - 5e-3, abs=1e-9)
@@ -215,7 +215,7 @@ def test_every_coil_stack_stands_under_the_bath_surface(bench):
 def test_the_whole_run_part_lists_every_contact_scene_and_measures_its_gap(bench):
     """``--part whole`` on a tiny fraction of two scenes' durations: one row per scene with
     its frames' smallest gap (turns not yet touching: well above the contact distance)."""
-    mod = bench("bench_contact")
+    mod = bench("contact_cost/contact_cost")
     scenes = mod.contact_scenes()
     assert {"drag_coiling_22G", "period_doubling_22G", "chaotic_crumpling_22G"} <= set(scenes)
     assert "paper_simulation" not in scenes  # the minimal model lists no contact
@@ -232,7 +232,7 @@ def test_the_late_part_starts_every_contact_variant_from_the_same_pile(bench, mo
     and a changed field reaches the kernels."""
     from bathprint.core.layout import PARAMS_DTYPE
 
-    mod = bench("bench_contact_newton")
+    mod = bench("contact_newton/contact_newton")
     fields = {f for v in mod.LATE_VARIANTS.values() for f in (v or {})}
     assert fields and fields <= set(PARAMS_DTYPE.names)
     monkeypatch.setattr(mod, "LATE_START_S", 0.15)  # the first turns touch
@@ -261,7 +261,7 @@ def test_the_late_part_starts_every_contact_variant_from_the_same_pile(bench, mo
 def test_the_settled_part_times_its_window_at_the_steps_it_names(bench):
     """``--part settled``'s runs: the warm-up and the largest step reach the stack (the
     window takes at least as many steps as its length over that step)."""
-    mod = bench("bench_contact")
+    mod = bench("contact_cost/contact_cost")
     rows = mod.scaling([100], 1e-3, 0.98, "band", warm_up=1e-3, max_step=2.5e-4)
     (r,) = rows
     assert r["warm_up_s"] == 1e-3 and r["max_step_s"] == 2.5e-4 and r["window_s"] == 1e-3
@@ -273,7 +273,7 @@ def test_the_settled_part_times_its_window_at_the_steps_it_names(bench):
 def test_the_stacks_hold_the_sharp_onset_unless_given_contacts_defaults(bench):
     """The stacks are measured with the sharp onset (SHARP_CONTACT); ``law={}`` builds them
     with contact's defaults (``--part scaling_default``), and the rows say which."""
-    mod = bench("bench_contact")
+    mod = bench("contact_cost/contact_cost")
     sharp = mod.coil_stack(100, True, 0.98).model.p
     default = mod.coil_stack(100, True, 0.98, law={}).model.p
     assert (sharp.contact_width_fraction, sharp.contact_distance_factor) == (0.02, 1.0)
@@ -289,7 +289,7 @@ def test_the_stack_model_bounds_gmres_whatever_the_height(bench):
     crossover and then stays; ``stack_turns`` counts the turns that ``coil_stack`` winds."""
     import numpy as np
 
-    mod = bench("bench_contact")
+    mod = bench("contact_cost/contact_cost")
     sim = mod.coil_stack(300, True, 0.98)
     centre = sim.centerline()
     angle = np.unwrap(np.arctan2(centre[:, 1], centre[:, 0]))
@@ -321,7 +321,7 @@ def test_the_stack_model_bounds_gmres_whatever_the_height(bench):
 def test_the_saturation_part_times_each_step_from_the_same_relaxed_stack(bench):
     """``--part saturation`` on a tiny stack: a row per step bound, each window's steps no
     longer than its bound, the model's columns filled."""
-    mod = bench("bench_contact")
+    mod = bench("contact_cost/contact_cost")
     rows = mod.saturation_rows([100], (2.5e-4, 1e-4), 1e-3, 1e-3, 1)
     assert [r["max_step_s"] for r in rows] == [2.5e-4, 1e-4]
     for r in rows:
@@ -339,7 +339,7 @@ def test_the_saturation_part_times_each_step_from_the_same_relaxed_stack(bench):
 def test_the_hessian_part_runs_each_scene_with_both_hessians(bench):
     """``--part hessian`` on a tiny fraction of one scene: a row per Hessian, the default's
     first, the wall-time ratio against it, the scene's gaps kept."""
-    mod = bench("bench_contact")
+    mod = bench("contact_cost/contact_cost")
     rows = mod.hessian_rows(["drag_coiling_22G"], 0.02, 1)
     assert [r["hessian"] for r in rows] == ["exact", "gauss_newton"]
     assert rows[0]["wall_ratio"] == pytest.approx(1.0)
@@ -350,13 +350,13 @@ def test_the_hessian_part_runs_each_scene_with_both_hessians(bench):
 
 
 def test_the_hydrodynamics_all_effects_part_changes_one_thing_per_variant(bench, monkeypatch):
-    """``bench_hydrodynamics.py all_effects``: the ablation's "all" run at d = 0.41 mm,
+    """``hydrodynamics.py all_effects``: the ablation's "all" run at d = 0.41 mm,
     0.5 ml/min as planned (the RPY kernel, finite-Re drag), and with contact's dashpot off,
     no contact, the lagged nonlocal flow, no hydrodynamics, Stokes drag or Stokeslet
     segments, each differing from it in that key only, and the Stokeslet segments without
     contact and with Stokes drag; on a tiny budget every variant runs to its end and counts
     its iterations."""
-    mod = bench("bench_hydrodynamics")
+    mod = bench("hydrodynamics/hydrodynamics")
     monkeypatch.setattr(mod, "ALL_EFFECTS_DURATION_S", 0.004)
     variants = mod.all_effects_variants()
     base = variants["as in the ablation"]
@@ -392,11 +392,11 @@ def test_the_hydrodynamics_all_effects_part_changes_one_thing_per_variant(bench,
 
 
 def test_the_hydrodynamics_mobility_part_takes_the_operator_and_puts_j_other_back(bench):
-    """``bench_hydrodynamics.py mobility``: I + R M W^-1 from the matrix-free product equals
+    """``hydrodynamics.py mobility``: I + R M W^-1 from the matrix-free product equals
     the nonlocal part of the Newton matrix with J_other the identity, and J_other is as it
     was afterwards (the run goes on as it would). Stokes drag here: with finite-Re drag the
     fast young jet screens its nonlocal flow (I + R M W^-1 is then the identity)."""
-    mod = bench("bench_hydrodynamics")
+    mod = bench("hydrodynamics/hydrodynamics")
     over = {
         **mod.all_effects_variants()["Stokeslet segments, no contact"],
         "duration_s": 0.05,
@@ -422,11 +422,11 @@ def test_the_hydrodynamics_mobility_part_takes_the_operator_and_puts_j_other_bac
 
 
 def test_the_onset_buckling_part_pairs_the_two_onsets_seed_by_seed(bench, monkeypatch):
-    """``bench_contact_newton.py --part onset_buckling``: per seed, the onset widened at the
+    """``contact_newton.py --part onset_buckling``: per seed, the onset widened at the
     sum of the radii and the default's (started before contact), the buckling length of the
     last frame and its mean over the frames from the average's start; the comparison pairs
     them seed by seed."""
-    mod = bench("bench_contact_newton")
+    mod = bench("contact_newton/contact_newton")
     monkeypatch.setattr(mod, "SCENE_DURATION_S", 0.3)
     monkeypatch.setattr(mod, "RATIO_SEEDS", (1, 2))
     monkeypatch.setattr(mod, "ONSET_FRAME_INTERVAL_S", 0.1)
@@ -455,11 +455,11 @@ def test_the_onset_buckling_part_pairs_the_two_onsets_seed_by_seed(bench, monkey
 
 
 def test_the_hydrodynamics_kernels_part_compares_both_kernels(bench, monkeypatch):
-    """``bench_hydrodynamics.py kernels`` on a tiny budget: a rod's drags over Tirado's and
+    """``hydrodynamics.py kernels`` on a tiny budget: a rod's drags over Tirado's and
     the coil's mobility for each kernel (turns through each other: the Stokeslet segments'
     operator has an eigenvalue of negative real part, the RPY blobs' does not), and the
     times of one evaluation of each."""
-    mod = bench("bench_hydrodynamics")
+    mod = bench("hydrodynamics/hydrodynamics")
     monkeypatch.setattr(mod, "KERNEL_RODS", ((20, 1),))
     monkeypatch.setattr(mod, "KERNEL_PITCHES_MM", (0.0,))
     monkeypatch.setattr(mod, "KERNEL_COST_N", (100,))
@@ -478,10 +478,10 @@ def test_the_hydrodynamics_kernels_part_compares_both_kernels(bench, monkeypatch
 
 
 def test_the_failing_solve_parts_stokes_window_is_the_finite_re_law_at_rest(bench):
-    """``bench_hydrodynamics.py failing_solve`` compares each node's linearised resistance
+    """``hydrodynamics.py failing_solve`` compares each node's linearised resistance
     with its Stokes window's: at rest (relative velocity zero) the finite_re law's
     linearisation is that window's resistance, node by node."""
-    mod = bench("bench_hydrodynamics")
+    mod = bench("hydrodynamics/hydrodynamics")
     phi = np.linspace(0.0, 4 * math.pi, 40)
     points = np.column_stack([3e-3 * np.cos(phi), 3e-3 * np.sin(phi), 0.5e-3 * phi])
     sim = Simulation.from_points(
@@ -503,10 +503,10 @@ def test_the_failing_solve_parts_stokes_window_is_the_finite_re_law_at_rest(benc
 
 
 def test_the_hydrodynamics_kernel_coils_part_runs_each_kernel_at_each_point(bench, monkeypatch):
-    """``bench_hydrodynamics.py kernel_coils`` on a tiny budget: the ablation's contact +
+    """``hydrodynamics.py kernel_coils`` on a tiny budget: the ablation's contact +
     finite-Re + nonlocal run at one point, with each kernel (differing in the kernel only),
     records its steps and measurements."""
-    mod = bench("bench_hydrodynamics")
+    mod = bench("hydrodynamics/hydrodynamics")
     monkeypatch.setattr(mod, "KERNEL_COIL_POINTS", ((0.41, 1.0),))
     monkeypatch.setattr(mod, "KERNEL_COIL_DURATION_S", 0.004)
     rows = mod.kernel_coil_rows()

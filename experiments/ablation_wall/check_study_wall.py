@@ -1,4 +1,4 @@
-"""benchmarks/study_wall.py: a study's wall time and worker time from its run log, and the
+"""study_wall.py: a study's wall time and worker time from its run log, and the
 runs whose measurements match the reference study's."""
 
 from __future__ import annotations
@@ -8,7 +8,7 @@ from pathlib import Path
 
 import pytest
 
-SCRIPT = Path(__file__).resolve().parents[1] / "benchmarks" / "study_wall.py"
+SCRIPT = Path(__file__).resolve().parent / "study_wall.py"
 
 
 def _log(path: Path, runs: list[tuple[str, str, float, float]]) -> None:

@@ -1,4 +1,4 @@
-"""The sampled profile (``benchmarks/bench_sampled_profile.py``): its reading of perf's
+"""The sampled profile (``sampled_profile.py``): its reading of perf's
 report and of numba's symbols (running it needs Linux perf and a compile of every kernel,
 so the measurement itself is a benchmark, not a test)."""
 
@@ -9,7 +9,7 @@ from pathlib import Path
 
 import pytest
 
-BENCH = Path(__file__).resolve().parents[1] / "benchmarks"
+BENCH = Path(__file__).resolve().parents[2]  # experiments/
 
 LU = "_ZN9bathprint4core6banded7band_luB4v241B36c8tJTIeFIjxB2IKSgI4CrvQCltYEAA_3d_3dE5ArrayIdLi2E"
 CONTACT = "_ZN9bathprint4core7effects7contact10accumulateB4v126B40c8tJTIeFIjxE4277Model"
@@ -29,7 +29,7 @@ REPORT = f"""# Samples: 2K of event 'cpu-clock:pppH'
 @pytest.fixture
 def bench(load_script, monkeypatch):
     monkeypatch.syspath_prepend(str(BENCH))  # the script imports _common
-    return load_script(BENCH / "bench_sampled_profile.py")
+    return load_script(BENCH / "step_profile" / "sampled_profile.py")
 
 
 def test_kernel_names_come_from_the_mangled_symbols(bench) -> None:

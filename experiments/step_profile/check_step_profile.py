@@ -1,4 +1,4 @@
-"""The step profile (``benchmarks/bench_profile.py``) on tiny budgets: it replays the
+"""The step profile (``step_profile.py``) on tiny budgets: it replays the
 integrator's Python source with counting wrappers (which breaks silently when a kernel it
 does not replay calls a patched one), and its breakdown adds up."""
 
@@ -9,13 +9,13 @@ from pathlib import Path
 
 import pytest
 
-BENCH = Path(__file__).resolve().parents[1] / "benchmarks"
+BENCH = Path(__file__).resolve().parents[2]  # experiments/
 
 
 @pytest.fixture
 def bench(load_script, monkeypatch):
     monkeypatch.syspath_prepend(str(BENCH))  # the script imports _common
-    mod = load_script(BENCH / "bench_profile.py")
+    mod = load_script(BENCH / "step_profile" / "step_profile.py")
     monkeypatch.setattr(mod, "ROUNDS", 1)
     return mod
 

@@ -1,4 +1,4 @@
-"""The Newton part of ``benchmarks/bench_preconditioner.py`` on the smallest stack: it
+"""The Newton part of ``preconditioner.py`` on the smallest stack: it
 captures a solve by replaying the integrator's Python source (which breaks when a replayed
 kernel changes), its GMRES reproduces the simulator's iteration count with the
 simulator's preconditioner, and the whole axial problem as coarse space takes no more
@@ -12,7 +12,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-BENCH = Path(__file__).resolve().parents[1] / "benchmarks"
+BENCH = Path(__file__).resolve().parents[2]  # experiments/
 COLUMNS = {
     "nodes",
     "unknowns",
@@ -36,7 +36,7 @@ COLUMNS = {
 
 def test_newton_part_reproduces_the_simulators_count(tmp_path, monkeypatch, load_script):
     monkeypatch.syspath_prepend(str(BENCH))  # the script imports _common and bench_contact
-    mod = load_script(BENCH / "bench_preconditioner.py")
+    mod = load_script(BENCH / "preconditioner" / "preconditioner.py")
     args = ["--part", "newton", "--sizes", "100", "--solves", "1", "--out", str(tmp_path)]
     assert mod.main(args) == 0
     with (tmp_path / "preconditioner_newton.csv").open() as f:
@@ -65,7 +65,7 @@ def test_backsub_part_times_two_orders_of_the_same_solve(tmp_path, monkeypatch, 
     """The back-substitution by columns (GMRES's preconditioner) solves the same system as
     the row-oriented one to round-off, on both sides of the switch to the bounded loops."""
     monkeypatch.syspath_prepend(str(BENCH))
-    mod = load_script(BENCH / "bench_preconditioner.py")
+    mod = load_script(BENCH / "preconditioner" / "preconditioner.py")
     path = mod.backsub_part(tmp_path, sizes=(3, 40))
     with path.open() as f:
         rows = list(csv.DictReader(f))
@@ -79,7 +79,7 @@ def test_diagonal_part_times_both_lus_of_the_same_system(tmp_path, monkeypatch, 
     """GMRES's LU with diagonal pivots solves the same system as with partial pivoting, to
     round-off, small (bounded loops only) and larger."""
     monkeypatch.syspath_prepend(str(BENCH))
-    mod = load_script(BENCH / "bench_preconditioner.py")
+    mod = load_script(BENCH / "preconditioner" / "preconditioner.py")
     path = mod.diagonal_part(tmp_path, sizes=(3, 40), pile=False)
     with path.open() as f:
         rows = list(csv.DictReader(f))
@@ -96,7 +96,7 @@ def test_blocks_part_times_the_stacks_two_kernels_alone(tmp_path, monkeypatch, l
     nodes a turn up, both ways, each node block written twice) and a row per size with the
     cost per block and per node, and of the product by merged rows."""
     monkeypatch.syspath_prepend(str(BENCH))
-    mod = load_script(BENCH / "bench_preconditioner.py")
+    mod = load_script(BENCH / "preconditioner" / "preconditioner.py")
     rng = np.random.default_rng(0)
     n = 200
     cpl = mod.stack_couplings(n, rng)
@@ -125,7 +125,7 @@ def test_forest_solve_is_exact_on_chains_of_turns(monkeypatch, load_script):
     """With couplings only a turn apart (m nodes) and none along the filament, the axial
     matrix is its own line forest: forest_solve returns its exact solution."""
     monkeypatch.syspath_prepend(str(BENCH))
-    mod = load_script(BENCH / "bench_preconditioner.py")
+    mod = load_script(BENCH / "preconditioner" / "preconditioner.py")
     rng = np.random.default_rng(1)
     n, m = 60, 7
     k = rng.uniform(1.0, 2.0, n - m)
@@ -148,7 +148,7 @@ def test_forest_solve_is_exact_on_a_tree(monkeypatch, load_script):
     """An unsymmetric forest with nodes of two children: forest_solve against the dense
     matrix it stands for; a pivot that is not positive is an error, not a NaN."""
     monkeypatch.syspath_prepend(str(BENCH))
-    mod = load_script(BENCH / "bench_preconditioner.py")
+    mod = load_script(BENCH / "preconditioner" / "preconditioner.py")
     rng = np.random.default_rng(3)
     n = 12
     parent = np.array([3, 3, 5, 6, 6, 8, 9, 9, 11, -1, 11, -1])  # 0, 1 -> 3; 3, 4 -> 6; ...
@@ -183,7 +183,7 @@ def test_recycler_keeps_directions_and_their_images(monkeypatch, load_script):
     so they are copied): each kept A w is A times its w, and they are orthonormal; the same
     right-hand side again starts at a residual within the tolerance."""
     monkeypatch.syspath_prepend(str(BENCH))
-    mod = load_script(BENCH / "bench_preconditioner.py")
+    mod = load_script(BENCH / "preconditioner" / "preconditioner.py")
     rng = np.random.default_rng(2)
     n = 40
     a, apply = _system(rng, n)
@@ -214,7 +214,7 @@ def test_recycler_starts_anew_when_full(monkeypatch, load_script):
     restart); a right-hand side in the span of those kept is solved by the start alone,
     one outside it is not; a pair already in the span adds nothing."""
     monkeypatch.syspath_prepend(str(BENCH))
-    mod = load_script(BENCH / "bench_preconditioner.py")
+    mod = load_script(BENCH / "preconditioner" / "preconditioner.py")
     rng = np.random.default_rng(4)
     n = 30
     a, _apply = _system(rng, n)
@@ -238,7 +238,7 @@ def test_settled_part_compares_variants_on_consecutive_solves(tmp_path, monkeypa
     converged (the kept variants checked on their true residual), the band's count the
     simulator's, the whole axial problem and the kept solutions no worse than the band."""
     monkeypatch.syspath_prepend(str(BENCH))
-    mod = load_script(BENCH / "bench_preconditioner.py")
+    mod = load_script(BENCH / "preconditioner" / "preconditioner.py")
     path = mod.settled_part([300], 8, tmp_path, pile=False)
     with path.open() as f:
         rows = {r["variant"]: r for r in csv.DictReader(f)}
