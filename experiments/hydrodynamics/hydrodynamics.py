@@ -637,10 +637,7 @@ def failing_solve_row(label: str, start_s: float) -> dict:
             while sim.t < target and not caught:
                 status = integ.advance.py_func(model, sim.state, named_ws(), target, 10**9)
                 if status == L.STATUS_CAPACITY:
-                    if sim.n_nodes + 2 > sim.capacity:
-                        sim._grow()
-                    else:
-                        sim._grow_off_band()
+                    sim.make_room()
                     model, named_ws = bench_profile.replay_records(sim)
                 elif status != L.STATUS_OK:
                     break

@@ -512,10 +512,7 @@ def capture(
                 break
             status = integ.advance.py_func(model, sim.state, named_ws(), sim.t + 2e-4, 10**9)
             if status == L.STATUS_CAPACITY:  # grow the arrays as Simulation.advance does
-                if sim.n_nodes + 2 > sim.capacity:
-                    sim._grow()
-                else:
-                    sim._grow_off_band()
+                sim.make_room()
             elif status != L.STATUS_OK:
                 raise RuntimeError(f"replay stopped: status {status} ({L.STATUS_MESSAGES[status]})")
     finally:

@@ -291,7 +291,7 @@ def kernel_costs(sim: Simulation) -> dict[str, float]:
     )
     # band2 holds the filter's damping matrix (assembled above)
     res["damping_times"] = _per_call(_damping_loop, reps, ws, nd, rod.vel.copy(), rhs)
-    if s._off_band():  # the solve is GMRES: its cost per iteration (one solve's iterations)
+    if s.off_band:  # the solve is GMRES: its cost per iteration (one solve's iterations)
         counters[:] = 0
         rhs[:nd] = saved_rhs[:nd]
         solver.solve(ws, nd, rhs, counters, rtol)
@@ -399,10 +399,7 @@ def replay_counts(sim: Simulation, window_s: float) -> tuple[dict[str, float], d
             if status != L.STATUS_CAPACITY:
                 break
             # full arrays: grow them as Simulation.advance does, and go on
-            if sim.n_nodes + 2 > sim.capacity:
-                sim._grow()
-            else:
-                sim._grow_off_band()
+            sim.make_room()
     finally:
         integ.assemble, integ.set_boundary, integ.solver = (
             real_assemble,
