@@ -14,7 +14,7 @@ from bathprint.core import layout as L
 from bathprint.core.effects import hydrodynamics
 from bathprint.studies.reproduce import ablation
 
-BENCH = Path(__file__).resolve().parents[2]  # experiments/
+BENCH = Path(__file__).resolve().parents[1]  # experiments/
 
 
 @pytest.fixture

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-BENCH = Path(__file__).resolve().parents[2]  # experiments/
+BENCH = Path(__file__).resolve().parents[1]  # experiments/
 
 
 def test_the_hindsight_benchmark_compares_identical_rewards(load_script, monkeypatch) -> None:

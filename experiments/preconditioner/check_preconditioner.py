@@ -12,7 +12,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-BENCH = Path(__file__).resolve().parents[2]  # experiments/
+BENCH = Path(__file__).resolve().parents[1]  # experiments/
 COLUMNS = {
     "nodes",
     "unknowns",

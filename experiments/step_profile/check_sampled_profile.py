@@ -9,7 +9,7 @@ from pathlib import Path
 
 import pytest
 
-BENCH = Path(__file__).resolve().parents[2]  # experiments/
+BENCH = Path(__file__).resolve().parents[1]  # experiments/
 
 LU = "_ZN9bathprint4core6banded7band_luB4v241B36c8tJTIeFIjxB2IKSgI4CrvQCltYEAA_3d_3dE5ArrayIdLi2E"
 CONTACT = "_ZN9bathprint4core7effects7contact10accumulateB4v126B40c8tJTIeFIjxE4277Model"
@@ -83,7 +83,7 @@ def test_a_stack_case_is_bench_contacts_relaxed_pressed_stack(bench, monkeypatch
     """``--cases "pressed stack, N nodes"``: the settled part's stack of N nodes, relaxed for
     its warm-up at its largest step (here a short one, 100 nodes)."""
     monkeypatch.syspath_prepend(str(BENCH))  # the case comes from bench_contact
-    import bench_contact
+    from contact_cost import contact_cost as bench_contact
 
     monkeypatch.setattr(bench_contact, "SETTLED_WARM_UP_S", 1e-3)
     assert bench.STACK_CASES == tuple(f"pressed stack, {n} nodes" for n in bench.STACK_SIZES)

@@ -9,7 +9,7 @@ from pathlib import Path
 
 import pytest
 
-BENCH = Path(__file__).resolve().parents[2]  # experiments/
+BENCH = Path(__file__).resolve().parents[1]  # experiments/
 
 
 @pytest.fixture
