@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import csv
+import importlib.util
 import json
 import os
 import platform
@@ -11,6 +12,7 @@ import sys
 import time
 from collections.abc import Callable
 from pathlib import Path
+from types import ModuleType
 
 from bathprint.provenance import code_version
 
@@ -29,6 +31,26 @@ SHARP_CONTACT: dict[str, float] = {
     "contact.distance_factor": 1.0,
     "contact.damping_time_s": 0.0,
 }
+
+
+def experiment(question: str) -> ModuleType:
+    """The script experiments/<question>/<question>.py as a module, loaded once per process
+    from its file (so that no folder on ``sys.path`` can shadow it): the scripts that build
+    on another experiment's scenes take them from here."""
+    name = f"experiments.{question}"
+    if name not in sys.modules:
+        path = EXPERIMENTS / question / f"{question}.py"
+        spec = importlib.util.spec_from_file_location(name, path)
+        if spec is None or spec.loader is None:
+            raise ImportError(f"no experiment script at {path}")
+        module = importlib.util.module_from_spec(spec)
+        sys.modules[name] = module
+        try:
+            spec.loader.exec_module(module)
+        except BaseException:
+            del sys.modules[name]
+            raise
+    return sys.modules[name]
 
 
 def best_of(fn: Callable[[], object], repeats: int = 3) -> float:

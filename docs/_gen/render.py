@@ -1724,7 +1724,9 @@ def _bench_contact_newton():
     summaries)."""
     sys.path.insert(0, str(EXPERIMENTS))  # the script imports _common and contact_cost
     try:
-        from contact_newton import contact_newton
+        from _common import experiment
+
+        contact_newton = experiment("contact_newton")
     finally:
         sys.path.pop(0)
     return contact_newton

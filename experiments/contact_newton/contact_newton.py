@@ -65,12 +65,14 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # experiments/: _common
-from _common import SHARP_CONTACT, write_csv  # noqa: E402
-from contact_cost.contact_cost import R_FIL, coil_stack, law_or_sharp  # noqa: E402
+from _common import SHARP_CONTACT, experiment, write_csv  # noqa: E402
 
 from bathprint import Simulation, SimulationError, simulate
 from bathprint.analysis.measure import MEASURE_KEYS, buckling_length, coil_geometry, touching_gaps
 from bathprint.core.effects._segment_geometry import PARALLEL_SIN2, SLIDING_SIN2, closest_params
+
+_stack = experiment("contact_cost")  # the pressed coil stacks
+R_FIL, coil_stack, law_or_sharp = _stack.R_FIL, _stack.coil_stack, _stack.law_or_sharp
 
 N_NODES = 300
 DURATION_S = 0.02

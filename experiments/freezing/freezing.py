@@ -57,14 +57,16 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # experiments/: _common
-from _common import RESULTS, SHARP_CONTACT, write_csv  # noqa: E402
-from contact_newton.contact_newton import ONSET_BEFORE_CONTACT, WIDE_AT_CONTACT  # noqa: E402
+from _common import RESULTS, SHARP_CONTACT, experiment, write_csv  # noqa: E402
 
 import bathprint.envs as E
 from bathprint.analysis.measure import buckling_length, coil_geometry
 from bathprint.core.simulation import Simulation
 from bathprint.errors import SimulationError
 from bathprint.studies.accuracy import coil_run
+
+_onsets = experiment("contact_newton")  # contact's onsets as it measured them
+ONSET_BEFORE_CONTACT, WIDE_AT_CONTACT = _onsets.ONSET_BEFORE_CONTACT, _onsets.WIDE_AT_CONTACT
 
 COIL = "gelation_coiling_22G"
 FREEZE_MM = (20.0, 40.0, 60.0, 100.0, 150.0)

@@ -53,7 +53,7 @@ import numpy as np
 import scipy.linalg
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # experiments/: _common
-from _common import RESULTS, best_of, write_csv  # noqa: E402
+from _common import RESULTS, best_of, experiment, write_csv  # noqa: E402
 
 from bathprint import Simulation, SimulationError, simulate
 from bathprint.analysis import validation as V
@@ -566,7 +566,7 @@ def failing_solve_row(label: str, start_s: float) -> dict:
     finite_re law at the velocity relative to the flow against its zero-speed limit)."""
     from types import SimpleNamespace
 
-    from step_profile import step_profile as bench_profile
+    bench_profile = experiment("step_profile")
 
     import bathprint.core.integrators as integ
     from bathprint.core import solver

@@ -127,11 +127,9 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as sla
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # experiments/: _common
-from _common import RESULTS, SHARP_CONTACT, best_of, write_csv  # noqa: E402
-from contact_cost.contact_cost import COIL_RADIUS, MM, R_FIL, SPACING, coil_stack  # noqa: E402
+from _common import RESULTS, SHARP_CONTACT, best_of, experiment, write_csv  # noqa: E402
 from numba import njit  # noqa: E402
 from rich.progress import Progress  # noqa: E402
-from step_profile.step_profile import REPLAYED, replay_records  # noqa: E402
 
 import bathprint.core.integrators as integ
 from bathprint import Simulation
@@ -147,6 +145,12 @@ from bathprint.core.banded import (
     merge_blocks,
 )
 from bathprint.core.records import KRYLOV_RESTART, new_couplings
+
+_stack = experiment("contact_cost")  # the pressed coil stacks
+COIL_RADIUS, MM, R_FIL, SPACING = _stack.COIL_RADIUS, _stack.MM, _stack.R_FIL, _stack.SPACING
+coil_stack = _stack.coil_stack
+_profile = experiment("step_profile")  # the replay of the time loop
+REPLAYED, replay_records = _profile.REPLAYED, _profile.replay_records
 
 AGGREGATES = (4, 16, 64)
 

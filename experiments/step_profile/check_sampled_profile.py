@@ -83,7 +83,9 @@ def test_a_stack_case_is_bench_contacts_relaxed_pressed_stack(bench, monkeypatch
     """``--cases "pressed stack, N nodes"``: the settled part's stack of N nodes, relaxed for
     its warm-up at its largest step (here a short one, 100 nodes)."""
     monkeypatch.syspath_prepend(str(BENCH))  # the case comes from bench_contact
-    from contact_cost import contact_cost as bench_contact
+    from _common import experiment
+
+    bench_contact = experiment("contact_cost")
 
     monkeypatch.setattr(bench_contact, "SETTLED_WARM_UP_S", 1e-3)
     assert bench.STACK_CASES == tuple(f"pressed stack, {n} nodes" for n in bench.STACK_SIZES)

@@ -40,7 +40,7 @@ import time
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # experiments/: _common
-from _common import write_csv  # noqa: E402
+from _common import experiment, write_csv  # noqa: E402
 
 CASES = ("pile, no contact", "pile, contact")
 WINDOW_S = 0.06  # simulated time sampled after the pile's state (0.8 s)
@@ -52,11 +52,11 @@ STACK_WINDOW_S = 0.05  # 200 steps at the settled step
 def stack_state(case: str):
     """``contact_cost.py``'s pressed stack of the case's size (pitch 0.98 contact distances),
     relaxed for its settled part's 20 ms at steps of at most 0.25 ms."""
-    from contact_cost.contact_cost import SETTLED_MAX_STEP_S, SETTLED_WARM_UP_S, coil_stack
+    stacks = experiment("contact_cost")
 
     n = int(re.fullmatch(r"pressed stack, (\d+) nodes", case).group(1))
-    sim = coil_stack(n, True, 0.98, {"numerics.max_step_s": SETTLED_MAX_STEP_S})
-    sim.advance(SETTLED_WARM_UP_S)
+    sim = stacks.coil_stack(n, True, 0.98, {"numerics.max_step_s": stacks.SETTLED_MAX_STEP_S})
+    sim.advance(stacks.SETTLED_WARM_UP_S)
     return sim
 
 
@@ -136,7 +136,7 @@ def child(case: str, window_s: float, ctl: str, ack: str) -> None:
     if case in STACK_CASES:
         sim = stack_state(case)
     else:
-        from step_profile import CASES as PROFILE_CASES
+        PROFILE_CASES = experiment("step_profile").CASES
 
         make, _ = PROFILE_CASES[case]
         sim = make()
