@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import os
-from pathlib import Path
 
 import pytest
 
@@ -11,27 +10,12 @@ os.environ.setdefault("MPLBACKEND", "Agg")
 
 
 @pytest.fixture
-def load_script():
-    """A loader of a Python file (a benchmark script) as a module: ``load_script(path)``."""
-    import importlib.util
-
-    def load(path):
-        spec = importlib.util.spec_from_file_location(Path(path).stem, path)
-        assert spec is not None and spec.loader is not None
-        mod = importlib.util.module_from_spec(spec)
-        spec.loader.exec_module(mod)
-        return mod
-
-    return load
-
-
-
-@pytest.fixture
 def pressed_stack():
     """A builder ``pressed_stack(n, **overrides)`` of a stress-free coil stack of n nodes
     (22G, radius 3 mm, 0.3 mm spacing) whose turns overlap by 2% of the sum of the radii:
     every turn is pressed onto the next, a chain of contacts as high as the stack (the stack
-    of ``benchmarks/bench_contact.py``, with its contact law, the sharp onset of 0.02 delta
+    of ``experiments/contact_cost/contact_cost.py``, with its contact
+    law, the sharp onset of 0.02 delta
     from r_A + r_B that the tests' counts were measured with), with ``overrides`` as scene
     keys."""
     import math

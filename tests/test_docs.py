@@ -200,12 +200,15 @@ def test_validation_table_from_validate_json(capsys, monkeypatch):
 
 
 def test_result_files_have_their_provenance():
-    csvs = sorted((ROOT / "benchmarks" / "results").rglob("*.csv"))
-    assert csvs
+    """Every experiment's result file has its NAME.meta.json (the paper's figures share
+    ``bathprint reproduce``'s reproduce.meta.json)."""
+    csvs = sorted((ROOT / "experiments").glob("*/results/**/*.csv"))
+    assert len(csvs) > 50
+    paper = ROOT / "experiments" / "paper" / "results"
     for path in csvs:
         meta = path.with_suffix(".meta.json")
-        if path.parent.name == "reproduce":
-            meta = path.parent / "reproduce.meta.json"
+        if path.parent == paper:
+            meta = paper / "reproduce.meta.json"
         assert meta.is_file(), f"{path.relative_to(ROOT)} has no provenance ({meta.name})"
         m = json.loads(meta.read_text())
         assert m["command"] and re.fullmatch(r"\d{4}-\d{2}-\d{2}", m["date"]) and m["machine"]

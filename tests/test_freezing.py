@@ -9,13 +9,11 @@ feels a near one less through the clamped joint, whose bending matches the filam
 and bad settings are refused.
 
 The tests run contact's defaults. The figures their docstrings quote come from
-``benchmarks/bench_freezing.py``, whose parts hold contact's former sharp onset
+``experiments/freezing/freezing.py``, whose parts hold contact's former sharp onset
 (``_common.SHARP_CONTACT``) unless they say otherwise; the defaults pass the same bounds.
 """
 
 from __future__ import annotations
-
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -99,7 +97,7 @@ def test_freezing_changes_a_steady_coil_less_than_a_tighter_tolerance() -> None:
     """Overdamped, beyond 100 mm (about four turns), paired over four seeds: R by -0.10% on
     average against +0.54% for a tenfold tolerance, omega by -0.13% against -0.74%. R is
     the median over the core turns, frozen ones among them (the turns at the needle: the
-    tests below; ``python benchmarks/bench_freezing.py --part coil``, docs/numerics.md)."""
+    tests below; ``python experiments/freezing/freezing.py --part coil``, docs/numerics.md)."""
     _freezing_against_a_tighter_tolerance(list(Simulation(COIL).scene.effects), 100.0)
 
 
@@ -135,7 +133,7 @@ def test_an_inertial_coil_at_the_needle_and_the_frozen_tails_joint() -> None:
     average, beyond 150 mm by 0.5%. The clamped joint (the default) holds the end's
     tangent: beyond 60 mm they change by -1.1% (six seeds, stopped at 4 s on the way: free
     +3.1% and -0.1%, clamped -1.5%; 0.26% from seed to seed;
-    ``python benchmarks/bench_freezing.py --part turns``, docs/numerics.md)."""
+    ``python experiments/freezing/freezing.py --part turns``, docs/numerics.md)."""
     effects = [*Simulation(COIL).scene.effects, "inertia"]
     free_near, free_far, clamped_near = [], [], []
     for seed in (0, 1):
@@ -171,7 +169,7 @@ def test_freezing_changes_the_coil_at_the_needle_less_than_a_tighter_tolerance(
     error does (a tenfold tolerance at half the node spacing). Measured with contact's
     defaults (its onset before contact, and with inertia its 10 ms dashpot): overdamped
     +0.40% against +0.97%, with inertia -0.50% against +1.4% (``python
-    benchmarks/bench_freezing.py --part damping`` and ``--part onset``); without the dashpot
+    experiments/freezing/freezing.py --part damping`` and ``--part onset``); without the dashpot
     the bouncing turns took it away (-1.4% against +0.8%). With the former sharp onset and
     no dashpot: overdamped +0.58% against +0.85%, with inertia -0.14% against +0.64%. With
     inertia one seed's change is chaotic (-1.3% to +0.9% over the six; the same runs with
@@ -541,80 +539,3 @@ def test_the_clamped_joint_is_the_bending_of_the_joining_node_with_its_exact_jac
         dx[j] = 1e-10
         fd_jac[:, j] = -(joint(base + dx, False)[1] - joint(base - dx, False)[1]) / 2e-10
     np.testing.assert_allclose(jac, fd_jac, rtol=1e-5, atol=1e-6 * np.abs(fd_jac).max())
-
-
-def _bench_freezing(load_script, monkeypatch):
-    """``benchmarks/bench_freezing.py`` as a module (it imports the other benches)."""
-    bench = Path(__file__).resolve().parents[1] / "benchmarks"
-    monkeypatch.syspath_prepend(str(bench))
-    return load_script(bench / "bench_freezing.py")
-
-
-def test_the_damping_part_pairs_freezing_and_the_tolerance_with_each_variant(
-    load_script, monkeypatch
-):
-    """``bench_freezing.py --part damping``: for each variant and seed, the draft, frozen and
-    tighter runs carry the variant's contact keys and inertia (or not), and the changes are
-    ratios to the draft run (fake radii)."""
-    mod = _bench_freezing(load_script, monkeypatch)
-    calls = []
-
-    def fake(over: dict, duration_s: float) -> float:
-        calls.append(over)
-        if over.get("numerics.tolerance") == 1e-3:
-            return 1.02e-3
-        return 0.99e-3 if over.get("numerics.freeze_beyond_mm") == 100.0 else 1.0e-3
-
-    monkeypatch.setattr(mod, "_near_needle_radius", fake)
-    rows = mod.damping_table(n_seeds=2, duration_s=1.0)
-    assert [(r["variant"], r["seed"]) for r in rows] == [
-        (label, seed) for label, _, _ in mod.DAMPING_VARIANTS for seed in (0, 1)
-    ]
-    for r in rows:
-        assert r["frozen_100mm_change"] == pytest.approx(-0.01)
-        assert r["tighter_change"] == pytest.approx(0.02)
-    assert len(calls) == 3 * len(rows)
-    for k, (label, inertia, contact) in enumerate(mod.DAMPING_VARIANTS):
-        mine = calls[6 * k : 6 * (k + 1)]
-        assert all(("inertia" in c["effects"]) == inertia for c in mine), label
-        assert all(c[key] == v for c in mine for key, v in contact.items()), label
-
-
-def test_the_onset_part_pairs_each_measurement_with_its_own_onset(load_script, monkeypatch):
-    """``bench_freezing.py --part onset``: for each onset and seed, every run gets the
-    onset's contact keys, inertia and the seed; the changes are the ratios to the runs
-    without freezing of the same joint (fake radii); and one real draft run measures the
-    coil at the needle."""
-    mod = _bench_freezing(load_script, monkeypatch)
-    calls = []
-
-    def fake(over: dict, duration_s: float) -> float:
-        calls.append(over)
-        if over.get("numerics.tolerance") == 1e-3:
-            return 1.02e-3  # the tighter run
-        mm = over["numerics.freeze_beyond_mm"]
-        return {0.0: 1.0e-3, 60.0: 1.04e-3, 100.0: 0.99e-3, 150.0: 1.005e-3}[mm]
-
-    real = mod._near_needle_radius
-    monkeypatch.setattr(mod, "_near_needle_radius", fake)
-    rows = mod.onset_table(n_seeds=2, duration_s=1.0)
-    assert [(r["onset"], r["seed"]) for r in rows] == [
-        (label, seed) for label, _ in mod.ONSET_VARIANTS for seed in (0, 1)
-    ]
-    for r in rows:
-        assert r["frozen_100mm_change"] == pytest.approx(-0.01)
-        assert r["tighter_change"] == pytest.approx(0.02)
-        assert r["free_60mm_change"] == pytest.approx(0.04)
-        assert r["clamped_60mm_change"] == pytest.approx(0.04)
-    assert len(calls) == 7 * len(rows)
-    for label, onset in mod.ONSET_VARIANTS:
-        mine = [c for c in calls if all(c.get(k) == v for k, v in onset.items())]
-        assert len(mine) >= 14 and all("inertia" in c["effects"] for c in mine), label
-    assert {c["numerics.freeze_joint"] for c in calls} == {"auto", "free", "clamped"}
-    radius = real({"numerics.accuracy": "draft", "seed": 0}, 3.0)
-    assert 1e-3 < radius < 5e-3  # the 22G coil at 0.5 ml/min: about 2.3 mm
-    calls.clear()  # --part onset_wide: the onset widened at the sum of the radii
-    wide = mod.onset_table(n_seeds=1, duration_s=1.0, variants=mod.ONSET_WIDE_VARIANTS)
-    assert [r["onset"] for r in wide] == [label for label, _ in mod.ONSET_WIDE_VARIANTS]
-    assert {c["contact.width_fraction"] for c in calls} == {0.2}
-    assert {c["contact.distance_factor"] for c in calls} == {1.0}

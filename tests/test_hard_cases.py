@@ -1,5 +1,5 @@
 """Hard cases that must stay numerically stable (quick versions; long ones in
-benchmarks/bench_hard_cases.py).
+experiments/hard_cases/hard_cases.py).
 
 Each case runs to completion with no NaN, a bounded stretch error |l/l0 - 1|, no collapse of
 the time step, and mass balance (printed volume = initial + integral of Q). Failure modes

@@ -21,7 +21,7 @@ from bathprint.core.run import integrated_flow_volume
 from bathprint.core.simulation import Simulation
 
 INERTIAL = ["elasticity", "drag", "gravity", "inertia"]
-SAMPLES = 2.5e-3 * np.arange(1, 201)  # s, as benchmarks/bench_pyelastica.py
+SAMPLES = 2.5e-3 * np.arange(1, 201)  # s, as experiments/pyelastica/cantilever.py
 TABLEAUX = {"implicit": I.SDIRK2_A, "sdirk4": I.SDIRK4_A}
 
 

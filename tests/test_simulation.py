@@ -305,7 +305,7 @@ def test_the_kernel_entry_point_follows_the_workspace_and_leaves_results_unchang
             before = int(b.counters[L.C_STEPS])
             status = advance(b.model.record, b.state, b.ws, float(t), 10**9)
             if status == L.STATUS_CAPACITY:
-                b._grow() if b.n_nodes + 2 > b.capacity else b._grow_off_band()
+                b.make_room()
                 continue
             assert status == L.STATUS_OK, before
             break
@@ -346,3 +346,23 @@ def test_the_compiled_entry_point_is_found_again_by_the_layout_of_the_records() 
     keys = {_layout_key(x) for x in (a, frozen, np.zeros(4, np.int64), np.zeros((2, 2)))}
     assert len(keys) == 4
     assert _layout_key((a, 1.0)) != _layout_key((a, 1))
+
+
+def test_off_band_is_true_where_the_scene_solves_by_gmres() -> None:
+    """``Simulation.off_band``: contact (or implicit hydrodynamics) couples distant nodes."""
+    assert not Simulation("paper_simulation").off_band
+    assert Simulation("period_doubling_22G").off_band
+    assert not Simulation("period_doubling_22G", {"effects": ["elasticity", "drag"]}).off_band
+
+
+def test_make_room_doubles_the_node_arrays_when_the_rod_fills_them() -> None:
+    sim = Simulation("paper_simulation")
+    cap = sim.capacity
+    pos = sim.pos[: 3 * sim.n_nodes].copy()
+    while sim.n_nodes + 2 <= sim.capacity:  # a rod that fills its arrays, as a kernel reports
+        sim.istate[0] += 1
+    n = sim.n_nodes
+    sim.make_room()
+    assert sim.capacity == 2 * cap
+    np.testing.assert_array_equal(sim.pos[: 3 * n][: pos.size], pos)
+

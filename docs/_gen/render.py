@@ -3,7 +3,7 @@
 Every table of numbers in the docs and the README comes from here, so none is typed by
 hand: the scene reference from the scene dataclasses (:mod:`bathprint.core.scene`), the
 validation table from ``bathprint validate --json``, and the measured figures from the files
-the benchmarks and studies write (``benchmarks/results/*.csv`` with their ``*.meta.json``,
+the benchmarks and studies write (``experiments/*/results/*.csv`` with their ``*.meta.json``,
 ``agents/results/*/table.json``), each followed by the command, date and machine that
 produced it.
 
@@ -35,8 +35,20 @@ from pathlib import Path
 from typing import Any
 
 ROOT = Path(__file__).resolve().parents[2]
-RESULTS = ROOT / "benchmarks" / "results"
+EXPERIMENTS = ROOT / "experiments"
 AGENTS = ROOT / "agents" / "results"
+
+
+def result(name: str) -> Path:
+    """The result file NAME of the experiment that holds it: experiments/<question>/results/
+    NAME (each name is written by one experiment); experiments/*/results/NAME where none
+    holds it (the caller reports it missing, or renders without it)."""
+    hits = sorted(EXPERIMENTS.glob(f"*/results/{name}"))
+    if len(hits) > 1:
+        raise RenderError(f"result file {name!r} is in more than one experiment: {hits}")
+    return hits[0] if hits else EXPERIMENTS / "*" / "results" / name
+
+
 DIRECTIVE = re.compile(
     # (a block's body never holds another directive: a bare line before a filled block does
     # not swallow it)
@@ -65,10 +77,12 @@ def _rel(path: Path) -> str:
 
 
 def _committed(path: Path) -> tuple[str, str]:
-    """(date, short commit) of the last commit of ``path``; ("", "") if uncommitted."""
+    """(date, short commit) of the last commit that changed ``path``'s content (a move
+    alone does not count); ("", "") if uncommitted."""
     if _git("status", "--porcelain", "--", _rel(path)):
         return "", ""
-    out = _git("log", "-1", "--format=%cs %h", "--", _rel(path)).split()
+    out = _git("log", "-1", "--follow", "--diff-filter=AM", "--format=%cs %h", "--", _rel(path))
+    out = out.split()
     return (out[0], out[1]) if len(out) == 2 else ("", "")
 
 
@@ -312,7 +326,7 @@ def validation() -> str:
 
 # ------------------------------------------------------------------ performance
 def default_scene() -> str:
-    path = RESULTS / "default_paper_simulation.csv"
+    path = result("default_paper_simulation.csv")
     r = _csv(path)[0]
     rows = [
         ["simulated", f"{_g(r['simulated_s'])} s"],
@@ -326,7 +340,7 @@ def default_scene() -> str:
 
 
 def scaling() -> str:
-    path = RESULTS / "scaling.csv"
+    path = result("scaling.csv")
     rows = [
         [
             r["nodes"],
@@ -348,7 +362,7 @@ def scaling() -> str:
 
 
 def effects() -> str:
-    kpath, rpath = RESULTS / "effects_kernels.csv", RESULTS / "effects_runs.csv"
+    kpath, rpath = result("effects_kernels.csv"), result("effects_runs.csv")
     k = _table(
         ["effect", "ns per node (force and Jacobian)"],
         [[f"`{r['effect']}`", _g(r["ns_per_node"])] for r in _csv(kpath)],
@@ -373,7 +387,7 @@ def _pareto(points: list[tuple[float, float]]) -> list[tuple[float, float]]:
 
 def _cost_at(points: list[tuple[float, float]], target: float) -> float:
     """Wall time to reach error <= target, log-log along the Pareto front (as
-    benchmarks/bench_pyelastica.py computes it)."""
+    pyelastica/cantilever.py computes it)."""
     front = _pareto(points)
     if not front:
         return math.nan
@@ -387,7 +401,7 @@ def _cost_at(points: list[tuple[float, float]], target: float) -> float:
 
 
 def pyelastica(name: str = "pyelastica") -> str:
-    path = RESULTS / f"{name}.csv"
+    path = result(f"{name}.csv")
     data = _csv(path)
 
     def pts(problem: str, code: str, n: str) -> list[tuple[float, float]]:
@@ -447,7 +461,7 @@ def pyelastica(name: str = "pyelastica") -> str:
 
 
 def profile() -> str:
-    path = RESULTS / "profile.csv"
+    path = result("profile.csv")
     data = _csv(path)
     cases = list(dict.fromkeys(r["case"] for r in data))
     comps = [c for c in dict.fromkeys(r["component"] for r in data) if c != "whole step"]
@@ -478,7 +492,7 @@ def _failure(text: str) -> str:
 
 
 def hard_cases() -> str:
-    path = RESULTS / "hard_cases.csv"
+    path = result("hard_cases.csv")
     rows = []
     for r in _csv(path):
         ok = r["result"] == "ok"
@@ -510,7 +524,7 @@ def hard_cases() -> str:
 
 
 def freezing_coil() -> str:
-    path = RESULTS / "freezing_coil.csv"
+    path = result("freezing_coil.csv")
     rows = [
         [
             r["preset"],
@@ -527,7 +541,7 @@ def freezing_coil() -> str:
 
 
 def freezing_turns() -> str:
-    path = RESULTS / "freezing_turns.csv"
+    path = result("freezing_turns.csv")
     rows = [
         [
             r["preset"],
@@ -554,10 +568,10 @@ def freezing_turns() -> str:
 
 
 def freezing_onset(name: str = "freezing_onset") -> str:
-    """``bench_freezing.py --part onset`` (or ``--part onset_wide``, result file ``name``):
+    """``freezing.py --part onset`` (or ``--part onset_wide``, result file ``name``):
     per contact onset, the mean change over the seeds (and their range) of the coil at the
     needle, with inertia."""
-    path = RESULTS / f"{name}.csv"
+    path = result(f"{name}.csv")
     table = _csv(path)
     cols = [
         "frozen_100mm_change",
@@ -580,9 +594,9 @@ def freezing_onset(name: str = "freezing_onset") -> str:
 
 
 def freezing_damping() -> str:
-    """``bench_freezing.py --part damping``: per variant, the mean change over the seeds (and
+    """``freezing.py --part damping``: per variant, the mean change over the seeds (and
     their range) of the coil at the needle by freezing and by the tenfold tolerance."""
-    path = RESULTS / "freezing_damping.csv"
+    path = result("freezing_damping.csv")
     table = _csv(path)
     rows = []
     for variant in dict.fromkeys(r["variant"] for r in table):
@@ -597,9 +611,9 @@ def freezing_damping() -> str:
 
 
 def contact_dashpot_overdamped() -> str:
-    """``bench_contact_newton.py --part dashpot_overdamped``: how far the overdamped pile
+    """``contact_newton.py --part dashpot_overdamped``: how far the overdamped pile
     gets with contact's dashpot, and why it stops."""
-    path = RESULTS / "contact_dashpot_overdamped.csv"
+    path = result("contact_dashpot_overdamped.csv")
     rows = []
     for r in _csv(path):
         failure = r["failure"]
@@ -625,9 +639,9 @@ def contact_dashpot_overdamped() -> str:
 
 
 def hydro_all_effects() -> str:
-    """``bench_hydrodynamics.py all_effects``: the ablation's "all" run on a pile as planned
+    """``hydrodynamics.py all_effects``: the ablation's "all" run on a pile as planned
     and with one thing changed."""
-    path = RESULTS / "hydro_all_effects.csv"
+    path = result("hydro_all_effects.csv")
     rows = []
     for r in _csv(path):
         ok = not r["failure"]
@@ -662,9 +676,9 @@ def hydro_all_effects() -> str:
 
 
 def hydro_mobility() -> str:
-    """``bench_hydrodynamics.py mobility``: I + R M W^-1 on the all_effects run, with and
+    """``hydrodynamics.py mobility``: I + R M W^-1 on the all_effects run, with and
     without contact."""
-    path = RESULTS / "hydro_mobility.csv"
+    path = result("hydro_mobility.csv")
     rows = []
     for r in _csv(path):
         if r["failure"]:
@@ -694,8 +708,8 @@ def hydro_mobility() -> str:
 
 
 def hydro_failing_solve() -> str:
-    """``bench_hydrodynamics.py failing_solve``: at each variant's first failed GMRES solve."""
-    path = RESULTS / "hydro_failing_solve.csv"
+    """``hydrodynamics.py failing_solve``: at each variant's first failed GMRES solve."""
+    path = result("hydro_failing_solve.csv")
     rows = []
     for r in _csv(path):
         if not r.get("time_s"):
@@ -727,8 +741,8 @@ def hydro_failing_solve() -> str:
 
 
 def hydro_kernel_drag() -> str:
-    """``bench_hydrodynamics.py kernels``: a rigid cylinder's drags over Tirado's, each kernel."""
-    path = RESULTS / "hydro_kernel_drag.csv"
+    """``hydrodynamics.py kernels``: a rigid cylinder's drags over Tirado's, each kernel."""
+    path = result("hydro_kernel_drag.csv")
     by: dict[tuple[str, str], dict] = {}
     for r in _csv(path):
         by[(r["aspect"], r["segments_per_diameter"])] = {
@@ -749,8 +763,8 @@ def hydro_kernel_drag() -> str:
 
 
 def hydro_kernel_mobility() -> str:
-    """``bench_hydrodynamics.py kernels``: the pressed coils' mobility, each kernel."""
-    path = RESULTS / "hydro_kernel_mobility.csv"
+    """``hydrodynamics.py kernels``: the pressed coils' mobility, each kernel."""
+    path = result("hydro_kernel_mobility.csv")
     rows = [
         [
             r["pitch_mm"],
@@ -774,8 +788,8 @@ def hydro_kernel_mobility() -> str:
 
 
 def hydro_kernel_cost() -> str:
-    """``bench_hydrodynamics.py kernels``: one nonlocal evaluation, each kernel."""
-    path = RESULTS / "hydro_kernel_cost.csv"
+    """``hydrodynamics.py kernels``: one nonlocal evaluation, each kernel."""
+    path = result("hydro_kernel_cost.csv")
     rows = [
         [
             r["N"],
@@ -797,9 +811,9 @@ def hydro_kernel_cost() -> str:
 
 
 def hydro_coiling() -> str:
-    """``bench_hydrodynamics.py coiling``: drag_coiling_22G with each drag model and
+    """``hydrodynamics.py coiling``: drag_coiling_22G with each drag model and
     coupling, wall time against local Cox drag, and the coil each gives."""
-    path = RESULTS / "hydro_coiling.csv"
+    path = result("hydro_coiling.csv")
     rows = [
         [
             r["variant"],
@@ -833,8 +847,8 @@ def hydro_coiling() -> str:
 
 
 def hydro_kernel_coils() -> str:
-    """``bench_hydrodynamics.py kernel_coils``: the coil each kernel measures."""
-    path = RESULTS / "hydro_kernel_coils.csv"
+    """``hydrodynamics.py kernel_coils``: the coil each kernel measures."""
+    path = result("hydro_kernel_coils.csv")
     keys = ("buckling_length_m", "coil_radius_m", "coil_pitch_m", "coil_frequency_rad_s")
     by = {(r["diameter_mm"], r["q_outer_ml_min"], r["kernel"]): r for r in _csv(path)}
     rows = []
@@ -876,7 +890,7 @@ def hydro_kernel_coils() -> str:
 
 
 def freezing_rope() -> str:
-    path = RESULTS / "freezing_rope.csv"
+    path = result("freezing_rope.csv")
     rows = [
         [
             r["variant"],
@@ -902,7 +916,7 @@ def freezing_rope() -> str:
 
 
 def freezing_envs() -> str:
-    path = RESULTS / "freezing_envs.csv"
+    path = result("freezing_envs.csv")
     rows = [
         [
             f"`{r['env']}`",
@@ -924,7 +938,7 @@ def freezing_envs() -> str:
 
 
 def accuracy_presets() -> str:
-    path = RESULTS / "accuracy" / "presets.csv"
+    path = EXPERIMENTS / "accuracy" / "results" / "presets.csv"
     data = _csv(path)
     by = {(r["problem"], r["knob"]): r for r in data}
     rows = []
@@ -958,7 +972,7 @@ def _one_process(rows: list[dict[str, str]]) -> list[dict[str, str]]:
 
 
 def envs_speed() -> str:
-    path = RESULTS / "envs.csv"
+    path = result("envs.csv")
     data = _one_process(_csv(path))
     envs = list(dict.fromkeys(r["env"] for r in data))
     by = {(r["env"], r["accuracy"]): r for r in data}
@@ -1079,34 +1093,33 @@ def campaign(env: str) -> str:
 
 
 # ------------------------------------------------------------------ the paper reproduced
-REPRODUCE = RESULTS / "reproduce"
+REPRODUCE = EXPERIMENTS / "paper" / "results"
 
 
 def _reproduce() -> dict[str, Any]:
     path = REPRODUCE / "reproduce.json"
     if not path.is_file():
         raise RenderError(
-            f"{_rel(path)} does not exist (bathprint reproduce all --out "
-            "benchmarks/results/reproduce)"
+            f"{_rel(path)} does not exist (bathprint reproduce all --out experiments/paper/results)"
         )
     return json.loads(path.read_text())
 
 
 def _reproduce_source(*names: str) -> str:
-    """Provenance of files of benchmarks/results/reproduce: reproduce.meta.json's, or its
+    """Provenance of files of experiments/paper/results: reproduce.meta.json's, or its
     ``files`` entry where one file was rewritten alone (``bathprint reproduce NAME``)."""
     meta = json.loads((REPRODUCE / "reproduce.meta.json").read_text())
     alone = meta.get("files", {})
     if len(names) == 1 and names[0] in alone:
         m = {**meta, **alone[names[0]]}
         return (
-            f"*Source: `benchmarks/results/reproduce/{names[0]}`, written by `{m['command']}` "
+            f"*Source: `{_rel(REPRODUCE / names[0])}`, written by `{m['command']}` "
             f"on {m['date']} (commit {m['commit']}); machine: {m['machine']}.*"
         )
     # reproduce.json holds every part and is rewritten when one part runs alone: its
     # provenance is reproduce.meta.json's, with the part run alone named apart
     names = names or ("reproduce.json",)
-    files = ", ".join(f"`benchmarks/results/reproduce/{n}`" for n in names)
+    files = ", ".join(f"`{_rel(REPRODUCE / n)}`" for n in names)
     text = (
         f"*Source: {files}, written by `{meta['command']}` on {meta['date']} "
         f"(commit {meta['commit']}); machine: {meta['machine']}"
@@ -1276,10 +1289,10 @@ def fig3_settling() -> str:
 
 # ------------------------------------------------------------------ the README's headline
 def headline() -> str:
-    d = _csv(RESULTS / "default_paper_simulation.csv")[0]
-    env = {(r["env"], r["accuracy"]): r for r in _one_process(_csv(RESULTS / "envs.csv"))}
+    d = _csv(result("default_paper_simulation.csv"))[0]
+    env = {(r["env"], r["accuracy"]): r for r in _one_process(_csv(result("envs.csv")))}
     draft = [float(r["steps_per_cpu_s"]) for (e, a), r in env.items() if a == "draft"]
-    pe = _csv(RESULTS / "pyelastica.csv")
+    pe = _csv(result("pyelastica.csv"))
 
     def pts(problem: str, code: str, n: str) -> list[tuple[float, float]]:
         return [
@@ -1360,9 +1373,9 @@ def headline() -> str:
         ],
     ]
     srcs = [
-        RESULTS / "default_paper_simulation.csv",
-        RESULTS / "pyelastica.csv",
-        RESULTS / "envs.csv",
+        result("default_paper_simulation.csv"),
+        result("pyelastica.csv"),
+        result("envs.csv"),
         *v1.values(),
         *(p.parent / "runs.csv" for p in v1.values()),
     ]
@@ -1376,9 +1389,9 @@ def headline() -> str:
 
 
 def contact_scaling(name: str = "contact_scaling") -> str:
-    """``bench_contact.py --part scaling`` (the sharp onset), or the result file ``name``
+    """``contact_cost.py --part scaling`` (the sharp onset), or the result file ``name``
     (``contact_scaling_default``: ``--part scaling_default``, contact's default law)."""
-    path = RESULTS / f"{name}.csv"
+    path = result(f"{name}.csv")
     unit = "δ" if name == "contact_scaling" else "(2r)"  # the sharp onset's δ is 2r
     rows = [
         [
@@ -1416,7 +1429,7 @@ def contact_scaling(name: str = "contact_scaling") -> str:
 
 
 def contact_hessian() -> str:
-    path = RESULTS / "contact_hessian.csv"
+    path = result("contact_hessian.csv")
     rows = [
         [
             f"`{r['scene']}`",
@@ -1446,7 +1459,7 @@ def contact_hessian() -> str:
 
 
 def contact_saturation() -> str:
-    path = RESULTS / "contact_saturation.csv"
+    path = result("contact_saturation.csv")
     rows = [
         [
             r["nodes"],
@@ -1482,9 +1495,9 @@ def contact_saturation() -> str:
 
 
 def contact_scaling_settled(name: str = "contact_scaling_settled") -> str:
-    """``bench_contact.py --part settled`` (the sharp onset), or the result file ``name``
+    """``contact_cost.py --part settled`` (the sharp onset), or the result file ``name``
     (``contact_scaling_settled_default``: ``--part settled_default``, the default law)."""
-    path = RESULTS / f"{name}.csv"
+    path = result(f"{name}.csv")
     rows = [
         [
             "axial coarse" if r["preconditioner"] == "axial_coarse" else "banded LU",
@@ -1517,7 +1530,7 @@ def contact_scaling_settled(name: str = "contact_scaling_settled") -> str:
 
 
 def contact_late() -> str:
-    path = RESULTS / "contact_late.csv"
+    path = result("contact_late.csv")
     rows = [
         [
             r["variant"],
@@ -1539,7 +1552,7 @@ def contact_late() -> str:
 
 
 def backsub() -> str:
-    path = RESULTS / "backsub.csv"
+    path = result("backsub.csv")
     rows = [
         [
             r["nodes"],
@@ -1557,7 +1570,7 @@ def backsub() -> str:
 
 
 def lu_diagonal() -> str:
-    path = RESULTS / "lu_diagonal.csv"
+    path = result("lu_diagonal.csv")
     rows = [
         [
             r["matrix"],
@@ -1585,7 +1598,7 @@ def lu_diagonal() -> str:
 def sampled_profile(name: str = "sampled_profile") -> str:
     """Share of the sampled window per kernel, one column per case; kernels under 1% in
     every case are summed into one row."""
-    path = RESULTS / f"{name}.csv"
+    path = result(f"{name}.csv")
     data = _csv(path)
     cases = list(dict.fromkeys(r["case"] for r in data))
     share = {(r["case"], r["function"]): float(r["pct_of_window"]) for r in data}
@@ -1608,7 +1621,7 @@ def sampled_profile(name: str = "sampled_profile") -> str:
 
 
 def contact_line_search() -> str:
-    path = RESULTS / "contact_line_search.csv"
+    path = result("contact_line_search.csv")
     rows = [
         [
             r["nodes"],
@@ -1628,7 +1641,7 @@ def contact_line_search() -> str:
 
 
 def contact_line_search_scene() -> str:
-    path = RESULTS / "contact_line_search_scene.csv"
+    path = result("contact_line_search_scene.csv")
     rows = [
         [
             f"`{r['scene']}`, {_g(r['duration_s'])} s",
@@ -1648,8 +1661,8 @@ def contact_line_search_scene() -> str:
 
 
 def _contact_scene_table(name: str, label: Any, first: str) -> str:
-    """A table of ``bench_contact_newton.py``'s 1 s scene runs; ``label(row)`` names a row."""
-    path = RESULTS / f"{name}.csv"
+    """A table of ``contact_newton.py``'s 1 s scene runs; ``label(row)`` names a row."""
+    path = result(f"{name}.csv")
     table = _csv(path)
     gaps = "touching_gap_p10_final" in table[0]  # columns of the later runs
     rows = [
@@ -1707,20 +1720,23 @@ def contact_seeds() -> str:
 
 
 def _bench_contact_newton():
-    """``benchmarks/bench_contact_newton.py`` as a module (its labels and summaries)."""
-    sys.path.insert(0, str(ROOT / "benchmarks"))  # the bench imports _common and bench_contact
+    """``contact_newton.py`` as a module (its labels and
+    summaries)."""
+    sys.path.insert(0, str(EXPERIMENTS))  # the script imports _common and contact_cost
     try:
-        import bench_contact_newton
+        from _common import experiment
+
+        contact_newton = experiment("contact_newton")
     finally:
         sys.path.pop(0)
-    return bench_contact_newton
+    return contact_newton
 
 
 def _contact_ratio_table(name: str, label: str) -> str:
-    """Contact's paired cost over the seeds of a ratio part of ``bench_contact_newton.py``
+    """Contact's paired cost over the seeds of a ratio part of ``contact_newton.py``
     (result file ``name``, contact rows labelled ``label``), and the mean with its bootstrap
     interval (the bench's own ``ratio_summary``)."""
-    path = RESULTS / f"{name}.csv"
+    path = result(f"{name}.csv")
     table = _csv(path)
     bench = _bench_contact_newton()
     without = {r["seed"]: r for r in table if r["variant"] == "without contact"}
@@ -1755,7 +1771,7 @@ def _contact_ratio_table(name: str, label: str) -> str:
 
 
 def contact_ratio_seeds() -> str:
-    """``bench_contact_newton.py --part ratio``: contact by its defaults."""
+    """``contact_newton.py --part ratio``: contact by its defaults."""
     return _contact_ratio_table("contact_ratio_seeds", "contact")
 
 
@@ -1764,7 +1780,7 @@ def contact_ratio_seeds_inertia() -> str:
     defaults (with its dashpot) and by its former law without the dashpot."""
     bench = _bench_contact_newton()
     text = _contact_ratio_table("contact_ratio_seeds_inertia", "contact")
-    table = _csv(RESULTS / "contact_ratio_seeds_inertia.csv")
+    table = _csv(result("contact_ratio_seeds_inertia.csv"))
     label = bench.SHARP_NO_DASHPOT_LABEL
     m = bench.ratio_summary(table, label)
     rows = [r for r in table if r["variant"] == label]
@@ -1811,8 +1827,8 @@ def contact_onset_observables() -> str:
     the sharp onset (the former default) and with the onset before contact (the default),
     each change paired seed by seed (``bench_contact_newton.observable_comparison``)."""
     bench = _bench_contact_newton()
-    default_path = RESULTS / "contact_ratio_seeds.csv"
-    sharp_path = RESULTS / "contact_ratio_seeds_sharp.csv"
+    default_path = result("contact_ratio_seeds.csv")
+    sharp_path = result("contact_ratio_seeds_sharp.csv")
     default, sharp = _csv(default_path), _csv(sharp_path)
     label = bench.SHARP_LABEL
     by_contact = bench.observable_comparison(default, "without contact", default, "contact")
@@ -1862,7 +1878,7 @@ def contact_onset_split() -> str:
     seed: the onset widened to 0.2 delta at the sum of the radii (``--part ratio_wide``),
     then started at 1.02 (r_A + r_B) (the default, ``--part ratio``); each set's cost."""
     bench = _bench_contact_newton()
-    paths = [RESULTS / f"contact_ratio_seeds{s}.csv" for s in ("_sharp", "_wide", "")]
+    paths = [result(f"contact_ratio_seeds{s}.csv") for s in ("_sharp", "_wide", "")]
     sharp, wide, default = (_csv(p) for p in paths)
     labels = (bench.SHARP_LABEL, bench.WIDE_LABEL, "contact")
     widen = {
@@ -1899,11 +1915,11 @@ def contact_onset_split() -> str:
 
 
 def contact_onset_buckling() -> str:
-    """``bench_contact_newton.py --part onset_buckling``: the buckling length with the onset
+    """``contact_newton.py --part onset_buckling``: the buckling length with the onset
     widened at the sum of the radii and with the default's, at 1 s and averaged over the
     frames from ONSET_AVERAGE_FROM_S, paired seed by seed."""
     bench = _bench_contact_newton()
-    path = RESULTS / "contact_onset_buckling.csv"
+    path = result("contact_onset_buckling.csv")
     shown = {
         "buckling_length_final_m": "buckling length at 1 s (mm)",
         "buckling_length_mean_m": (
@@ -1926,7 +1942,7 @@ def contact_onset_buckling() -> str:
 
 
 def contact_newton() -> str:
-    path = RESULTS / "contact_newton.csv"
+    path = result("contact_newton.csv")
     rows = [
         [
             r["variant"],
@@ -1940,7 +1956,7 @@ def contact_newton() -> str:
     ]
     head = ["pressed stack, 300 nodes, 20 ms", "steps", "Newton per step", "Krylov per Newton"]
     table = _table([*head, "updates damped", "wall / default"], rows)
-    c = _csv(RESULTS / "contact_closest_points.csv")[0]
+    c = _csv(result("contact_closest_points.csv"))[0]
     points = (
         f"Closest points after 5 ms: {c['near_pairs']} near pairs ({c['both_inside']} with both "
         f"parameters inside their segments, {c['both_clamped']} with both at an end); "
@@ -1950,13 +1966,11 @@ def contact_newton() -> str:
         f"the blend); {c['class_changes_over_2_ms']} of "
         f"{c['pairs_compared']} change class over the next 2 ms."
     )
-    return (
-        table + "\n\n" + points + "\n\n" + provenance(path, RESULTS / "contact_closest_points.csv")
-    )
+    return table + "\n\n" + points + "\n\n" + provenance(path, result("contact_closest_points.csv"))
 
 
 def compile_times() -> str:
-    path = RESULTS / "compile.csv"
+    path = result("compile.csv")
     label = {
         "wrappers": "every kernel with its CPython wrapper (`BATHPRINT_KERNEL_WRAPPERS=1`)",
         "callees": "kernels called only from kernels without one (default)",
@@ -1976,7 +1990,7 @@ def compile_times() -> str:
 
 
 def preconditioners() -> str:
-    path = RESULTS / "preconditioners.csv"
+    path = result("preconditioners.csv")
     rows = [
         [
             f"`{r['state']}`",
@@ -2002,7 +2016,7 @@ def preconditioners() -> str:
 
 
 def preconditioner_newton() -> str:
-    path = RESULTS / "preconditioner_newton.csv"
+    path = result("preconditioner_newton.csv")
     table = _csv(path)
     names = list(dict.fromkeys(r["preconditioner"] for r in table))
     coarse = [n for n in names if n not in ("band", "hat_4_z_symmetric")]  # its LU: hat_4_z's
@@ -2022,10 +2036,10 @@ def preconditioner_newton() -> str:
 
 
 def preconditioner_settled() -> str:
-    """``bench_preconditioner.py --part settled``: mean (largest) GMRES iterations per
+    """``preconditioner.py --part settled``: mean (largest) GMRES iterations per
     consecutive Newton solve, a column per variant; for those that keep earlier solves'
     vectors, also their passes over a vector per solve."""
-    path = RESULTS / "preconditioner_settled.csv"
+    path = result("preconditioner_settled.csv")
     table = _csv(path)
     names = list(dict.fromkeys(r["variant"] for r in table))
     by = {(r["case"], r["nodes"], r["variant"]): r for r in table}
@@ -2047,7 +2061,7 @@ def preconditioner_settled() -> str:
 
 
 def preconditioner_amg() -> str:
-    path = RESULTS / "preconditioner_amg.csv"
+    path = result("preconditioner_amg.csv")
     table = _csv(path)
     rows = []
     for n in dict.fromkeys(r["nodes"] for r in table):
@@ -2098,7 +2112,7 @@ def profile_tqc_her() -> str:
 
 
 def hindsight_rewards() -> str:
-    path = RESULTS / "hindsight_rewards.csv"
+    path = result("hindsight_rewards.csv")
     rows = [
         [
             f"`{r['env_id']}`",
@@ -2116,7 +2130,7 @@ def hindsight_rewards() -> str:
 
 
 def contact_whole_runs() -> str:
-    path = RESULTS / "contact_whole_runs.csv"
+    path = result("contact_whole_runs.csv")
     rows = [
         [
             f"`{r['scene']}`",
@@ -2144,7 +2158,7 @@ def contact_whole_runs() -> str:
 
 
 def contact_scenes() -> str:
-    path = RESULTS / "contact_scenes.csv"
+    path = result("contact_scenes.csv")
     rows = [
         [
             f"`{r['scene']}`",
@@ -2171,7 +2185,7 @@ def contact_scenes() -> str:
     return _table(head, rows) + "\n\n" + provenance(path)
 
 
-ABLATION = RESULTS / "ablation"
+ABLATION = EXPERIMENTS / "ablation" / "results"
 
 
 def ablation() -> str:
@@ -2189,7 +2203,7 @@ def ablation() -> str:
     return "\n".join(lines) + "\n\n" + provenance(ABLATION / "ablation.csv")
 
 
-GRAVITY = RESULTS / "gravity"
+GRAVITY = EXPERIMENTS / "gravity" / "results"
 
 
 def gravity() -> str:
@@ -2214,7 +2228,7 @@ def gravity() -> str:
     return _table(head, rows) + "\n\n" + provenance(GRAVITY / "gravity.csv")
 
 
-FAST_JETS = RESULTS / "fast_jets"
+FAST_JETS = EXPERIMENTS / "fast_jets" / "results"
 
 
 def fast_jets() -> str:
@@ -2226,8 +2240,8 @@ def fast_jets() -> str:
 
 
 def kernel_ab(name: str = "kernel_ab_uncounted") -> str:
-    """A table of benchmarks/bench_ab.py's results/NAME.csv."""
-    path = RESULTS / f"{name}.csv"
+    """A table of kernel_ab/ab.py's results/NAME.csv."""
+    path = result(f"{name}.csv")
     rows = [
         [
             r["workload"],
@@ -2249,7 +2263,7 @@ def _noise_kind(correlation: str | None) -> str:
 
 
 def bc_search(env: str = "WriteShape-v1") -> str:
-    path = RESULTS / f"bc_search_{env}.csv"
+    path = result(f"bc_search_{env}.csv")
     rows = [
         [
             r["targets"],
@@ -2271,14 +2285,15 @@ def bc_search(env: str = "WriteShape-v1") -> str:
             "epochs", "action MSE", "validation metric (mean, 95% CI)", "seed",
             "collect + fit (s)"]  # fmt: skip
     out = _table(head, rows) + "\n\n" + provenance(path)
-    diag_path = RESULTS / f"bc_search_{env}_diagnosis.csv"
+    diag_path = result(f"bc_search_{env}_diagnosis.csv")
     if diag_path.is_file():
         diag = _csv(diag_path)
         replays = ", ".join(
             f"{_g(r['noise_std'], 2)}: {_g(r['value'], 2)}" for r in diag if r["noise_std"]
         )
         out += (
-            "\n\nWhere the error comes from (`python benchmarks/bench_bc_search.py --diagnose 5`,"
+            "\n\nWhere the error comes from "
+            "(`python experiments/bc_search/bc_search.py --diagnose 5`,"
             " the 256 x 2 policy of 30 epochs, on the validation targets): teacher-forced on"
             " the printing actions' own states, its actions are within an RMS of "
             f"{_g(diag[0]['value'], 2)} of them; the printing actions replayed with white "
@@ -2288,7 +2303,7 @@ def bc_search(env: str = "WriteShape-v1") -> str:
 
 
 def bc_dagger(env: str = "WriteShape-v1") -> str:
-    path = RESULTS / f"bc_search_{env}_dagger.csv"
+    path = result(f"bc_search_{env}_dagger.csv")
     rows = []
     for r in _csv(path):
         if not r["pairs"]:  # the expert itself, played with noise
@@ -2306,7 +2321,7 @@ def bc_dagger(env: str = "WriteShape-v1") -> str:
 
 
 def bc_ensemble(env: str = "WriteShape-v1") -> str:
-    path = RESULTS / f"bc_search_{env}_ensemble.csv"
+    path = result(f"bc_search_{env}_ensemble.csv")
     rows = [
         [
             r["policy"],
@@ -2325,9 +2340,9 @@ def bc_ensemble(env: str = "WriteShape-v1") -> str:
 
 
 def bc_frame_stack(env: str = "WriteShape-v1") -> str:
-    """The cloned policy on K stacked observations (bench_bc_search.py --frame-stack): per
+    """The cloned policy on K stacked observations (bc_search.py --frame-stack): per
     K, each seed's validation metric and the mean over seeds."""
-    path = RESULTS / f"bc_search_{env}_frame_stack.csv"
+    path = result(f"bc_search_{env}_frame_stack.csv")
     by_k: dict[int, list[dict[str, str]]] = {}
     for r in _csv(path):
         by_k.setdefault(int(r["frames"]), []).append(r)
@@ -2347,7 +2362,7 @@ def bc_frame_stack(env: str = "WriteShape-v1") -> str:
 
 
 def study_wall(name: str = "ablation_wall") -> str:
-    path = RESULTS / f"{name}.csv"
+    path = result(f"{name}.csv")
     rows = [
         [
             r["study"],
@@ -2461,8 +2476,8 @@ FIGURES: dict[str, Path] = {
     / "test0_residual_vs_oracle.gif",
     "ablation.png": ABLATION / "ablation.png",
     "fig2.png": REPRODUCE / "fig2.png",
-    "profile.png": RESULTS / "profile.png",
-    "freezing_turns.png": RESULTS / "freezing_turns.png",
+    "profile.png": result("profile.png"),
+    "freezing_turns.png": result("freezing_turns.png"),
 }
 
 

@@ -169,6 +169,23 @@ class Simulation:
             self.energies = np.zeros(L.N_EFFECTS)
             self.info = np.zeros(3)
 
+    @property
+    def off_band(self) -> bool:
+        """True when the scene lists an effect that couples distant nodes (contact, or
+        hydrodynamics with the implicit coupling): its linear systems are solved by GMRES,
+        preconditioned by the band's LU, instead of by the banded LU alone."""
+        return self._off_band()
+
+    def make_room(self) -> None:
+        """Enlarge what a kernel found full (it returned ``STATUS_CAPACITY``): the node
+        arrays when the rod fills them, else the room for couplings off the band and for
+        contact pairs. :meth:`advance` calls it and goes on; so do replays of the time loop
+        outside it (experiments/step_profile)."""
+        if self.n_nodes + 2 > self.capacity:
+            self._grow()
+        else:
+            self._grow_off_band()
+
     def _off_band(self) -> bool:
         """The scene lists an effect that couples distant nodes (contact, or hydrodynamics
         with the implicit coupling: GMRES with a nonlocal operator)."""
@@ -540,10 +557,7 @@ class Simulation:
             if status == L.STATUS_OK:
                 return
             if status == L.STATUS_CAPACITY:
-                if self.n_nodes + 2 > self.capacity:
-                    self._grow()
-                else:
-                    self._grow_off_band()
+                self.make_room()
                 continue
             if status == L.STATUS_STEP_LIMIT:
                 return

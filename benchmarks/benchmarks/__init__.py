@@ -1,0 +1,1 @@
+"""bathprint's regression benchmarks for airspeed velocity (asv): see benchmarks/README.md."""
