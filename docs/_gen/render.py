@@ -1323,7 +1323,7 @@ def headline() -> str:
 
     def best_on_validation(path: Path) -> str:
         """The trained agent (campaign group) with the lowest mean validation metric of its
-        selected models, and its share of the gap closed on the test targets."""
+        selected models: its mean metric on the test targets (95% CI) beside MPC's."""
         runs = _csv(path.parent / "runs.csv")
         val: dict[str, list[float]] = {}
         for r in runs:
@@ -1331,7 +1331,7 @@ def headline() -> str:
                 val.setdefault(r["name"], []).append(float(r["selected_validation_metric"]))
         name = min(val, key=lambda k: sum(val[k]) / len(val[k]))
         pol = {p["policy"]: p for p in json.loads(path.read_text())["policies"]}
-        g = pol[name]["gap_closed"]
+        m = pol[name]["mean_metric"]
         names = {
             "ppo_residual": "residual PPO",
             "ppo_bc": "PPO pretrained by cloning",
@@ -1342,7 +1342,14 @@ def headline() -> str:
             "tqc_her": "TQC+HER",
         }
         label = names.get(name, name)
-        return f"{label} {100 * g[0]:.0f}% [{100 * g[1]:.0f}, {100 * g[2]:.0f}]"
+        return (
+            f"{label} {_g(m[0], 2)} [{_g(m[1], 2)}, {_g(m[2], 2)}], "
+            f"MPC {_g(pol['mpc']['mean_metric'][0], 2)}"
+        )
+
+    def span(values: list[float], digits: int = 2) -> str:
+        lo, hi = _g(min(values), digits), _g(max(values), digits)
+        return lo if lo == hi else f"{lo}–{hi}"
 
     rows = [
         [
@@ -1352,24 +1359,25 @@ def headline() -> str:
         ],
         [
             "against PyElastica, steady cantilever (error 1e-4)",
-            f"{_g(min(ratios_a), 2)}–{_g(max(ratios_a), 2)}× faster",
+            f"{span(ratios_a)}× faster",
             "[performance](docs/performance.md#against-pyelastica)",
         ],
         [
             "against PyElastica, motion with inertia (its dt_max)",
-            f"{_g(min(ratios_b), 2)}–{_g(max(ratios_b), 2)}× faster",
+            f"{span(ratios_b)}× faster",
             "[performance](docs/performance.md#against-pyelastica)",
         ],
         [
             "environments, draft preset",
-            f"{_g(min(draft), 3)}–{_g(max(draft), 3)} steps/s per core",
+            f"{span(draft, 3)} steps/s per core",
             "[environments](docs/environments.md)",
         ],
         [
-            "agents: the one chosen on the validation targets, scored on the test targets: "
-            "share of the gap from the calibrated feedforward to the oracle it closes (95% CI)",
+            "agents (version 1), test targets: mean metric of the agent chosen on validation "
+            "(95% CI; lower is better) beside MPC's; the targets are random curves and the "
+            "references weak",
             "; ".join(f"{e} {best_on_validation(p)}" for e, p in v1.items()),
-            "[agents](docs/agents.md#results-on-the-test-targets-version-1)",
+            "[agents](docs/agents.md)",
         ],
     ]
     srcs = [
@@ -1382,9 +1390,9 @@ def headline() -> str:
     dates = sorted({_committed(p)[0] or "uncommitted" for p in srcs})
     return _table(["what", "result", "details"], rows) + (
         "\n\nRendered by `python docs/_gen/render.py --write README.md` from "
-        + ", ".join(f"`{_rel(p)}`" for p in srcs)
-        + f" (measured {', '.join(dates)} on the 2-core development machine; the pages linked "
-        "give each command and machine)."
+        + f"{len(srcs)} result files under `experiments/` and `agents/results/` "
+        + f"(measured {', '.join(dates)} on the 2-core development machine; the pages linked "
+        "give each command and file)."
     )
 
 

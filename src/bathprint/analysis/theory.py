@@ -200,7 +200,7 @@ def cantilever_modes(n_modes: int = 4) -> list[tuple[float, float, float]]:
     of a uniformly loaded cantilever released from straight, i.e. the coefficients of the
     static deflection q L^4 / (8 B) expanded in the modes (they sum to 1). beta_n L are the
     roots of cos(x) cosh(x) = -1, omega_n ~ (beta_n L)^2. Used to judge which modes an
-    integrator must resolve on the inertial cantilever (benchmarks/bench_pyelastica.py).
+    integrator must resolve on the inertial cantilever (experiments/pyelastica/cantilever.py).
     """
     x = np.linspace(0.0, 1.0, 4001)
     out = []

@@ -60,7 +60,7 @@ def band_lu(band: np.ndarray, n: int, kl: int, ku: int, piv: np.ndarray) -> int:
             if lik != 0.0:
                 # the same loop twice: with the fixed trip count of an interior row it is
                 # faster (one loop with the bound jmax - k gave back the whole gain in the
-                # scenes of benchmarks/bench_ab.py, the default scene's 0.83 to 1.08)
+                # scenes of experiments/kernel_ab/ab.py, the default scene's 0.83 to 1.08)
                 if interior:
                     for q in range(1, ku2 + 1):
                         band[k + m, kl - m + q] -= lik * band[k, kl + q]
@@ -82,7 +82,7 @@ def band_lu_diagonal(
 
     Without swaps U keeps KU super-diagonals (partial pivoting may widen it to KL + KU and
     updates all of them), so the elimination does half the work: 2.8-3.2x faster on the band
-    of a coil pile's Newton matrix (``python benchmarks/bench_preconditioner.py --part
+    of a coil pile's Newton matrix (``python experiments/preconditioner/preconditioner.py --part
     diagonal``). It fills ``piv`` with the identity, so the
     solves of :func:`band_solve` and :func:`band_solve_by_columns` apply too (the slots
     beyond KU stay as assembled, zero). The threshold test is that of threshold partial
@@ -167,7 +167,7 @@ def band_solve_by_columns(band: np.ndarray, n: int, piv: np.ndarray, b: np.ndarr
     terms (a chain of dependent subtractions, bound by the adder's latency). The widths are
     compile-time constants, so the loops unroll wherever it is called from. The same solve
     to round-off, in another order of operations: 2.1-2.3x faster than :func:`band_solve`
-    from 300 to 9000 unknowns, 1.7x at 30000 (``python benchmarks/bench_preconditioner.py
+    from 300 to 9000 unknowns, 1.7x at 30000 (``python experiments/preconditioner/preconditioner.py
     --part backsub``). GMRES's preconditioner, whose round-off nothing needs to match, uses
     it where its LU took row swaps (else :func:`band_solve_diagonal`)."""
     _forward(band, n, KL, piv, b)

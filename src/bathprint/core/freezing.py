@@ -33,7 +33,7 @@ turn. With ``"free"`` (the default with the floor, where the tail stays at its h
 the end rises and falls) it takes no moment: the active end turns freely. On a steady
 inertial coil the free joint widens the turns above the tail by 5-6% and, frozen beyond
 60 mm, those at the needle by 3.1%; the clamped one changes them by at most 2.3% and by
--1.5% (``benchmarks/bench_freezing.py --part turns``). The error
+-1.5% (``experiments/freezing/freezing.py --part turns``). The error
 and Newton norms stay RMS over the whole filament, as without freezing (the frozen nodes
 count with zero error: they only follow the active end), so freezing does not tighten the
 step-size control.

@@ -4,7 +4,7 @@ The kernels take records of many arrays (:mod:`bathprint.core.records`) and call
 another many times per step: the stages, every force evaluation and each of its effects,
 the solves. With numba's reference counting (NRT) on, every such call increments and
 decrements the count of every array its arguments hold, about 7 ns per array
-(``python benchmarks/bench_call_overhead.py``): an effect's call with its output record of
+(``python experiments/call_overhead/call_overhead.py``): an effect's call with its output record of
 some 60 arrays costs about 0.5 us, which short steps of small rods pay many times.
 
 The kernels allocate nothing (their arrays are the records' preallocated ones) and return
@@ -40,8 +40,8 @@ class KernelDispatcher(CPUDispatcher):
 
     The wrapper of a kernel whose arguments are the model, state and workspace records (some
     80 arrays) unboxes every one of them, and its compilation costs about 1 s per kernel,
-    most of a cold compile of the small ones (``python benchmarks/bench_compile.py``). A call
-    from Python goes to a twin compiled with the wrapper (and cached under its own name),
+    most of a cold compile of the small ones (``python experiments/cold_start/cold_start.py``).
+    A call from Python goes to a twin compiled with the wrapper (and cached under its own name),
     built the first time Python calls; both are compiled from the same source and run the
     same code.
     """
@@ -60,7 +60,7 @@ class KernelDispatcher(CPUDispatcher):
 
 
 #: ``BATHPRINT_KERNEL_WRAPPERS=1`` compiles every kernel with its wrapper, as before
-#: :func:`kernel` (the baseline of ``benchmarks/bench_compile.py``)
+#: :func:`kernel` (the baseline of ``experiments/cold_start/cold_start.py``)
 WRAPPED = os.environ.get("BATHPRINT_KERNEL_WRAPPERS", "") == "1"
 
 

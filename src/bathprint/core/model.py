@@ -203,7 +203,7 @@ def _gel_surface(scene: Scene, p: np.record) -> None:
 # that the bath's drag damps by under 1% of critical, so a pile rattles; 10 ms keeps freezing
 # at the needle within the draft preset's error with the soft onset before contact (of 1, 3
 # and 10 ms, 3 and 10 ms do, 10 ms the more damped: docs/performance.md, "Freezing and
-# contact's damping", `python benchmarks/bench_freezing.py --part onset` and `--part
+# contact's damping", `python experiments/freezing/freezing.py --part onset` and `--part
 # damping`). Overdamped there is no such spring, and the dashpot's couplings cost GMRES many
 # iterations on a pile (16x the time at 10 ms), so "auto" gives 0.
 CONTACT_DAMPING_WITH_INERTIA_S = 0.01

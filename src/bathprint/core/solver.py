@@ -66,7 +66,7 @@ def factor(ws, nd: int) -> bool:
     too). The LU without row swaps goes into ``krylov.lu``, which holds only the KL + KU + 1
     columns it uses: GMRES streams it in every iteration, and the fill-in columns that
     partial pivoting needs made a tall stack's back-substitution 1.2x (3x10^4 nodes) to 1.4x
-    (10^5) slower per node (``python benchmarks/bench_preconditioner.py --part blocks``).
+    (10^5) slower per node (``python experiments/preconditioner/preconditioner.py --part blocks``).
     The off-band blocks are summed by node block into rows
     (:func:`~bathprint.core.banded.merge_blocks`) for GMRES's products. Without couplings
     off the band the LU solves Newton's equations directly, in place, with partial pivoting

@@ -18,7 +18,7 @@ where the core offers the choice, ``numerics.newton``; fine keeps the core's def
 solve and moves with the active filament as one lumped drag and weight, see
 :mod:`bathprint.core.freezing`. On random-action episodes draft's freezing changes the final
 metric 2.0-5.9x less than the draft preset differs from balanced
-(``benchmarks/bench_freezing.py``); balanced freezes beyond 60 mm, where the steady coil
+(``experiments/freezing/freezing.py``); balanced freezes beyond 60 mm, where the steady coil
 moves less than the balanced tolerance admits. Draft also bounds steps at 8 e-folding times
 of the fastest buckling mode (``numerics.buckling_steps`` = 1/8, the core's default being
 1): up to h sigma = 11.7 an SDIRK2 step still amplifies a growing buckle, so buckling is
@@ -30,7 +30,7 @@ is clamped. ``fine`` is the built-in scenes' own resolution. Coil radius of Coil
 at constant Q_o = 0.5 / 1 / 2 ml/min (median over the scored part): fine 3.70 / 2.77 / 2.11 mm,
 balanced +2.1 / -2.2 / +0.2 %, draft +1.5 / +0.5 / +9.8 % (with the freezing and buckling
 bounds above; without them balanced was within 2 %, draft 2-11 % too large). Measured
-costs: ``benchmarks/bench_envs.py``.
+costs: ``experiments/env_speed/env_speed.py``.
 """
 
 from __future__ import annotations

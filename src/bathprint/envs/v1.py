@@ -880,7 +880,7 @@ class BathprintEnvV1(BathprintEnvBase):
 
     def _goal_reward_one_by_one(self, achieved: np.ndarray, desired: np.ndarray) -> np.ndarray:
         """:meth:`goal_reward` of rows of goals, sample by sample in Python: the reference
-        the compiled batch matches bit for bit (tests, benchmarks/bench_hindsight.py)."""
+        the compiled batch matches bit for bit (tests, experiments/hindsight/hindsight.py)."""
         return self.goals.rewards_one_by_one(achieved, desired)
 
     def _obs_out(self, obs: np.ndarray) -> Any:

@@ -54,7 +54,7 @@ preconditioner (:mod:`bathprint.core.solver`). Leaving contact out makes Newton'
 inexact, not its residual: the flow of contact's forces is in u_nl at every iterate. With
 contact's blocks in J_other (its dashpot's, beta E''/(h gamma), among them) GMRES stalled
 sooner on a pile: the ablation's "all" at d = 0.41 mm, 0.5 ml/min at 1.52 s rather than
-2.20 s (CHANGELOG; ``python benchmarks/bench_hydrodynamics.py all_effects``).
+2.20 s (CHANGELOG; ``python experiments/hydrodynamics/hydrodynamics.py all_effects``).
 ``lagged``: u_nl of a step is the flow at its start (Tornberg & Shelley 2004, J. Comput.
 Phys. 196, 8); first order, so its error, about
 (h/2) |u_nl(t + h) - u_nl(t)|, is added to the step's error estimate (:mod:`._hydro_lag`).

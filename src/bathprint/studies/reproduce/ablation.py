@@ -204,7 +204,7 @@ def plan(quick: bool = False) -> tuple[list[dict], dict[str, str]]:
         merged["hydrodynamics.coupling"] = "implicit"
         # and its blobs (the RPY kernel): with Stokeslet segments, finite-Re drag and a pile
         # the mobility is indefinite and GMRES stalls (7 of the 8 runs failed, 4 of them so;
-        # docs/reproduction.md, bench_hydrodynamics.py failing_solve)
+        # docs/reproduction.md, experiments/hydrodynamics/hydrodynamics.py failing_solve)
         merged["hydrodynamics.kernel"] = "rpy"
     combined = Variant(ALL, "all", tuple(effects), merged)
     why = _probe(variant_overrides(probe_base, combined.effects, combined.overrides))
