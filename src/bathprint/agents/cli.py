@@ -77,8 +77,15 @@ def _many(args: argparse.Namespace) -> int:
         else:
             if args.seed is not None or args.resume:
                 raise ValueError("--seeds: leave out --seed and --resume (a rerun resumes)")
-            camp = cmp.seeds_campaign(args.algo, args.env, args.seeds, args.out,
-                                      args.hyperparams, args.timesteps, args.n_envs)
+            camp = cmp.seeds_campaign(
+                args.algo,
+                args.env,
+                args.seeds,
+                args.out,
+                args.hyperparams,
+                args.timesteps,
+                args.n_envs,
+            )
         with SignalStop(deferred=False):
             written = cmp.run_campaign(camp, args.workers, args.scheduler, not args.quiet)
     except KeyboardInterrupt as exc:
@@ -170,6 +177,20 @@ def _evaluate_parser() -> argparse.ArgumentParser:
         help="also write episode 0 of every policy side by side (in the order given, each "
         "captioned with its final metric; 0.6 of the size, every second frame) to this .gif",
     )
+    ap.add_argument(
+        "--target-files",
+        nargs="+",
+        default=None,
+        metavar="CSV",
+        help="score on these shapes (x_mm,y_mm,z_mm) instead of the test set: one episode "
+        "each, whole-shape error in mm, rows in OUT/targets.csv",
+    )
+    ap.add_argument(
+        "--shape-family",
+        choices=("floor", "free", "buoyant"),
+        default=None,
+        help="--target-files: the shapes' family (default: the environment's)",
+    )
     ap.add_argument("--quiet", action="store_true")
     return ap
 
@@ -181,6 +202,8 @@ def evaluate_main(argv: Sequence[str] | None = None) -> int:
     if args.images < 0:
         print(f"bathprint evaluate: --images = {args.images}; must be >= 0", file=sys.stderr)
         return 2
+    if args.target_files:
+        return _evaluate_files(args)
     try:
         with SignalStop(deferred=False):
             summaries = evaluate_many(
@@ -206,6 +229,33 @@ def evaluate_main(argv: Sequence[str] | None = None) -> int:
         return 2
     print(format_table(summaries), end="")
     print(f"wrote {args.out}/table.md and one directory per policy")
+    return 0
+
+
+def _evaluate_files(args: argparse.Namespace) -> int:
+    """``bathprint evaluate ... --target-files``: one row per shape and policy."""
+    from bathprint.agents.evaluate import evaluate_target_files, format_target_rows
+
+    try:
+        with SignalStop(deferred=False):
+            rows = evaluate_target_files(
+                args.policies,
+                args.env,
+                args.target_files,
+                seed=args.seed,
+                out=args.out,
+                accuracy=args.accuracy,
+                family=args.shape_family,
+                progress=not args.quiet,
+            )
+    except KeyboardInterrupt as exc:
+        print(_interrupted("evaluate", exc, "targets.csv was not written"), file=sys.stderr)
+        return exit_code(exc)
+    except (ValueError, FileNotFoundError, RuntimeError) as exc:
+        print(f"bathprint evaluate: {exc}", file=sys.stderr)
+        return 2
+    print(format_target_rows(rows), end="")
+    print(f"wrote {args.out}/targets.csv")
     return 0
 
 

@@ -29,7 +29,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from bathprint.envs.shapes.geometry import resample
+from bathprint.envs.shape_geometry import resample
 
 #: diameter of the extruded filament (mm): the needle's inner diameter in every environment
 FILAMENT_DIAMETER_MM = 0.41

@@ -39,9 +39,7 @@ from typing import Any
 
 import numpy as np
 
-from bathprint.envs.shape_metric import FILAMENT_DIAMETER_MM, arclength_axes
-from bathprint.envs.shapes import buoyant, floor, free
-from bathprint.envs.shapes.geometry import (
+from bathprint.envs.shape_geometry import (
     STEP_MM,
     length_mm,
     min_bend_radius,
@@ -49,6 +47,8 @@ from bathprint.envs.shapes.geometry import (
     reversals,
     self_contacts,
 )
+from bathprint.envs.shape_metric import FILAMENT_DIAMETER_MM, arclength_axes
+from bathprint.envs.shapes import buoyant, floor, free
 from bathprint.envs.targets import params_key
 
 FAMILIES: dict[str, ModuleType] = {"floor": floor, "free": free, "buoyant": buoyant}

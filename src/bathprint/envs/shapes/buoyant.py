@@ -19,7 +19,7 @@ from typing import Any
 
 import numpy as np
 
-from bathprint.envs.shapes.geometry import STEP_MM
+from bathprint.envs.shape_geometry import STEP_MM
 
 FAMILY = "buoyant"
 REGIME = (

@@ -22,7 +22,7 @@ from typing import Any
 
 import numpy as np
 
-from bathprint.envs.shapes.geometry import STEP_MM, arc, join, length_mm, line, planar, rounded
+from bathprint.envs.shape_geometry import STEP_MM, arc, join, length_mm, line, planar, rounded
 
 FAMILY = "floor"
 REGIME = (

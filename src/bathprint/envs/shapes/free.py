@@ -20,7 +20,7 @@ from typing import Any
 
 import numpy as np
 
-from bathprint.envs.shapes.geometry import STEP_MM
+from bathprint.envs.shape_geometry import STEP_MM
 
 FAMILY = "free"
 REGIME = "coiled freely in the bath (drag coiling; radius from the flow); environment: CoilRadius"
