@@ -379,11 +379,12 @@ def evaluate_target_files(
     from bathprint.envs.shape_files import (
         env_family,
         load_shape_file,
+        reference_curve,
         shape_target,
         written_curve,
     )
-    from bathprint.envs.shape_metric import arclength_axes, shape_error
     from bathprint.envs.shape_geometry import length_mm
+    from bathprint.envs.shape_metric import arclength_axes, shape_error
 
     env_id = resolve_id(env_id)
     if not printed_targets(env_id):
@@ -404,7 +405,8 @@ def evaluate_target_files(
             ep = run_episode(env, policy, seed, options={"target": target})
             written = written_curve(env, fam)
             complete = not ep.truncated and len(written) == target.n_samples
-            err = shape_error(written, pts, fam) if complete else None
+            reference = reference_curve(pts, env, fam)
+            err = shape_error(written, reference, fam) if complete else None
             rows.append(
                 {
                     "target": str(path),

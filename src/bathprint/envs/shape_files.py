@@ -157,14 +157,20 @@ def bath_density(env: Any, z_mm: np.ndarray) -> np.ndarray:
     return top + (bottom - top) * np.clip(-np.asarray(z_mm, float), 0.0, depth) / depth
 
 
+def reference_curve(points: np.ndarray, env: Any, family: str) -> np.ndarray:
+    """The shape resampled every ``target_spacing_mm`` of its family's arclength: the curve
+    the environment's target holds and the written curve is compared with."""
+    h = float(env.unwrapped.target_spacing_mm)
+    return resample(points, spacing=h, axes=arclength_axes(family))
+
+
 def shape_target(points: np.ndarray, env: Any, family: str, name: str) -> Target:
-    """The environment's target for a shape: resampled every ``target_spacing_mm`` of its
-    family's arclength; for ``buoyant`` the density band is the bath's density at each
+    """The environment's target for a shape (its :func:`reference_curve`); for ``buoyant``
+    the centreline is the horizontal path and the density band the bath's density at each
     point's height (exact, as the spec's printed targets)."""
     u = env.unwrapped
     h = float(u.target_spacing_mm)
-    axes = arclength_axes(family)
-    pts = resample(points, spacing=h, axes=axes)
+    pts = reference_curve(points, env, family)
     flat = pts.copy()
     if family == "buoyant":
         if u.bath_range is None:
@@ -188,10 +194,13 @@ def shape_target(points: np.ndarray, env: Any, family: str, name: str) -> Target
 
 
 def written_curve(env: Any, family: str) -> np.ndarray:
-    """The curve an episode wrote, at the target's arclengths (mm): the recorded samples;
-    for ``buoyant`` their horizontal place and the height their density settles at."""
-    pts, rho = env.unwrapped.recorded_samples()
+    """The curve an episode wrote, sampled every ``target_spacing_mm`` of filament (mm): the
+    recorded samples; for ``buoyant`` the target's horizontal path at the same filament
+    length with the height each sample's density settles at (the simulator does not move
+    parts to their heights: settling takes minutes; the height follows from the density)."""
+    u = env.unwrapped
+    pts, rho = u.recorded_samples()
     if family == "buoyant":
-        pts = pts.copy()
+        pts = u.target.points_mm[: len(pts)].copy()
         pts[:, 2] = settling_height_mm(env, rho)
     return pts
