@@ -68,9 +68,10 @@ def run_episode(
     """Reset with ``seed`` (and evaluation target ``target_index``), run ``policy`` to the end.
 
     ``frame_every`` > 0 keeps ``env.render()`` every that many steps (and the first and last
-    frames); the environment must have ``render_mode="rgb_array"`` then.
+    frames); the environment must have ``render_mode="rgb_array"`` then. ``options`` go to
+    ``reset`` (e.g. ``{"target": Target}``: a target of one's own).
     """
-    options = dict(options or {})  # e.g. {"target": Target}: a target of one's own
+    options = dict(options or {})
     if target_index is not None:
         options["target_index"] = int(target_index)
     t0 = time.perf_counter()

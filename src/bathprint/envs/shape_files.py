@@ -128,7 +128,7 @@ def check_shape(points: np.ndarray, family: str, env: Any, where: str) -> np.nda
         if hits:
             s_i, s_j, d = hits[0]
             raise ConfigError(
-                f"{where}: intersects itself (s = {s_i:.1f} and {s_j:.1f} mm are {d:.2f} mm "
+                f"{where}: intersects itself (s = {s_i:.1f} and {s_j:.1f} mm are {d:.3f} mm "
                 f"apart, closer than the {FILAMENT_DIAMETER_MM:g} mm filament); strands of a "
                 "free shape cannot pass through each other"
             )

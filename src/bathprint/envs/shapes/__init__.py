@@ -134,7 +134,7 @@ def feasibility(points: np.ndarray, family: str) -> list[str]:
         if hits:
             s_i, s_j, d = hits[0]
             issues.append(
-                f"strands overlap: s = {s_i:.1f} and {s_j:.1f} mm are {d:.2f} mm apart, closer "
+                f"strands overlap: s = {s_i:.1f} and {s_j:.1f} mm are {d:.3f} mm apart, closer "
                 f"than the {FILAMENT_DIAMETER_MM:g} mm filament ({len(hits)} places)"
             )
     return issues
