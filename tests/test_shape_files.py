@@ -115,6 +115,7 @@ def test_self_intersection_refused_where_the_family_forbids_it(tmp_path: Path) -
     with pytest.raises(ConfigError, match="eight.csv': intersects itself"):
         load_shape_file(path, _env(needle_axes=()))  # free
     load_shape_file(path, _env(needle_axes=()), family="floor")
+    load_shape_file(path, _env(needle_axes=()), allow_overlap=True)
 
 
 def test_family_of_the_environment() -> None:

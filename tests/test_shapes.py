@@ -129,3 +129,15 @@ def test_buoyant_length_is_horizontal() -> None:
     s = shapes.named_shapes("buoyant", "test")["layers_20_60"]
     assert abs(length_mm(s.points_mm, arclength_axes("buoyant")) - 40.0) < 0.5
     assert length_mm(s.points_mm) > 75.0  # the 40 mm jump of height is no filament
+
+
+def test_write_command_regenerates_the_committed_files(tmp_path) -> None:
+    from bathprint.envs.shapes.__main__ import main
+
+    assert main(["write", str(tmp_path)]) == 0
+    root = shapes.shapes_dir()
+    written = sorted(p.relative_to(tmp_path) for p in tmp_path.rglob("*") if p.is_file())
+    committed = sorted(p.relative_to(root) for p in root.rglob("*") if p.is_file())
+    assert written == committed
+    for rel in written:
+        assert (tmp_path / rel).read_bytes() == (root / rel).read_bytes(), rel

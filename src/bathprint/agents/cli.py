@@ -191,6 +191,11 @@ def _evaluate_parser() -> argparse.ArgumentParser:
         default=None,
         help="--target-files: the shapes' family (default: the environment's)",
     )
+    ap.add_argument(
+        "--allow-overlap",
+        action="store_true",
+        help="--target-files: score free shapes whose strands overlap instead of refusing them",
+    )
     ap.add_argument("--quiet", action="store_true")
     return ap
 
@@ -247,6 +252,7 @@ def _evaluate_files(args: argparse.Namespace) -> int:
                 accuracy=args.accuracy,
                 family=args.shape_family,
                 progress=not args.quiet,
+                allow_overlap=args.allow_overlap,
             )
     except KeyboardInterrupt as exc:
         print(_interrupted("evaluate", exc, "targets.csv was not written"), file=sys.stderr)

@@ -366,13 +366,16 @@ def evaluate_target_files(
     accuracy: str | None = None,
     family: str | None = None,
     progress: bool = True,
+    allow_overlap: bool = False,
 ) -> list[dict[str, Any]]:
     """Score each policy on each shape file (``x_mm,y_mm,z_mm``; see
     :mod:`bathprint.envs.shape_files`): one deterministic episode per (file, policy), seed
     ``seed``, and one row per pair in ``OUT/targets.csv``: the whole-shape error (RMS and
     maximum distance in mm after the family's rigid motion, success by the family's
     threshold, :mod:`bathprint.envs.shape_metric`) and the local metric M with the
-    environment's success. Every file is checked before the first episode runs."""
+    environment's success. Every file is checked before the first episode runs;
+    ``allow_overlap`` accepts free shapes whose strands overlap (the named shapes marked
+    not writable for that reason) instead of refusing them."""
     from bathprint.agents.policies import load_policy
     from bathprint.agents.wrappers import wrapper_factory
     from bathprint.envs import make, printed_targets, resolve_id
@@ -398,7 +401,9 @@ def evaluate_target_files(
         if wrapper:
             env = wrapper_factory(wrapper)(env)
         fam = family or env_family(env)
-        shapes = [(Path(f), load_shape_file(f, env, fam)) for f in files]  # all checked first
+        shapes = [
+            (Path(f), load_shape_file(f, env, fam, allow_overlap)) for f in files
+        ]  # all checked first
         policy, label = load_policy(spec, env, env_id, seed=seed)
         for path, pts in tqdm(shapes, desc=f"targets {label}", disable=not progress):
             target = shape_target(pts, env, fam, path.name)

@@ -96,8 +96,12 @@ def read_points(path: str | Path) -> np.ndarray:
     return pts
 
 
-def check_shape(points: np.ndarray, family: str, env: Any, where: str) -> np.ndarray:
-    """``points`` checked for ``env`` and ``family`` (see the module doc); returns them."""
+def check_shape(
+    points: np.ndarray, family: str, env: Any, where: str, allow_overlap: bool = False
+) -> np.ndarray:
+    """``points`` checked for ``env`` and ``family`` (see the module doc); returns them.
+    ``allow_overlap`` accepts strands that pass through each other (to score the named
+    shapes marked not writable for that reason)."""
     if family not in FAMILIES:
         raise ConfigError(f"shape family = {family!r}; allowed: {', '.join(FAMILIES)}")
     axes = arclength_axes(family)
@@ -123,7 +127,7 @@ def check_shape(points: np.ndarray, family: str, env: Any, where: str) -> np.nda
                     f"{where}: {span[k]:.1f} mm across in {'xy'[k]}, wider than the needle's "
                     f"{box[k, 1] - box[k, 0]:g} mm box"
                 )
-    if family == "free":
+    if family == "free" and not allow_overlap:
         hits = self_contacts(points, FILAMENT_DIAMETER_MM)
         if hits:
             s_i, s_j, d = hits[0]
@@ -135,10 +139,14 @@ def check_shape(points: np.ndarray, family: str, env: Any, where: str) -> np.nda
     return points
 
 
-def load_shape_file(path: str | Path, env: Any, family: str | None = None) -> np.ndarray:
-    """The checked points (N, 3) of a shape file for ``env`` (family: the env's)."""
+def load_shape_file(
+    path: str | Path, env: Any, family: str | None = None, allow_overlap: bool = False
+) -> np.ndarray:
+    """The checked points (N, 3) of a shape file for ``env`` (family: the env's; see
+    :func:`check_shape`)."""
     pts = read_points(path)
-    return check_shape(pts, family or env_family(env), env, f"target file {str(path)!r}")
+    where = f"target file {str(path)!r}"
+    return check_shape(pts, family or env_family(env), env, where, allow_overlap)
 
 
 def settling_height_mm(env: Any, rho: np.ndarray) -> np.ndarray:
