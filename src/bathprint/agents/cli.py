@@ -77,15 +77,8 @@ def _many(args: argparse.Namespace) -> int:
         else:
             if args.seed is not None or args.resume:
                 raise ValueError("--seeds: leave out --seed and --resume (a rerun resumes)")
-            camp = cmp.seeds_campaign(
-                args.algo,
-                args.env,
-                args.seeds,
-                args.out,
-                args.hyperparams,
-                args.timesteps,
-                args.n_envs,
-            )
+            camp = cmp.seeds_campaign(args.algo, args.env, args.seeds, args.out,
+                                      args.hyperparams, args.timesteps, args.n_envs)
         with SignalStop(deferred=False):
             written = cmp.run_campaign(camp, args.workers, args.scheduler, not args.quiet)
     except KeyboardInterrupt as exc:
