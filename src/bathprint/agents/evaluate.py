@@ -339,3 +339,115 @@ def evaluate_many(
     )
     (out / "table.json").write_text(json.dumps(same, indent=2, default=str))
     return summaries
+
+
+#: columns of ``OUT/targets.csv`` (:func:`evaluate_target_files`)
+TARGET_COLUMNS = (
+    "target",
+    "policy",
+    "family",
+    "length_mm",
+    "rms_mm",
+    "max_mm",
+    "success",
+    "metric",
+    "metric_success",
+    "truncated",
+    "seed",
+)
+
+
+def evaluate_target_files(
+    specs: Sequence[str],
+    env_id: str,
+    files: Sequence[str | Path],
+    seed: int = 0,
+    out: str | Path = "runs/evaluate",
+    accuracy: str | None = None,
+    family: str | None = None,
+    progress: bool = True,
+    allow_overlap: bool = False,
+) -> list[dict[str, Any]]:
+    """Score each policy on each shape file (``x_mm,y_mm,z_mm``; see
+    :mod:`bathprint.envs.shape_files`): one deterministic episode per (file, policy), seed
+    ``seed``, and one row per pair in ``OUT/targets.csv``: the whole-shape error (RMS and
+    maximum distance in mm after the family's rigid motion, success by the family's
+    threshold, :mod:`bathprint.envs.shape_metric`) and the local metric M with the
+    environment's success. Every file is checked before the first episode runs;
+    ``allow_overlap`` accepts free shapes whose strands overlap (the named shapes marked
+    not writable for that reason) instead of refusing them."""
+    from bathprint.agents.policies import load_policy
+    from bathprint.agents.wrappers import wrapper_factory
+    from bathprint.envs import make, printed_targets, resolve_id
+    from bathprint.envs.shape_files import (
+        env_family,
+        load_shape_file,
+        reference_curve,
+        shape_target,
+        written_curve,
+    )
+    from bathprint.envs.shape_geometry import length_mm
+    from bathprint.envs.shape_metric import arclength_axes, shape_error
+
+    env_id = resolve_id(env_id)
+    if not printed_targets(env_id):
+        raise ConfigError(f"--target-files needs a version-1 environment, not {env_id}")
+    if not files:
+        raise ConfigError("target files: none given")
+    rows: list[dict[str, Any]] = []
+    for spec in specs:
+        kwargs, wrapper = run_settings(spec, accuracy, env_id)
+        env = make(env_id, **kwargs)
+        if wrapper:
+            env = wrapper_factory(wrapper)(env)
+        fam = family or env_family(env)
+        shapes = [
+            (Path(f), load_shape_file(f, env, fam, allow_overlap)) for f in files
+        ]  # all checked first
+        policy, label = load_policy(spec, env, env_id, seed=seed)
+        for path, pts in tqdm(shapes, desc=f"targets {label}", disable=not progress):
+            target = shape_target(pts, env, fam, path.name)
+            ep = run_episode(env, policy, seed, options={"target": target})
+            written = written_curve(env, fam)
+            complete = not ep.truncated and len(written) == target.n_samples
+            reference = reference_curve(pts, env, fam)
+            err = shape_error(written, reference, fam) if complete else None
+            rows.append(
+                {
+                    "target": str(path),
+                    "policy": label,
+                    "family": fam,
+                    "length_mm": round(length_mm(pts, arclength_axes(fam)), 3),
+                    "rms_mm": err.rms_mm if err else float("nan"),
+                    "max_mm": err.max_mm if err else float("nan"),
+                    "success": bool(err and err.success),
+                    "metric": ep.metrics["metric"],
+                    "metric_success": bool(
+                        complete and ep.metrics["metric"] <= env.unwrapped.success_metric_max
+                    ),
+                    "truncated": ep.truncated,
+                    "seed": seed,
+                }
+            )
+        env.close()
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    with (out / "targets.csv").open("w", newline="") as f:
+        w = csv.DictWriter(f, fieldnames=list(TARGET_COLUMNS))
+        w.writeheader()
+        w.writerows(rows)
+    return rows
+
+
+def format_target_rows(rows: Sequence[dict[str, Any]]) -> str:
+    """Markdown table of :func:`evaluate_target_files`'s rows."""
+    lines = [
+        "| target | policy | family | RMS (mm) | max (mm) | success | M |",
+        "|---|---|---|---|---|---|---|",
+    ]
+    for r in rows:
+        lines.append(
+            f"| {Path(r['target']).name} | {r['policy']} | {r['family']} | {r['rms_mm']:.2f} "
+            f"| {r['max_mm']:.2f} | {'yes' if r['success'] else 'no'} | {r['metric']:.3f} |"
+        )
+    return "\n".join(lines) + "\n"

@@ -63,13 +63,17 @@ def run_episode(
     deterministic: bool = True,
     frame_every: int = 0,
     final_frame: bool = False,
+    options: dict[str, Any] | None = None,
 ) -> Episode:
     """Reset with ``seed`` (and evaluation target ``target_index``), run ``policy`` to the end.
 
     ``frame_every`` > 0 keeps ``env.render()`` every that many steps (and the first and last
-    frames); the environment must have ``render_mode="rgb_array"`` then.
+    frames); the environment must have ``render_mode="rgb_array"`` then. ``options`` go to
+    ``reset`` (e.g. ``{"target": Target}``: a target of one's own).
     """
-    options = {} if target_index is None else {"target_index": int(target_index)}
+    options = dict(options or {})
+    if target_index is not None:
+        options["target_index"] = int(target_index)
     t0 = time.perf_counter()
     obs, info = env.reset(seed=int(seed), options=options)
     frames = [env.render()] if frame_every > 0 else []

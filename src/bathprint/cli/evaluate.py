@@ -44,6 +44,25 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
         help="also write episode 0 of every policy side by side (in the order given, each "
         "captioned with its final metric; 0.6 of the size, every second frame) to this .gif",
     )
+    ap.add_argument(
+        "--target-files",
+        nargs="+",
+        default=None,
+        metavar="CSV",
+        help="score on these shapes (x_mm,y_mm,z_mm) instead of the test set: one episode "
+        "each, whole-shape error in mm, rows in OUT/targets.csv",
+    )
+    ap.add_argument(
+        "--shape-family",
+        choices=("floor", "free", "buoyant"),
+        default=None,
+        help="--target-files: the shapes' family (default: the environment's)",
+    )
+    ap.add_argument(
+        "--allow-overlap",
+        action="store_true",
+        help="--target-files: score free shapes whose strands overlap instead of refusing them",
+    )
     ap.add_argument("--quiet", action="store_true")
     ap.set_defaults(run=run)
     return ap
@@ -52,11 +71,13 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
 @needs_extra(PROG, "rl", "evaluating policies")
 def run(args: argparse.Namespace) -> int:
     from bathprint.agents.evaluate import evaluate_many, format_table
-    from bathprint.agents.signals import SignalStop, exit_code
+    from bathprint.signals import SignalStop, exit_code
 
     if args.images < 0:
         print(f"{PROG}: --images = {args.images}; must be >= 0", file=sys.stderr)
         return 2
+    if args.target_files:
+        return _run_target_files(args)
     try:
         with SignalStop(deferred=False):
             summaries = evaluate_many(
@@ -82,4 +103,33 @@ def run(args: argparse.Namespace) -> int:
         return 2
     print(format_table(summaries), end="")
     print(f"wrote {args.out}/table.md and one directory per policy")
+    return 0
+
+
+def _run_target_files(args: argparse.Namespace) -> int:
+    """``bathprint evaluate ... --target-files``: one row per shape and policy."""
+    from bathprint.agents.evaluate import evaluate_target_files, format_target_rows
+    from bathprint.signals import SignalStop, exit_code
+
+    try:
+        with SignalStop(deferred=False):
+            rows = evaluate_target_files(
+                args.policies,
+                args.env,
+                args.target_files,
+                seed=args.seed,
+                out=args.out,
+                accuracy=args.accuracy,
+                family=args.shape_family,
+                progress=not args.quiet,
+                allow_overlap=args.allow_overlap,
+            )
+    except KeyboardInterrupt as exc:
+        print(interrupted("evaluate", exc, "targets.csv was not written"), file=sys.stderr)
+        return exit_code(exc)
+    except (ValueError, FileNotFoundError, RuntimeError) as exc:
+        print(f"{PROG}: {exc}", file=sys.stderr)
+        return 2
+    print(format_target_rows(rows), end="")
+    print(f"wrote {args.out}/targets.csv")
     return 0
