@@ -1,11 +1,10 @@
 #!/usr/bin/env bash
 # The core install on its own: a new virtual environment with only bathprint's core
-# dependencies (no extra: no torch, stable-baselines3, plotly, dask, ...), installed as a
-# user would (`pip install -c requirements/constraints.txt .`, a regular install with the
-# environment specs as data files), then, from a folder outside the checkout: a short run of
-# the default scene, its PNG view, one environment step, and the refusals of the commands
-# that need an extra (one line naming it, exit code 2). Most of its time is pip and numba
-# compiling the kernels of a fresh install.
+# dependencies (no extra: no torch, stable-baselines3, plotly, dask, ...), installed as the
+# README's first command does (`pip install -c requirements/constraints.txt -e .`), then, from
+# a folder outside the checkout: a short run of the default scene, its PNG view, one environment step, and the refusals of the commands
+# that need an extra (one line naming it, exit code 2). Run after the test suite, it finds
+# the kernels that the suite compiled in the checkout's numba cache.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 root="$PWD"
@@ -14,9 +13,9 @@ start=$(date +%s)
 work="$(mktemp -d)"
 trap 'rm -rf "$work"' EXIT
 
-echo "+ python3 -m venv; pip install -c requirements/constraints.txt . (the core only)"
+echo "+ python3 -m venv; pip install -c requirements/constraints.txt -e . (the core only)"
 python3 -m venv "$work/venv"
-"$work/venv/bin/pip" install -q -c requirements/constraints.txt "$root"
+"$work/venv/bin/pip" install -q -c requirements/constraints.txt -e "$root"
 py="$work/venv/bin/python"
 bp="$work/venv/bin/bathprint"
 
