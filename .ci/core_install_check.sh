@@ -2,8 +2,9 @@
 # The core install on its own: a new virtual environment with only bathprint's core
 # dependencies (no extra: no torch, stable-baselines3, plotly, dask, ...), installed as the
 # README's first command does (`pip install -c requirements/constraints.txt -e .`), then, from
-# a folder outside the checkout: a short run of the default scene, its PNG view, one environment step, and the refusals of the commands
-# that need an extra (one line naming it, exit code 2). Run after the test suite, it finds
+# a folder outside the checkout: a short run of the default scene, its PNG view, one
+# environment step, and the refusals of the commands that need an extra (one line naming
+# it, exit code 2). Run after the test suite, it finds
 # the kernels that the suite compiled in the checkout's numba cache.
 set -euo pipefail
 cd "$(dirname "$0")/.."
