@@ -846,7 +846,7 @@ def test_without_couplings_off_the_band_the_path_is_the_banded_one_bit_for_bit(
     over = {"duration_s": 0.4, "effects": ["elasticity", "drag", "gravity"]}
     plain = Simulation("drag_coiling_22G", over)
     plain.advance(0.4)
-    monkeypatch.setattr(Simulation, "_off_band", lambda self: True)
+    monkeypatch.setattr(Simulation, "off_band", property(lambda self: True))
     ready = Simulation("drag_coiling_22G", over)
     assert ready.ws.cpl.row.shape[0] > 0
     ready.advance(0.4)

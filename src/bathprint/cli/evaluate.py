@@ -6,11 +6,13 @@ from __future__ import annotations
 
 import argparse
 import sys
-from typing import Any
+from collections.abc import Callable
+from typing import Any, TypeVar
 
 from bathprint.cli._common import interrupted, needs_extra
 
 PROG = "bathprint evaluate"
+T = TypeVar("T")
 
 
 def add_parser(sub: Any) -> argparse.ArgumentParser:
@@ -70,50 +72,20 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
 
 @needs_extra(PROG, "rl", "evaluating policies")
 def run(args: argparse.Namespace) -> int:
-    from bathprint.agents.evaluate import evaluate_many, format_table
-    from bathprint.signals import SignalStop, exit_code
+    from bathprint.agents.evaluate import (
+        evaluate_many,
+        evaluate_target_files,
+        format_table,
+        format_target_rows,
+    )
 
     if args.images < 0:
         print(f"{PROG}: --images = {args.images}; must be >= 0", file=sys.stderr)
         return 2
-    if args.target_files:
-        return _run_target_files(args)
-    try:
-        with SignalStop(deferred=False):
-            summaries = evaluate_many(
-                args.policies,
-                args.env,
-                episodes=args.episodes,
-                seed=args.seed,
-                out=args.out,
-                accuracy=args.accuracy,
-                images=args.images,
-                animate=not args.no_animation,
-                progress=not args.quiet,
-                side_by_side=args.side_by_side,
-            )
-    except KeyboardInterrupt as exc:
-        print(
-            interrupted("evaluate", exc, "the policy being evaluated wrote nothing"),
-            file=sys.stderr,
-        )
-        return exit_code(exc)
-    except (ValueError, FileNotFoundError, RuntimeError) as exc:
-        print(f"{PROG}: {exc}", file=sys.stderr)
-        return 2
-    print(format_table(summaries), end="")
-    print(f"wrote {args.out}/table.md and one directory per policy")
-    return 0
-
-
-def _run_target_files(args: argparse.Namespace) -> int:
-    """``bathprint evaluate ... --target-files``: one row per shape and policy."""
-    from bathprint.agents.evaluate import evaluate_target_files, format_target_rows
-    from bathprint.signals import SignalStop, exit_code
-
-    try:
-        with SignalStop(deferred=False):
-            rows = evaluate_target_files(
+    if args.target_files:  # one row per shape and policy
+        rows = _stoppable(
+            "targets.csv was not written",
+            lambda: evaluate_target_files(
                 args.policies,
                 args.env,
                 args.target_files,
@@ -123,13 +95,46 @@ def _run_target_files(args: argparse.Namespace) -> int:
                 family=args.shape_family,
                 progress=not args.quiet,
                 allow_overlap=args.allow_overlap,
-            )
+            ),
+        )
+        if isinstance(rows, int):
+            return rows
+        print(format_target_rows(rows), end="")
+        print(f"wrote {args.out}/targets.csv")
+        return 0
+    summaries = _stoppable(
+        "the policy being evaluated wrote nothing",
+        lambda: evaluate_many(
+            args.policies,
+            args.env,
+            episodes=args.episodes,
+            seed=args.seed,
+            out=args.out,
+            accuracy=args.accuracy,
+            images=args.images,
+            animate=not args.no_animation,
+            progress=not args.quiet,
+            side_by_side=args.side_by_side,
+        ),
+    )
+    if isinstance(summaries, int):
+        return summaries
+    print(format_table(summaries), end="")
+    print(f"wrote {args.out}/table.md and one directory per policy")
+    return 0
+
+
+def _stoppable(lost: str, work: Callable[[], T]) -> T | int:
+    """``work()`` under SIGINT / SIGTERM handling: its result, or the exit code after an
+    interruption (saying what ``lost``) or a refused value (2), each said in one line."""
+    from bathprint.signals import SignalStop, exit_code
+
+    try:
+        with SignalStop(deferred=False):
+            return work()
     except KeyboardInterrupt as exc:
-        print(interrupted("evaluate", exc, "targets.csv was not written"), file=sys.stderr)
+        print(interrupted("evaluate", exc, lost), file=sys.stderr)
         return exit_code(exc)
     except (ValueError, FileNotFoundError, RuntimeError) as exc:
         print(f"{PROG}: {exc}", file=sys.stderr)
         return 2
-    print(format_target_rows(rows), end="")
-    print(f"wrote {args.out}/targets.csv")
-    return 0

@@ -147,7 +147,7 @@ class Simulation:
         self.ws = records.new_workspace(
             cap,
             N_VECS,
-            off_band=self._off_band(),
+            off_band=self.off_band,
             hydro=hydro,
             coarse=coarse,
             velocity_couplings=p.contact_damping_time > 0 or p.contact_friction > 0,
@@ -174,7 +174,9 @@ class Simulation:
         """True when the scene lists an effect that couples distant nodes (contact, or
         hydrodynamics with the implicit coupling): its linear systems are solved by GMRES,
         preconditioned by the band's LU, instead of by the banded LU alone."""
-        return self._off_band()
+        m = self.model
+        hydro = m.enabled[L.E_HYDRODYNAMICS] and m.p.hydro_coupling == L.HYDRO_IMPLICIT
+        return bool(m.enabled[L.E_CONTACT] or hydro)
 
     def make_room(self) -> None:
         """Enlarge what a kernel found full (it returned ``STATUS_CAPACITY``): the node
@@ -185,13 +187,6 @@ class Simulation:
             self._grow()
         else:
             self._grow_off_band()
-
-    def _off_band(self) -> bool:
-        """The scene lists an effect that couples distant nodes (contact, or hydrodynamics
-        with the implicit coupling: GMRES with a nonlocal operator)."""
-        m = self.model
-        hydro = m.enabled[L.E_HYDRODYNAMICS] and m.p.hydro_coupling == L.HYDRO_IMPLICIT
-        return bool(m.enabled[L.E_CONTACT] or hydro)
 
     def _grow_off_band(self) -> None:
         """Double the room for couplings off the band and for contact pairs."""
