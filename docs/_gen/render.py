@@ -1321,30 +1321,26 @@ def headline() -> str:
         for e in ("BuoyantLayers-v1", "CoilRadius-v1", "WriteShape-v1", "WriteShape-v2")
     }
 
-    def best_on_validation(path: Path) -> str:
-        """The trained agent (campaign group) with the lowest mean validation metric of its
-        selected models: its mean metric on the test targets (95% CI) beside MPC's."""
-        runs = _csv(path.parent / "runs.csv")
-        val: dict[str, list[float]] = {}
-        for r in runs:
-            if r["selection_target_set"] == "validation" and r["selected_validation_metric"]:
-                val.setdefault(r["name"], []).append(float(r["selected_validation_metric"]))
-        name = min(val, key=lambda k: sum(val[k]) / len(val[k]))
-        pol = {p["policy"]: p for p in json.loads(path.read_text())["policies"]}
-        m = pol[name]["mean_metric"]
-        names = {
-            "ppo_residual": "residual PPO",
-            "ppo_bc": "PPO pretrained by cloning",
-            "ppo_bc_e100": "PPO pretrained by cloning (100 epochs)",
-            "ppo_bc_ens5": "PPO pretrained by cloning five actors",
-            "ppo": "PPO",
-            "sac": "SAC",
-            "tqc_her": "TQC+HER",
-        }
-        label = names.get(name, name)
+    names = {
+        "ppo_residual": "residual PPO",
+        "ppo_bc": "PPO pretrained by cloning",
+        "ppo_bc_e100": "PPO pretrained by cloning (100 epochs)",
+        "ppo_bc_ens5": "PPO pretrained by cloning five actors",
+        "ppo": "PPO",
+        "sac": "SAC",
+        "tqc_her": "TQC+HER",
+    }
+    against = {r["env"]: r for r in _csv(result("v1_against_controller.csv"))}
+
+    def against_controller(env: str) -> str:
+        """The agent chosen on validation against the tuned controller on the test targets:
+        both means and their paired difference (95% CI)."""
+        r = against[env]
         return (
-            f"{label} {_g(m[0], 2)} [{_g(m[1], 2)}, {_g(m[2], 2)}], "
-            f"MPC {_g(pol['mpc']['mean_metric'][0], 2)}"
+            f"{env}: {names.get(r['agent'], r['agent'])} {float(r['agent_mean_metric']):.3f}, "
+            f"controller {float(r['controller_mean_metric']):.3f} (difference "
+            f"{float(r['difference']):+.2f} [{float(r['difference_lo']):+.2f}, "
+            f"{float(r['difference_hi']):+.2f}])"
         )
 
     def span(values: list[float], digits: int = 2) -> str:
@@ -1373,10 +1369,10 @@ def headline() -> str:
             "[environments](docs/environments.md)",
         ],
         [
-            "agents (version 1), test targets: mean metric of the agent chosen on validation "
-            "(95% CI; lower is better) beside MPC's; the targets are random curves and the "
-            "references weak",
-            "; ".join(f"{e} {best_on_validation(p)}" for e, p in v1.items()),
+            "agents (version 1), test targets: mean metric M of the agent chosen on validation "
+            "against the tuned controller's, and their paired difference (95% CI; lower is "
+            "better); the targets are random printed curves",
+            "; ".join(against_controller(e) for e in v1),
             "[agents](docs/agents.md)",
         ],
     ]
@@ -1384,8 +1380,7 @@ def headline() -> str:
         result("default_paper_simulation.csv"),
         result("pyelastica.csv"),
         result("envs.csv"),
-        *v1.values(),
-        *(p.parent / "runs.csv" for p in v1.values()),
+        result("v1_against_controller.csv"),
     ]
     dates = sorted({_committed(p)[0] or "uncommitted" for p in srcs})
     return _table(["what", "result", "details"], rows) + (

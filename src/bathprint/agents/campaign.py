@@ -138,7 +138,7 @@ def load_campaign(path: str | Path, out: str | Path | None = None) -> Campaign:
     import yaml
 
     from bathprint.agents.hyperparams import ALGOS
-    from bathprint.agents.policies import BASELINES, PLANNERS, baseline_name
+    from bathprint.agents.policies import BASELINES, PLANNERS, V1_BASELINES, baseline_name
     from bathprint.envs import resolve_id
 
     path = Path(path)
@@ -158,7 +158,7 @@ def load_campaign(path: str | Path, out: str | Path | None = None) -> Campaign:
         raise ConfigError(f"{path}: runs = {groups!r}; allowed: a non-empty list of run groups")
     episodes = _int_ge1(str(path), "episodes", data.get("episodes", 16))
     baselines = data.get("baselines", [])
-    known = BASELINES + PLANNERS
+    known = BASELINES + V1_BASELINES + PLANNERS
     if not isinstance(baselines, list) or any(
         not isinstance(b, str) or baseline_name(b) is None for b in baselines
     ):

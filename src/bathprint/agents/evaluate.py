@@ -248,10 +248,10 @@ def format_table(summaries: Sequence[dict[str, Any]]) -> str:
 
 def collect_summaries(out: str | Path) -> list[dict[str, Any]]:
     """Every ``OUT/*/summary.json``: baselines first (in their usual order), then agents."""
-    from bathprint.agents.policies import BASELINES, PLANNERS
+    from bathprint.agents.policies import BASELINES, PLANNERS, V1_BASELINES
 
     found = [json.loads(p.read_text()) for p in sorted(Path(out).glob("*/summary.json"))]
-    order = {name: k for k, name in enumerate(BASELINES + PLANNERS)}
+    order = {name: k for k, name in enumerate(BASELINES + V1_BASELINES + PLANNERS)}
     return sorted(found, key=lambda s: (order.get(s["policy"], len(order)), s["policy"]))
 
 
@@ -281,7 +281,7 @@ def evaluate_many(
     policies side by side in the order given, each captioned with its final metric (at
     :data:`SIDE_BY_SIDE_SCALE` of the size, every :data:`SIDE_BY_SIDE_EVERY`-th frame)."""
     from bathprint.agents import planning
-    from bathprint.agents.policies import BASELINES, PLANNERS, baseline_name
+    from bathprint.agents.policies import KNOWN, PLANNERS, baseline_name
     from bathprint.envs import resolve_id
 
     out = Path(out)
@@ -303,7 +303,7 @@ def evaluate_many(
             continue
         if not Path(spec).exists():
             raise FileNotFoundError(
-                f"policy {spec!r}: neither a baseline ({', '.join(BASELINES + PLANNERS)}) nor "
+                f"policy {spec!r}: neither a baseline ({', '.join(KNOWN)}) nor "
                 "an existing run directory or model .zip"
             )
         trained_files(spec)

@@ -434,6 +434,169 @@ class OraclePolicy:
         return self._actions[min(u._steps, len(self._actions) - 1)].copy(), state
 
 
+# ------------------------------------------------------------------------------ CEM
+@dataclass(frozen=True)
+class ShapeCEMSettings:
+    """The ``cem`` reference's search: CEM over blocks of ``block_mm`` from the best start
+    (the controller where the family has one, the constant and feedforward baselines),
+    ``samples`` x ``iterations`` episodes per target."""
+
+    samples: int = 24
+    iterations: int = 8
+    elites: int = 6
+    block_mm: float = 4.0
+    init_std: float = 0.3
+    min_std: float = 0.05
+    seed: int = 0
+
+    def cem(self) -> CEMSettings:
+        return CEMSettings(
+            self.samples,
+            self.iterations,
+            self.elites,
+            self.block_mm,
+            self.init_std,
+            self.min_std,
+            self.seed,
+        )
+
+    def __post_init__(self) -> None:
+        self.cem()
+
+
+def episode_objective(env: Any) -> Callable[[dict[str, Any]], float]:
+    """What the ``cem`` reference minimises after an episode of ``env``: for a shape target
+    (``target.params['shape_family']``) the whole-shape RMS error in mm (the benchmark's
+    metric; an episode cut short scores inf), else the environment's final metric M."""
+    from bathprint.envs.shape_files import target_reference, written_curve
+    from bathprint.envs.shape_metric import shape_error
+
+    u = env.unwrapped
+    family = u.target.params.get("shape_family")
+    if family is None:
+        return lambda info: float(info["metric"])
+    reference = target_reference(env, u.target, family)
+
+    def rms(info: dict[str, Any]) -> float:
+        w = written_curve(env, family)
+        if info.get("truncated") or len(w) != u.target.n_samples:
+            return math.inf
+        return shape_error(w, reference, family).rms_mm
+
+    return rms
+
+
+class ShapeCEMPolicy:
+    """The ``cem`` reference: plans every new target open loop on a second instance of the
+    environment (CEM, :class:`ShapeCEMSettings`) from the best of its starts, then replays
+    the best plan. It never reads the controls that printed a target; its objective is
+    :func:`episode_objective`. Attributes after a plan: ``last_value`` (the objective),
+    ``last_start`` (which start the search began from), ``last_cpu_s``."""
+
+    def __init__(self, env: Any, env_id: str, settings: ShapeCEMSettings | None = None) -> None:
+        from bathprint.envs import make
+
+        u = env.unwrapped
+        if getattr(u, "version", 0) < 1:
+            raise ConfigError(f"cem needs a version-1 environment; got {env_id}")
+        self.env = u
+        self.env_id = env_id
+        self.settings = settings or ShapeCEMSettings()
+        self.planner = make(env_id, **u.init_kwargs)
+        self._target: Any = None
+        self._plan = np.zeros((1, *u.action_space.shape), np.float32)
+        self.last_value = math.nan
+        self.last_start = ""
+        self.last_cpu_s = math.nan
+
+    def _starts(self, options: dict[str, Any], seed: int) -> dict[str, np.ndarray]:
+        from bathprint.agents.controller import make_controller
+        from bathprint.agents.policies import load_policy
+
+        out = {}
+        p = self.planner
+        family = self.env.target.params.get("shape_family")
+        if family is not None:
+            try:
+                ctl = make_controller(p, family)
+            except ConfigError:
+                ctl = None
+            if ctl is not None:
+                out["controller"] = policy_actions(p, ctl, seed, options)[1]
+        for name in ("constant", "feedforward"):
+            try:
+                pol = load_policy(name, p, self.env_id)[0]
+            except (ConfigError, KeyError, ValueError):
+                continue
+            out[name] = policy_actions(p, pol, seed, options)[1]
+        return out
+
+    def _search(self) -> np.ndarray:
+        u, p, s = self.env, self.planner, self.settings
+        c0 = time.process_time()
+        options = {"target": u.target, "start_state": u._start_index}
+        seed = 0
+        objective_of = None
+        values: dict[str, tuple[float, np.ndarray]] = {}
+        for name, acts in self._starts(options, seed).items():
+            info = _replay(p, acts, seed, options)
+            objective_of = objective_of or episode_objective(p)
+            values[name] = (objective_of(info), acts)
+        if objective_of is None:
+            p.reset(seed=seed, options=options)
+            objective_of = episode_objective(p)
+        start = min(values, key=lambda k: values[k][0]) if values else ""
+        n_steps = u.episode_steps
+        spb = _steps_per_block(u, s.block_mm)
+        dim = u.action_space.shape[0]
+        mean = (
+            block_means(values[start][1], spb)
+            if start
+            else np.zeros((-(-n_steps // spb), dim))
+        )
+
+        def objective(blocks: np.ndarray) -> float:
+            acts = expand(blocks, n_steps, spb).astype(np.float32)  # as replayed
+            return objective_of(_replay(p, acts, seed, options))
+
+        best, best_val, _ = cem(
+            objective, mean, s.cem(), incumbents=[v for v in values.values()],
+            rng=np.random.default_rng(s.seed),
+        )
+        if best is None:
+            self.last_value, plan = values[start][0], values[start][1]
+            self.last_start = start
+        else:
+            self.last_value, plan = best_val, expand(best, n_steps, spb)
+            self.last_start = f"cem from {start}" if start else "cem"
+        self.last_cpu_s = time.process_time() - c0
+        return np.asarray(plan, np.float32)
+
+    def predict(
+        self,
+        observation: Any,
+        state: Any = None,
+        episode_start: Any = None,
+        deterministic: bool = True,
+    ) -> tuple[np.ndarray, Any]:
+        u = self.env
+        if u.steps_taken == 0 or u.target is not self._target:
+            self._target = u.target
+            self._plan = self._search()
+        return self._plan[min(u.steps_taken, len(self._plan) - 1)].copy(), state
+
+
+def _replay(env: Any, actions: np.ndarray, seed: int, options: dict[str, Any]) -> dict[str, Any]:
+    """An open-loop episode (the last action repeats); the final info with ``truncated``."""
+    env.reset(seed=seed, options=options)
+    k, info = 0, {}
+    while True:
+        _, _, term, trunc, info = env.step(actions[min(k, len(actions) - 1)])
+        k += 1
+        if term or trunc:
+            return {**info, "truncated": bool(trunc)}
+
+
 # ------------------------------------------------------------------------------ MPC
 @dataclass(frozen=True)
 class MPCSettings:

@@ -47,15 +47,20 @@ from bathprint.envs.observation import (
 
 PAPER_PREFACTOR = 0.4  # R = 0.4 (B / (mu v))^(1/3), the paper's Fig. 2B fit
 BASELINES = ("random", "constant", "feedforward", "feedforward_calibrated")
-#: planners on the simulator itself (bathprint.agents.planning): minutes per episode or target
-PLANNERS = ("oracle", "mpc")
+#: baselines of version-1 environments only: the tuned controller of each shape family
+#: (bathprint.agents.controller)
+V1_BASELINES = ("controller",)
+#: planners on the simulator itself (bathprint.agents.planning): seconds to minutes per target
+PLANNERS = ("oracle", "mpc", "cem")
+#: every policy name ``bathprint evaluate`` knows besides run directories and models
+KNOWN = BASELINES + V1_BASELINES + PLANNERS
 
 
 def baseline_name(spec: str) -> str | None:
     """The baseline or planner a policy spec names (``"mpc:samples=8"`` -> ``"mpc"``; only
     planners take options), or None."""
     name, colon, _ = spec.partition(":")
-    if name in PLANNERS or (name in BASELINES and not colon):
+    if name in PLANNERS or (name in BASELINES + V1_BASELINES and not colon):
         return name
     return None
 
@@ -293,9 +298,12 @@ def load_policy(spec: str, env: Any, env_id: str, seed: int = 0) -> tuple[Policy
     label. Baselines ``constant`` and ``feedforward_calibrated`` read ``agents/baselines.yml``.
     """
     name = baseline_name(spec)
-    if name in ("oracle", "mpc"):
+    if name in PLANNERS:
         from bathprint.agents import planning
 
+        if name == "cem":
+            settings = planning.parse_options(spec, planning.ShapeCEMSettings)
+            return planning.ShapeCEMPolicy(env, env_id, settings), spec
         if name == "oracle":
             settings = planning.parse_options(spec, planning.CEMSettings)
             return planning.OraclePolicy(env, env_id, settings), spec
@@ -308,6 +316,10 @@ def load_policy(spec: str, env: Any, env_id: str, seed: int = 0) -> tuple[Policy
             return RandomPolicy(env.action_space.shape[0], seed), spec
         if spec == "feedforward":
             return FeedforwardPolicy(env), spec
+        if spec == "controller":
+            from bathprint.agents.controller import make_controller
+
+            return make_controller(env), spec
         fitted = load_baselines(env_id)
         if spec == "constant":
             return ConstantPolicy(fitted["constant_action"]), spec
@@ -317,7 +329,7 @@ def load_policy(spec: str, env: Any, env_id: str, seed: int = 0) -> tuple[Policy
     path = Path(spec)
     if not path.exists():
         raise FileNotFoundError(
-            f"policy {spec!r}: neither a baseline ({', '.join(BASELINES + PLANNERS)}) nor an "
+            f"policy {spec!r}: neither a baseline ({', '.join(KNOWN)}) nor an "
             "existing run directory or model .zip"
         )
     model, normalizer, label, note = load_trained(path)

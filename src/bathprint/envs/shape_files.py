@@ -201,6 +201,17 @@ def shape_target(points: np.ndarray, env: Any, family: str, name: str) -> Target
     )
 
 
+def target_reference(env: Any, target: Target, family: str) -> np.ndarray:
+    """The curve a shape target (:func:`shape_target`) is the environment's form of: its
+    centreline, with the heights its density band settles at for ``buoyant`` (equal to
+    :func:`reference_curve` of the shape's points)."""
+    pts = np.asarray(target.points_mm, float).copy()
+    if family == "buoyant":
+        mid = 0.5 * (target.density_lo_kg_m3 + target.density_hi_kg_m3)
+        pts[:, 2] = settling_height_mm(env, mid)
+    return pts
+
+
 def written_curve(env: Any, family: str) -> np.ndarray:
     """The curve an episode wrote, sampled every ``target_spacing_mm`` of filament (mm): the
     recorded samples; for ``buoyant`` the target's horizontal path at the same filament

@@ -197,3 +197,25 @@ def bend(
     c, sn = np.cos(theta)[:, None], np.sin(theta)[:, None]
     rot = seg * c + np.cross(k, seg) * sn + k * (seg @ k)[:, None] * (1.0 - c)
     return np.concatenate([p[:1], p[0] + np.cumsum(rot, axis=0)])
+
+
+def place_in_box(
+    points: np.ndarray, start_xy: Sequence[float], box_mm: np.ndarray, step_deg: float = 15.0
+) -> np.ndarray:
+    """A flat shape's horizontal path (N, 2) moved to start at ``start_xy`` and turned about
+    that point (by a multiple of ``step_deg``) to keep the largest margin inside the
+    horizontal box ``box_mm`` ([[x_lo, x_hi], [y_lo, y_hi], ...] mm). The floor family's
+    rigid motions (rotation about the vertical, translation) leave the shape unchanged, so a
+    writer may place it where the needle can follow it. Ties keep the smaller angle."""
+    p = np.asarray(points, float)[:, :2]
+    p = p - p[0]
+    box = np.asarray(box_mm, float)[:2]
+    start = np.asarray(start_xy, float)[:2]
+    best_margin, best = -math.inf, p + start
+    for angle in np.radians(np.arange(0.0, 360.0, step_deg)):
+        c, s = math.cos(angle), math.sin(angle)
+        q = p @ np.array([[c, s], [-s, c]]) + start
+        margin = min(float((q - box[:, 0]).min()), float((box[:, 1] - q).min()))
+        if margin > best_margin + 1e-9:
+            best_margin, best = margin, q
+    return best

@@ -480,6 +480,28 @@ class BathprintEnvV1(BathprintEnvBase):
 
     # ------------------------------------------------------------------ episode
     @property
+    def printed_mm(self) -> float:
+        """Filament printed since the episode's start state (mm): the lead-in, then the
+        target's arclength, then the settling length."""
+        return float(self._printed_mm)
+
+    @property
+    def needle_mm(self) -> np.ndarray:
+        """Needle tip position now (mm, a copy)."""
+        return self._needle_mm.copy()
+
+    @property
+    def steps_taken(self) -> int:
+        """Steps since the last reset."""
+        return int(self._steps)
+
+    @property
+    def inner_flow_now_ml_min(self) -> float:
+        """The oil flow at the end of the last step (ml/min; under ``control.inner_lag_s``
+        it lags its command)."""
+        return float(self._inner_now_ml_min)
+
+    @property
     def episode_length_mm(self) -> float:
         """Printed length of a full episode: lead-in, target and settling length (mm)."""
         assert self.target is not None
