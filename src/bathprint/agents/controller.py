@@ -18,7 +18,9 @@ would write down, with a few gains tuned on the family's *validation* shapes onl
 - **free** (the needle at rest; ``CoilRadius``): the scaling-law feedforward
   (:class:`~bathprint.agents.policies.FeedforwardPolicy`): Q_o from
   R = c (B / (mu v))^(1/3) for the radius of the osculating helix ``lead_mm`` ahead, with
-  the prefactor ``prefactor`` (the paper's Fig. 2B fit is 0.4).
+  the prefactor ``prefactor`` (the paper's Fig. 2B fit is 0.4), times exp(I): I integrates
+  ``integral_gain`` x 3 log(kappa_target / kappa_printed) each step, the curvature printed
+  4 mm behind the tip against the target's there (kappa ~ v^(1/3) by the same law).
 - **buoyant** (the inner fluid sets the density; ``BuoyantLayers``): the oil fraction that
   makes the composite as dense as the bath at the target height ``lead_mm`` ahead, through
   a dead-beat inverse of the pump's first-order lag (the command that brings the lagging
@@ -65,11 +67,12 @@ class FloorGains:
 
 @dataclass(frozen=True)
 class FreeGains:
-    """Scaling-law feedforward: prefactor c and look-ahead (mm; a target offset the
-    observation shows)."""
+    """Scaling-law feedforward (prefactor c, look-ahead in mm: a target offset the
+    observation shows) with integral feedback on the printed curvature (gain per step)."""
 
     prefactor: float = 0.4
     lead_mm: float = 0.0
+    integral_gain: float = 0.0
 
 
 @dataclass(frozen=True)
@@ -92,8 +95,9 @@ GRIDS: dict[str, dict[str, Sequence[float]]] = {
         "runout": (0.0, 0.5, 1.0, 1.2),
     },
     "free": {
-        "prefactor": (0.25, 0.3, 0.35, 0.4, 0.45, 0.5, 0.6),
-        "lead_mm": (0.0, 5.0, 10.0),
+        "prefactor": (0.3, 0.35, 0.42, 0.5),
+        "lead_mm": (0.0, 5.0, 10.0, 15.0),
+        "integral_gain": (0.0, 0.05, 0.1, 0.2),
     },
     "buoyant": {
         "lead_mm": (0.0, 1.0, 2.0, 3.0, 5.0, 8.0),
@@ -204,7 +208,11 @@ class FloorController(_Controller):
 
 
 class FreeController(_Controller):
-    """The scaling-law feedforward with a tuned prefactor and look-ahead (module doc)."""
+    """The scaling-law feedforward with a tuned prefactor and look-ahead, and integral
+    feedback on the printed curvature (module doc)."""
+
+    #: the printed curvature fed back: the observation's, this far behind the tip (mm)
+    FEEDBACK_MM = 4.0
 
     def __init__(self, env: Any, gains: FreeGains | None = None) -> None:
         from bathprint.agents.policies import FeedforwardPolicy
@@ -214,9 +222,28 @@ class FreeController(_Controller):
         self._law = FeedforwardPolicy(
             env, prefactor=self.gains.prefactor, lead_mm=self.gains.lead_mm
         )
+        self._integral = 0.0
 
     def action(self, obs: np.ndarray) -> np.ndarray:
-        return self._law.action(obs)
+        from bathprint.envs.observation import CURV_OFFSETS_MM, OBS_CURVATURE_MM
+
+        u, g = self.env, self.gains
+        if self._new_episode():
+            self._integral = 0.0
+        ctl = self._law.controls(obs)
+        if g.integral_gain > 0:
+            col = CURV_OFFSETS_MM.index(self.FEEDBACK_MM)
+            kappa = float(obs[u.obs_slices()["printed_curvature"]][col]) / OBS_CURVATURE_MM
+            k = self._target_index(-self.FEEDBACK_MM)
+            aim = float(u.target.curvature_1_mm[k])
+            if kappa > 1e-3 and aim > 1e-3:
+                # kappa ~ v^(1/3) on the scaling law: too curved -> slower
+                step = -3.0 * g.integral_gain * math.log(kappa / aim)
+                self._integral = min(max(self._integral + step, -2.0), 2.0)
+        qo = ctl["q_outer_ml_min"] * math.exp(self._integral)
+        qo = min(max(qo, u.q_outer_range[0]), u.q_outer_range[1])
+        a = u.controls_to_action(qo, ctl["q_inner_ml_min"])
+        return np.clip(a, -1.0, 1.0).astype(np.float32)
 
 
 class BuoyantController(_Controller):
