@@ -47,8 +47,8 @@ def test_register_envs_is_idempotent_and_makes_every_id() -> None:
     for env_id in E.ENV_IDS:
         assert env_id in gymnasium.registry
         assert env_id.startswith("bathprint/")
-    assert E.resolve_id("coilradius") == "bathprint/CoilRadius-v1"  # a bare name: the newest
-    assert E.resolve_id("writeshape") == "bathprint/WriteShape-v2"
+    assert E.resolve_id("coilradius") == "bathprint/CoilRadius-v2"  # a bare name: the newest
+    assert E.resolve_id("writeshape") == "bathprint/WriteShape-v3"
     assert E.resolve_id("CoilRadius-v0") == "bathprint/CoilRadius-v0"
     with pytest.raises(ValueError, match="unknown environment"):
         E.resolve_id("Nope")

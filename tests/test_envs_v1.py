@@ -56,7 +56,7 @@ def test_v1_ids_are_registered_beside_v0() -> None:
         assert env_id in ids and env_id in gymnasium.registry
         assert env_id.replace("-v1", "-v0") in ids
     assert E.resolve_id("coilradius-v1") == "bathprint/CoilRadius-v1"
-    assert E.resolve_id("CoilRadius") == "bathprint/CoilRadius-v1"  # a bare name: the newest
+    assert E.resolve_id("CoilRadius") == "bathprint/CoilRadius-v2"  # a bare name: the newest
 
 
 @pytest.mark.parametrize("goal", [False, True], ids=["flat", "goal"])

@@ -14,9 +14,9 @@ from bathprint.envs.base import BathprintEnvBase
 from bathprint.envs.coil_radius import CoilRadiusEnv
 
 NEWEST = {
-    "CoilRadius": "bathprint/CoilRadius-v1",
-    "WriteShape": "bathprint/WriteShape-v2",
-    "BuoyantLayers": "bathprint/BuoyantLayers-v1",
+    "CoilRadius": "bathprint/CoilRadius-v2",
+    "WriteShape": "bathprint/WriteShape-v3",
+    "BuoyantLayers": "bathprint/BuoyantLayers-v2",
 }
 
 
@@ -28,27 +28,27 @@ def test_bare_name_makes_the_newest_version() -> None:
             if env_id.startswith(f"bathprint/{name}-"):
                 assert E.newest_id(env_id) == newest
     env = E.make("CoilRadius", accuracy="draft")
-    assert env.spec.id == "bathprint/CoilRadius-v1"
-    assert type(env.unwrapped).env_id == "bathprint/CoilRadius-v1"
+    assert env.spec.id == "bathprint/CoilRadius-v2"
+    assert type(env.unwrapped).env_id == "bathprint/CoilRadius-v2"
     env.close()
     E.register_envs()
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")  # gymnasium says it picks the latest version
         env = gymnasium.make("bathprint/WriteShape", accuracy="draft")
-    assert env.spec.id == "bathprint/WriteShape-v2"
+    assert env.spec.id == "bathprint/WriteShape-v3"
     env.close()
 
 
 def test_making_an_older_version_warns_and_names_the_newest() -> None:
-    with pytest.warns(DeprecationWarning, match="bathprint/CoilRadius-v1") as record:
+    with pytest.warns(DeprecationWarning, match="bathprint/CoilRadius-v2") as record:
         E.make("bathprint/CoilRadius-v0", accuracy="draft").close()
     ours = [w for w in record if "is deprecated" in str(w.message)]
     assert len(ours) == 1
     assert "bathprint/CoilRadius-v0 is deprecated" in str(ours[0].message)
     assert ours[0].filename == __file__  # it points at the line that made the environment
-    with pytest.warns(DeprecationWarning, match="bathprint/WriteShape-v2"):
+    with pytest.warns(DeprecationWarning, match="bathprint/WriteShape-v3"):
         E.make("WriteShape-v1", accuracy="draft").close()
-    with pytest.warns(DeprecationWarning, match="bathprint/CoilRadius-v1"):
+    with pytest.warns(DeprecationWarning, match="bathprint/CoilRadius-v2"):
         CoilRadiusEnv(accuracy="draft").close()  # the class itself, without the registry
 
 

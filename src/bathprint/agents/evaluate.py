@@ -39,7 +39,7 @@ from tqdm import tqdm
 from bathprint.agents.hyperparams import split_hyperparams
 from bathprint.agents.rollout import METRIC_KEYS, Episode, run_episode
 from bathprint.agents.train import read_run_info, trained_files
-from bathprint.envs import printed_targets, target_set_size
+from bathprint.envs import fixed_target_sets, printed_targets, target_set_size
 from bathprint.errors import ConfigError
 
 
@@ -91,7 +91,7 @@ def default_target_set(env_id: str) -> str:
 def summarize(episodes: list[Episode]) -> dict[str, Any]:
     """Means and standard deviations of the per-episode numbers."""
     out: dict[str, Any] = {"episodes": len(episodes)}
-    for key in METRIC_KEYS:
+    for key in episodes[0].metrics if episodes else METRIC_KEYS:
         vals = np.array([e.metrics[key] for e in episodes])
         out[f"mean_{key}"] = float(vals.mean())
         out[f"std_{key}"] = float(vals.std())
@@ -123,7 +123,7 @@ def evaluate_policy_spec(
     _check_episodes(episodes)
     env_id = resolve_id(env_id)
     target_set = target_set or default_target_set(env_id)
-    allowed = ("validation", "test") if printed_targets(env_id) else ("eval",)
+    allowed = fixed_target_sets(env_id)
     if target_set not in allowed:
         raise ConfigError(
             f"target_set = {target_set!r}; allowed for {env_id}: " + ", ".join(map(repr, allowed))
@@ -221,16 +221,23 @@ def format_table(summaries: Sequence[dict[str, Any]]) -> str:
     """Markdown table of several policies' summaries (mean +- std over episodes); with the
     success rate and the normalised score where the summaries have them (version 1)."""
     v1 = any("success_rate" in s for s in summaries)
-    head = "| policy | metric |"
+    shapes = any("mean_rms_mm" in s for s in summaries)  # the shape environments
+    head = "| policy | " + ("RMS error (mm) |" if shapes else "metric |")
     rule = "|---|---|"
     if v1:
         head += " normalised | success |"
         rule += "---|---|"
-    lines = [
-        head
-        + " shape RMS (mm) | curvature RMS (1/mm) | density RMS (kg/m^3) | truncated | wall s |",
-        rule + "---|---|---|---|---|",
-    ]
+    if shapes:
+        lines = [
+            head + " max (mm) | local metric | truncated | wall s |",
+            rule + "---|---|---|---|",
+        ]
+    else:
+        lines = [
+            head + " shape RMS (mm) | curvature RMS (1/mm) | density RMS (kg/m^3) | truncated |"
+            " wall s |",
+            rule + "---|---|---|---|---|",
+        ]
     for s in summaries:
         row = f"| {s['policy']} | {s['mean_metric']:.3f} +- {s['std_metric']:.3f} |"
         if v1:
@@ -238,6 +245,13 @@ def format_table(summaries: Sequence[dict[str, Any]]) -> str:
             row += f" {norm:.3f} |" if norm == norm else " - |"
             rate = s.get("success_rate")
             row += f" {rate:.2f} |" if rate is not None else " - |"
+        if shapes:
+            lines.append(
+                row + f" {s.get('mean_max_mm', float('nan')):.2f} | "
+                f"{s.get('mean_local_metric', float('nan')):.3f} | "
+                f"{s['truncated_episodes']}/{s['episodes']} | {s['wall_time_s']:.1f} |"
+            )
+            continue
         lines.append(
             row + f" {s['mean_shape_rms_mm']:.3f} | {s['mean_curvature_rms_1_mm']:.4f} "
             f"| {s['mean_density_rms_kg_m3']:.2f} | {s['truncated_episodes']}/{s['episodes']} "
@@ -294,11 +308,17 @@ def evaluate_many(
     for spec in specs:  # every policy checked before the first is evaluated
         name = baseline_name(spec)
         if name in PLANNERS:
-            cls = planning.CEMSettings if name == "oracle" else planning.MPCSettings
+            cls = {
+                "oracle": planning.CEMSettings,
+                "mpc": planning.MPCSettings,
+                "cem": planning.ShapeCEMSettings,
+            }[name]
             planning.parse_options(spec, cls)
-            if name == "mpc" and not printed_targets(env_id):
-                raise ConfigError(f"policy 'mpc' needs a version-1 environment, not {env_id}")
+            if name in ("mpc", "cem") and not printed_targets(env_id):
+                raise ConfigError(f"policy {name!r} needs a version-1 environment, not {env_id}")
             continue
+        if name == "controller" and not printed_targets(env_id):
+            raise ConfigError(f"policy 'controller' needs a version-1 environment, not {env_id}")
         if name is not None:
             continue
         if not Path(spec).exists():
@@ -406,7 +426,11 @@ def evaluate_target_files(
         ]  # all checked first
         policy, label = load_policy(spec, env, env_id, seed=seed)
         for path, pts in tqdm(shapes, desc=f"targets {label}", disable=not progress):
-            target = shape_target(pts, env, fam, path.name)
+            make_target = getattr(env.unwrapped, "shape_target", None)
+            if make_target is not None and fam == env.unwrapped.family:
+                target = make_target(pts, path.name)
+            else:
+                target = shape_target(pts, env, fam, path.name)
             ep = run_episode(env, policy, seed, options={"target": target})
             written = written_curve(env, fam)
             complete = not ep.truncated and len(written) == target.n_samples

@@ -10,6 +10,8 @@ import numpy as np
 
 #: per-episode metrics written by evaluation (units in the names)
 METRIC_KEYS = ("metric", "shape_rms_mm", "curvature_rms_1_mm", "density_rms_kg_m3")
+#: the shape environments' (bathprint.envs.shape_env): metric = rms_mm, the whole-shape error
+SHAPE_METRIC_KEYS = ("metric", "rms_mm", "max_mm", "local_metric")
 
 
 @dataclass
@@ -98,7 +100,10 @@ def run_episode(
         seed=int(seed),
         target_index=int(info.get("target_index", -1)),
         target_key=str(info.get("target_key", "")),
-        metrics={k: float(info[k]) for k in METRIC_KEYS},
+        metrics={
+            k: float(info.get(k, float("nan")))
+            for k in (SHAPE_METRIC_KEYS if "rms_mm" in info else METRIC_KEYS)
+        },
         episode_return=ret,
         length=steps,
         wall_time_s=time.perf_counter() - t0,

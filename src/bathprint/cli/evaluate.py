@@ -25,9 +25,17 @@ def add_parser(sub: Any) -> argparse.ArgumentParser:
         "policies",
         nargs="+",
         help="run directories, model .zip files, baselines (random, constant, feedforward, "
-        "feedforward_calibrated) or planners (oracle, mpc: version-1 environments)",
+        "feedforward_calibrated; controller: version 1 on) or planners (oracle, mpc, cem: "
+        "version 1 on)",
     )
     ap.add_argument("--env", required=True)
+    ap.add_argument(
+        "--target-set",
+        choices=("eval", "validation", "test", "ood_test"),
+        default=None,
+        help="the held-out set (default: test; version 0: eval; ood_test: the shape "
+        "environments' shapes of kinds never trained on)",
+    )
     ap.add_argument("--episodes", type=int, default=16)
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--out", default="runs/evaluate")
@@ -114,6 +122,7 @@ def run(args: argparse.Namespace) -> int:
             images=args.images,
             animate=not args.no_animation,
             progress=not args.quiet,
+            target_set=args.target_set,
             side_by_side=args.side_by_side,
         ),
     )

@@ -45,6 +45,9 @@ ENV_ENTRY_POINTS: dict[str, str] = {
     "bathprint/WriteShape-v1": "bathprint.envs.write_shape:WriteShapeEnvV1",
     "bathprint/BuoyantLayers-v1": "bathprint.envs.buoyant_layers:BuoyantLayersEnvV1",
     "bathprint/WriteShape-v2": "bathprint.envs.write_shape:WriteShapeEnvV2",
+    "bathprint/WriteShape-v3": "bathprint.envs.write_shape:WriteShapeEnvV3",
+    "bathprint/CoilRadius-v2": "bathprint.envs.coil_radius:CoilRadiusEnvV2",
+    "bathprint/BuoyantLayers-v2": "bathprint.envs.buoyant_layers:BuoyantLayersEnvV2",
 }
 ENV_IDS: tuple[str, ...] = tuple(ENV_ENTRY_POINTS)
 
@@ -98,11 +101,31 @@ def printed_targets(env_id: str) -> bool:
     return not resolve_id(env_id).endswith("-v0")
 
 
+def shape_targets(env_id: str) -> bool:
+    """Whether an environment writes the named shapes of a family (spec version 3,
+    :mod:`bathprint.envs.shape_env`): held-out sets ``validation``, ``test``, ``ood_test``."""
+    from bathprint.envs.spec import load_spec
+
+    return load_spec(resolve_id(env_id)).version >= 3
+
+
+def fixed_target_sets(env_id: str) -> tuple[str, ...]:
+    """The fixed (held-out) target sets of an environment: version 0's ``eval``; versions 1
+    and 2's ``validation`` and ``test``; the shape environments' ``validation``, ``test``
+    and ``ood_test`` (shapes of kinds never trained on)."""
+    if not printed_targets(env_id):
+        return ("eval",)
+    return ("validation", "test", "ood_test") if shape_targets(env_id) else ("validation", "test")
+
+
 def target_set_size(env: Any, target_set: str) -> int:
     """How many targets the fixed set ``target_set`` of an (unwrapped) environment holds:
-    version 0's ``eval`` set, or a later version's ``validation`` or ``test`` set."""
+    version 0's ``eval`` set, a later version's ``validation`` or ``test`` set, or a shape
+    environment's named ``validation``, ``test`` or ``ood_test`` shapes."""
     if target_set == "eval":
         return int(env.sampler.eval_size)
+    if getattr(env, "set_sizes", None) is not None:
+        return int(env.set_sizes[target_set])
     return int(env.printed.sizes[target_set])
 
 
@@ -159,4 +182,6 @@ __all__ = [
     "register_envs",
     "resolve_id",
     "target_set_size",
+    "fixed_target_sets",
+    "shape_targets",
 ]

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from bathprint.envs.shape_env import ShapeEnv
 from bathprint.envs.v0 import BathprintEnvV0
 from bathprint.envs.v1 import BathprintEnvV1
 
@@ -113,3 +114,44 @@ class BuoyantLayersEnvV1(BathprintEnvV1):
     """
 
     env_id = "bathprint/BuoyantLayers-v1"
+
+
+class BuoyantLayersEnvV2(ShapeEnv):
+    """
+    ## Description
+
+    Print a shape of the buoyant family (``bathprint.envs.shapes``): 2-4 parts that settle
+    at chosen heights in the gradient bath (1010-1050 kg/m^3 over 125 mm) for training and
+    the named validation and test shapes, evenly stepped staircases held out (``ood_test``),
+    by the oil fraction of the filament through a pump that follows its command with a
+    0.1 s lag (the paper's Fig. 3E). The scene and actions of ``BuoyantLayers-v1``; a 10 mm
+    lead-in before the first scored sample lets the pump reach the first part's fraction.
+    Each written sample sits at the height where the bath is as dense as it (settling
+    takes minutes; the height follows from the density). Scored by the whole-shape error in
+    mm after the best rotation about the vertical and horizontal translation
+    (``docs/shapes.md``); success: RMS <= 5 mm and max <= 10 mm.
+    ``docs/envs/BuoyantLayers-v2.md``; spec ``envs/buoyant_layers_v2.toml``.
+
+    ## Action Space
+
+    As ``BuoyantLayersEnvV1``: log Q_o (0.3-1.0 ml/min), the commanded inner fraction
+    (0-0.32).
+
+    ## Observation Space
+
+    ``Box(-10, 10, (80,), float32)``: the filament near the needle and its densities, the
+    target's density band from 30 mm behind to 20 mm ahead, the controls, the oil fraction
+    now, progress (``obs_layout``).
+
+    ## Rewards
+
+    Potential-based on the whole-shape error (``bathprint.envs.shape_env``): the return is
+    (625 - min(rms^2, 625)) / 5^2 with rms the reported error in mm; a diverged episode
+    returns -25.
+
+    ## Episode End, Arguments
+
+    As ``WriteShapeEnvV3``.
+    """
+
+    env_id = "bathprint/BuoyantLayers-v2"

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from bathprint.envs.shape_env import ShapeEnv
 from bathprint.envs.v0 import BathprintEnvV0
 from bathprint.envs.v1 import BathprintEnvV1
 
@@ -150,3 +151,40 @@ class CoilRadiusEnvV1(BathprintEnvV1):
     """
 
     env_id = "bathprint/CoilRadius-v1"
+
+
+class CoilRadiusEnvV2(ShapeEnv):
+    """
+    ## Description
+
+    Coil a shape of the free family (``bathprint.envs.shapes``): barrels, alternating and
+    flat-spiral coils for training and the named validation and test shapes, cones held out
+    (``ood_test``), with the alginate flow alone (coil radius 2.3-5.6 mm; the paper's
+    R ~ 0.4 (B / (mu v))^(1/3)). The scene, actions and episode of ``CoilRadius-v1``. Scored
+    by the whole-shape error in mm after the best proper rotation and translation
+    (``docs/shapes.md``); success: RMS <= 0.8 mm and max <= 2 mm. The pitch is not an
+    action: a coil's pitch is what the hanging stack makes of it.
+    ``docs/envs/CoilRadius-v2.md``; spec ``envs/coil_radius_v2.toml``.
+
+    ## Action Space
+
+    ``Box(-1, 1, (1,), float32)``: log Q_o (0.25-2.0 ml/min).
+
+    ## Observation Space
+
+    ``Box(-10, 10, (72,), float32)``: the filament near the needle, the target's curvature
+    and torsion from 30 mm behind to 20 mm ahead, the control, progress (printed fraction,
+    scored fraction, scored-prefix RMS error / 4 mm) (``obs_layout``).
+
+    ## Rewards
+
+    Potential-based on the whole-shape error (``bathprint.envs.shape_env``): the return is
+    (16 - min(rms^2, 16)) / 0.8^2 with rms the reported error in mm; a diverged episode
+    returns -25.
+
+    ## Episode End, Arguments
+
+    As ``WriteShapeEnvV3``.
+    """
+
+    env_id = "bathprint/CoilRadius-v2"

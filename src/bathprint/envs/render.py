@@ -73,10 +73,14 @@ def draw(env: BathprintEnv) -> np.ndarray:
     ax3.set_zlabel("z (mm)")
     ax3.legend(loc="upper left", fontsize=7)
     _profile(env, ax2)
-    m = env._metric
+    score = (
+        f"metric {env._metric.value:.3f}"
+        if hasattr(env, "_metric")
+        else f"error {env._prefix_rms:.2f} mm"  # a shape environment: the whole-shape error
+    )
     fig.suptitle(
         f"{env.env_id}  step {env._steps}  printed {env._printed_mm:.0f}/"
-        f"{env.episode_length_mm:.0f} mm  metric {m.value:.3f}",
+        f"{env.episode_length_mm:.0f} mm  {score}",
         fontsize=9,
     )
     fig.tight_layout()

@@ -36,6 +36,8 @@ def env_family(env: Any) -> str:
     """The shape family an environment writes: ``floor`` with a moving needle, ``buoyant``
     where the metric scores density, else ``free``."""
     u = env.unwrapped
+    if isinstance(getattr(u, "family", None), str):  # a shape environment says
+        return str(u.family)
     if getattr(u, "needle_axes", ()):
         return "floor"
     if getattr(u, "scores_density", False):

@@ -28,6 +28,9 @@ SPEC_FILES: dict[str, str] = {
     "bathprint/WriteShape-v1": "write_shape_v1.toml",
     "bathprint/BuoyantLayers-v1": "buoyant_layers_v1.toml",
     "bathprint/WriteShape-v2": "write_shape_v2.toml",
+    "bathprint/WriteShape-v3": "write_shape_v3.toml",
+    "bathprint/CoilRadius-v2": "coil_radius_v2.toml",
+    "bathprint/BuoyantLayers-v2": "buoyant_layers_v2.toml",
 }
 
 #: Allowed keys of each table (anything else is an error naming the key).
@@ -44,6 +47,7 @@ _SCHEMA: dict[str, set[str]] = {
         "metric",
         "observation",
         "success",
+        "reward",
     },
     "scene": {"base", "overrides"},
     "control": {
@@ -81,6 +85,7 @@ _SCHEMA: dict[str, set[str]] = {
         "test_size",
         "sets_file",
         "band_kg_m3",
+        "shape_family",
     },
     "metric": {
         "window_mm",
@@ -95,6 +100,7 @@ _SCHEMA: dict[str, set[str]] = {
     },
     "observation": {"density_ref_kg_m3", "density_scale_kg_m3", "target_positions_mm"},
     "success": {"metric_max"},
+    "reward": {"length_scale_mm", "missing_error_mm"},
 }
 
 #: keys of version-1 specs only (a version-0 spec with one of them is refused), and of
@@ -115,6 +121,8 @@ V1_ONLY: frozenset[str] = frozenset(
         "target.test_size",
         "target.sets_file",
         "target.band_kg_m3",
+        "target.shape_family",
+        "reward",
     }
 )
 V0_ONLY: frozenset[str] = frozenset({"target.eval_size", "target.eval_seed"})
@@ -151,6 +159,8 @@ _NUMBERS: dict[str, tuple[bool, float, bool]] = {
     "observation.density_ref_kg_m3": (False, 0.0, True),
     "observation.density_scale_kg_m3": (False, 0.0, False),
     "success.metric_max": (False, 0.0, False),
+    "reward.length_scale_mm": (False, 0.0, False),
+    "reward.missing_error_mm": (False, 0.0, False),
 }
 
 
@@ -175,6 +185,7 @@ class EnvSpecData:
     version: int = 0
     observation: dict[str, Any] = dataclasses.field(default_factory=dict)
     success: dict[str, Any] = dataclasses.field(default_factory=dict)
+    reward: dict[str, Any] = dataclasses.field(default_factory=dict)
 
     def to_dict(self) -> dict[str, Any]:
         """The spec as a nested dict (a deep copy)."""
@@ -191,6 +202,7 @@ class EnvSpecData:
                 **({"version": self.version} if self.version else {}),
                 **({"observation": self.observation} if self.observation else {}),
                 **({"success": self.success} if self.success else {}),
+                **({"reward": self.reward} if self.reward else {}),
             }
         )
 
@@ -347,6 +359,7 @@ def validate(data: dict[str, Any], where: str) -> EnvSpecData:
         version=version,
         observation=dict(data.get("observation", {})),
         success=dict(data.get("success", {})),
+        reward=dict(data.get("reward", {})),
     )
 
 
@@ -359,11 +372,12 @@ def _present(data: dict[str, Any], name: str) -> bool:
 
 def _check_version(data: dict[str, Any], where: str) -> int:
     """The spec's ``version`` (0 when absent) and the keys only one version knows. Versions
-    1 and 2 share one protocol (printed targets, train / validation / test sets); a version
-    is the environment's, so that a new observation gets a new number."""
+    1 and 2 share one protocol (printed targets, train / validation / test sets); version 3
+    is the shape environments' (targets of a shape family, :mod:`bathprint.envs.shape_env`).
+    A version is the environment's, so that a new observation gets a new number."""
     version = data.get("version", 0)
-    if isinstance(version, bool) or version not in (0, 1, 2):
-        raise SpecError(f"{where}: version = {version!r}; allowed: 0, 1, 2")
+    if isinstance(version, bool) or version not in (0, 1, 2, 3):
+        raise SpecError(f"{where}: version = {version!r}; allowed: 0, 1, 2, 3")
     wrong = V1_ONLY if version == 0 else V0_ONLY
     for name in sorted(wrong):
         if _present(data, name):
@@ -403,6 +417,17 @@ def _check_version(data: dict[str, Any], where: str) -> int:
     sets_file = target.get("sets_file", "")
     if not isinstance(sets_file, str):
         raise SpecError(f"{where}: target.sets_file = {sets_file!r}; allowed: a relative path")
+    if version == 3:
+        from bathprint.envs.shape_metric import FAMILIES
+
+        if target.get("family") != "shapes" or target.get("shape_family") not in FAMILIES:
+            raise SpecError(
+                f"{where}: a version-3 spec needs target.family = 'shapes' and "
+                f"target.shape_family one of {', '.join(FAMILIES)}; got "
+                f"{target.get('family')!r}, {target.get('shape_family')!r}"
+            )
+    elif "shape_family" in target or "reward" in data:
+        raise SpecError(f"{where}: target.shape_family and [reward] are keys of version-3 specs")
     if "length_mm" not in target:
         raise SpecError(f"{where}: target.length_mm is missing (a number > 0)")
     offsets = data.get("observation", {}).get("target_positions_mm")

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from bathprint.envs.shape_env import ShapeEnv
 from bathprint.envs.v0 import BathprintEnvV0
 from bathprint.envs.v1 import BathprintEnvV1
 
@@ -142,3 +143,45 @@ class WriteShapeEnvV2(BathprintEnvV1):
     """
 
     env_id = "bathprint/WriteShape-v2"
+
+
+class WriteShapeEnvV3(ShapeEnv):
+    """
+    ## Description
+
+    Write a shape of the floor family (``bathprint.envs.shapes``): single-stroke letters,
+    lines, meanders and translated loops for training and the named validation and test
+    shapes, digits held out (``ood_test``), with the moving needle, as the fluid-mechanical
+    sewing machine writes with its belt (Chiu-Webster & Lister 2006; Brun et al. 2015). The
+    scene, actions and episode of ``WriteShape-v2``; the shape is placed to start under the
+    needle, turned about the vertical to fit the needle's box. Scored by the whole-shape
+    error in mm after the best rotation about the vertical and translation
+    (``docs/shapes.md``); success: RMS <= 1.5 mm and max <= 4 mm.
+    ``docs/envs/WriteShape-v3.md``; spec ``envs/write_shape_v3.toml``.
+
+    ## Action Space
+
+    As ``WriteShapeEnvV1``: log Q_o (0.25-2.0 ml/min), needle velocity x and y (+-60 mm/s).
+
+    ## Observation Space
+
+    ``Box(-10, 10, (99,), float32)``: the filament near the needle, the target's curvature
+    and torsion from 30 mm behind to 20 mm ahead, the controls, the needle's position in its
+    box, progress (printed fraction, scored fraction, scored-prefix RMS error / 6 mm) and the
+    target's centreline at 7 arclength offsets relative to the needle (``obs_layout``).
+
+    ## Rewards
+
+    Potential-based on the whole-shape error (``bathprint.envs.shape_env``): the return is
+    (36 - min(rms^2, 36)) / 1.5^2 with rms the reported error in mm; a diverged episode
+    returns -16.
+
+    ## Episode End, Arguments
+
+    Terminated when the shape plus 20 mm has been printed; truncated if the simulation
+    diverges. Arguments: ``render_mode``, ``accuracy``, ``target_set`` (``train``,
+    ``validation``, ``test``, ``ood_test``), ``target_index``, ``target_file`` (a shape
+    CSV), ``scene_overrides``, ``spec_overrides``, ``spec_file``.
+    """
+
+    env_id = "bathprint/WriteShape-v3"
