@@ -1,8 +1,10 @@
 """Robustness options of the version-1 environments (bathprint.envs.robust): off is the bare
-environment, draws follow the seed, each option changes what it names, bad values are refused."""
+environment, draws follow the seed, each option changes what it names, bad values are refused,
+and the agents' wrapper machinery selects and replays the wrapper."""
 
 from __future__ import annotations
 
+import json
 import math
 import warnings
 
@@ -296,3 +298,37 @@ def test_unknown_options_and_wrong_environments_are_refused() -> None:
         RobustnessWrapper(v0)
     with pytest.raises(ConfigError, match="give one"):
         RobustnessWrapper(make(COIL), Robustness(flow_noise=0.1), flow_noise=0.1)
+
+
+# ------------------------------------------------------------------ agents' machinery
+ENTRY = [{"bathprint.envs.robust.RobustnessWrapper": {"bath_viscosity_spread": 0.2}}]
+
+
+def test_agents_files_select_it_and_evaluation_replays_it(tmp_path) -> None:
+    from bathprint.agents.evaluate import run_settings
+    from bathprint.agents.hyperparams import split_hyperparams
+    from bathprint.agents.wrappers import wrapper_factory, wrapper_spec
+
+    assert wrapper_spec(ENTRY) == {"name": "robustness", "bath_viscosity_spread": 0.2}
+    hp = {"env_kwargs": {"accuracy": "draft"}, "env_wrapper": ENTRY}
+    assert split_hyperparams(hp)[0]["wrapper"]["name"] == "robustness"
+    run = {"algo": "ppo", "env_id": COIL, "seed": 0, "hyperparams": hp, "n_timesteps": 1}
+    (tmp_path / "run.json").write_text(json.dumps(run))
+    kwargs, wrapper = run_settings(str(tmp_path), None, COIL)  # what `bathprint evaluate` reads
+    env = wrapper_factory(wrapper)(make(COIL, **kwargs))
+    assert isinstance(env, RobustnessWrapper)
+    assert env.robustness == Robustness(bath_viscosity_spread=0.2)
+    assert "bath_viscosity_pa_s" in env.reset(seed=0)[1]["robustness"]
+
+
+def test_agents_files_with_bad_robustness_values_are_refused() -> None:
+    from bathprint.agents.hyperparams import validate_hyperparams
+
+    good = [{"bathprint.envs.robust.RobustnessWrapper": {"pump_lag_s": [0.05, 0.2]}}]
+    validate_hyperparams("ppo", {"env_wrapper": good}, "ppo.yml")
+    bad = [{"bathprint.envs.robust.RobustnessWrapper": {"flow_noise": 2.0}}]
+    with pytest.raises(ConfigError, match=r"ppo.yml: wrapper.flow_noise = 2.0; allowed"):
+        validate_hyperparams("ppo", {"env_wrapper": bad}, "ppo.yml")
+    typo = [{"bathprint.envs.robust.RobustnessWrapper": {"flow_nosie": 0.1}}]
+    with pytest.raises(ConfigError, match="did you mean 'flow_noise'"):
+        validate_hyperparams("ppo", {"env_wrapper": typo}, "ppo.yml")
