@@ -121,6 +121,22 @@ def test_same_seed_same_draws_and_episode_other_seed_other_draws() -> None:
     assert not np.array_equal(obs_c[0], obs_a[0])  # other observation noise
 
 
+@pytest.mark.parametrize("goal", [False, True], ids=["flat", "goal"])
+def test_checkers_pass_with_every_option_on(goal: bool) -> None:
+    import gymnasium
+    from gymnasium.utils.env_checker import check_env as gym_check_env
+    from stable_baselines3.common.env_checker import check_env as sb3_check_env
+
+    env = RobustnessWrapper(make(BUOYANT, goal_conditioned=goal), **ALL_ON)
+    with pytest.raises(RuntimeError, match="reset"):
+        env.step(env.action_space.sample())
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", UserWarning)  # "different from the unwrapped version"
+        gym_check_env(env, skip_render_check=True)  # (which remakes it from env.spec)
+        sb3_check_env(env, warn=False)  # with goals: the wrapper's compute_reward
+    assert gymnasium.make(env.spec).robustness == env.robustness
+
+
 def test_unseeded_resets_continue_the_seeded_stream() -> None:
     envs = [RobustnessWrapper(make(COIL), bath_viscosity_spread=1.0) for _ in range(2)]
     draws = []

@@ -279,7 +279,7 @@ def apply_physics(
     return out
 
 
-class RobustnessWrapper(gym.Wrapper):
+class RobustnessWrapper(gym.Wrapper, gym.utils.RecordConstructorArgs):
     """A version-1 environment with the robustness options of :class:`Robustness` (give a
     ``Robustness``, a mapping, or the options as keywords, as an agents file does::
 
@@ -288,7 +288,8 @@ class RobustnessWrapper(gym.Wrapper):
 
     ). Wrap the environment itself (what ``gymnasium.make`` returns), inside any wrapper
     that changes the action's meaning. ``info["robustness"]`` holds the episode's draws and
-    the step's realised flow factor."""
+    the step's realised flow factor. The options are recorded in ``env.spec`` (Gymnasium's
+    ``additional_wrappers``), so ``gymnasium.make(env.spec)`` makes the wrapped environment."""
 
     def __init__(
         self,
@@ -301,7 +302,6 @@ class RobustnessWrapper(gym.Wrapper):
         flow_noise: float = 0.0,
         observation_noise: float = 0.0,
     ) -> None:
-        super().__init__(env)
         given = {
             "bath_viscosity_spread": bath_viscosity_spread,
             "gel_modulus_spread": gel_modulus_spread,
@@ -324,6 +324,8 @@ class RobustnessWrapper(gym.Wrapper):
         u = _v1(env)
         if rob.pump_lag_s is not None:
             _check_lag_env(u, rob.pump_lag_s)
+        gym.utils.RecordConstructorArgs.__init__(self, **rob.as_dict())
+        gym.Wrapper.__init__(self, env)
         if env.observation_space != u.observation_space:
             raise ConfigError(
                 "RobustnessWrapper: the wrapped environment's observation space is not the "
@@ -331,6 +333,8 @@ class RobustnessWrapper(gym.Wrapper):
             )
         self.robustness = rob
         self._goal = bool(u.goal_conditioned)
+        if self._goal:  # the goal-environment interface (the goals carry no noise)
+            self.compute_reward = u.compute_reward
         flat = u.observation_space["observation"] if self._goal else u.observation_space
         self._obs_low = np.asarray(flat.low, np.float64)
         self._obs_high = np.asarray(flat.high, np.float64)
@@ -389,7 +393,8 @@ class RobustnessWrapper(gym.Wrapper):
     def _noisy_action(self, action: Any) -> tuple[np.ndarray, np.ndarray, float]:
         """(the agent's action clipped, the action with the step's flow noise, the agent's
         Q_o in ml/min): Q_o times 1 + sigma z, in the q_outer component's own mapping."""
-        assert self._flow_rng is not None, "call reset() before step()"
+        if self._flow_rng is None:
+            raise RuntimeError("call reset() before step()")
         u = self.env.unwrapped
         c = u.action_to_controls(action)  # checks the action as the environment does
         agent = np.asarray(c["action"], np.float64)
