@@ -228,6 +228,10 @@ def apply_physics(
     ):
         if f is not None and not (_is_number(f) and float(f) > 0.0):
             raise ConfigError(f"{key} = {f!r}; allowed: None or a number > 0")
+    if pump_lag_s is not None:  # checked before anything changes
+        if not (_is_number(pump_lag_s) and float(pump_lag_s) > 0.0):
+            raise ConfigError(f"pump_lag_s = {pump_lag_s!r}; allowed: None or a number > 0 (s)")
+        _check_lag_env(u, pump_lag_s)
     p = sim.model.p
     scenes = {id(s): s for s in (sim.model.scene, sim.scene)}.values()  # one object, or two
     out: dict[str, float] = {}
@@ -271,9 +275,6 @@ def apply_physics(
         for flag in ("linearized", "u_valid", "next_valid"):
             ws.hydro.memory[0][flag] = False  # nonlocal flows of the old viscosity
     if pump_lag_s is not None:
-        if not (_is_number(pump_lag_s) and float(pump_lag_s) > 0.0):
-            raise ConfigError(f"pump_lag_s = {pump_lag_s!r}; allowed: None or a number > 0 (s)")
-        _check_lag_env(u, pump_lag_s)
         u.inner_lag_s = float(pump_lag_s)
         out["pump_lag_s"] = float(pump_lag_s)
     return out
