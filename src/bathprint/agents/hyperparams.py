@@ -392,7 +392,7 @@ def validate_hyperparams(algo: str, hp: Any, where: str, env_id: str | None = No
     (their values are checked by the environment itself)."""
     from stable_baselines3.common.vec_env import VecNormalize
 
-    from bathprint.agents.wrappers import WRAPPERS, FeedforwardResidual
+    from bathprint.agents.wrappers import WRAPPERS, wrapper_class
 
     cls = algo_class(algo)
     if not isinstance(hp, dict):
@@ -491,13 +491,20 @@ def validate_hyperparams(algo: str, hp: Any, where: str, env_id: str | None = No
                 f"{where}: wrapper = {wrapper!r}; expected null or a mapping with name: one "
                 f"of {', '.join(WRAPPERS)} (and its arguments)"
             )
-        allowed_w = _parameters(FeedforwardResidual.__init__, ("env",))
+        allowed_w = _parameters(wrapper_class(wrapper["name"]).__init__, ("env", "robustness"))
         for key, value in wrapper.items():
             if key == "name":
                 continue
             if key not in allowed_w:
                 raise _unknown(key, ["name", *allowed_w], where, "wrapper key")
             _check_value(f"wrapper.{key}", value, allowed_w[key], where)
+        if wrapper["name"] == "robustness":  # its values, before any environment is made
+            from bathprint.envs.robust import Robustness
+
+            try:
+                Robustness.from_mapping({k: v for k, v in wrapper.items() if k != "name"})
+            except ConfigError as exc:
+                raise ConfigError(f"{where}: wrapper.{exc}") from None
 
 
 def _check_bc(algo: str, hp: dict[str, Any], where: str, env_id: str | None) -> None:

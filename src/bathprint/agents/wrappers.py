@@ -11,6 +11,13 @@ misses). Select it in ``agents/<algo>.yml`` in rl-zoo3's form (rl-zoo3 imports t
 
 (older files: ``wrapper: {name: feedforward_residual, scale: 0.5}``); evaluation wraps the
 environment the same way (read from the run's ``run.json``).
+
+The robustness options of the version-1 environments (:mod:`bathprint.envs.robust`: physics
+drawn per episode, flow and observation noise) are selected the same way, by the class or
+as ``wrapper: {name: robustness, bath_viscosity_spread: 0.2}``::
+
+    env_wrapper:
+      - bathprint.envs.robust.RobustnessWrapper: {bath_viscosity_spread: 0.2, flow_noise: 0.05}
 """
 
 from __future__ import annotations
@@ -22,9 +29,12 @@ import numpy as np
 
 from bathprint.agents.policies import PAPER_PREFACTOR, FeedforwardPolicy
 
-WRAPPERS = ("feedforward_residual",)
+WRAPPERS = ("feedforward_residual", "robustness")
 #: the classes behind the names (rl-zoo3's ``env_wrapper`` names the class)
-WRAPPER_CLASSES = {"bathprint.agents.wrappers.FeedforwardResidual": "feedforward_residual"}
+WRAPPER_CLASSES = {
+    "bathprint.agents.wrappers.FeedforwardResidual": "feedforward_residual",
+    "bathprint.envs.robust.RobustnessWrapper": "robustness",
+}
 
 
 class FeedforwardResidual(gym.Wrapper):
@@ -83,6 +93,17 @@ def wrapper_spec(env_wrapper: Any) -> dict[str, Any] | None:
     return {"name": WRAPPER_CLASSES[item], **kwargs}
 
 
+def wrapper_class(name: str) -> type[gym.Wrapper]:
+    """The class of a wrapper name of :data:`WRAPPERS` (ValueError naming it otherwise)."""
+    if name == "robustness":
+        from bathprint.envs.robust import RobustnessWrapper
+
+        return RobustnessWrapper
+    if name == "feedforward_residual":
+        return FeedforwardResidual
+    raise ValueError(f"wrapper name = {name!r}; allowed: {', '.join(WRAPPERS)}")
+
+
 def wrapper_factory(spec: dict[str, Any] | None) -> Any:
     """A picklable ``env -> wrapped env`` from a ``wrapper:`` entry (None: no wrapper)."""
     import functools
@@ -93,4 +114,4 @@ def wrapper_factory(spec: dict[str, Any] | None) -> Any:
     name = spec.pop("name", None)
     if name not in WRAPPERS:
         raise ValueError(f"wrapper name = {name!r}; allowed: {', '.join(WRAPPERS)}")
-    return functools.partial(FeedforwardResidual, **spec)
+    return functools.partial(wrapper_class(name), **spec)
