@@ -21,6 +21,9 @@ V1 = (
     "bathprint/WriteShape-v1",
     "bathprint/WriteShape-v2",
     "bathprint/BuoyantLayers-v1",
+    "bathprint/WriteShape-v3",
+    "bathprint/CoilRadius-v2",
+    "bathprint/BuoyantLayers-v2",
 )
 COIL, BUOYANT = "bathprint/CoilRadius-v1", "bathprint/BuoyantLayers-v1"
 STEPS = 6
@@ -307,7 +310,7 @@ def test_unknown_options_and_wrong_environments_are_refused() -> None:
         Robustness.from_mapping({"viscosity_spread": 0.2})
     with pytest.raises(ConfigError, match="pump_lag_s.*no inner flow"):
         RobustnessWrapper(make(COIL), pump_lag_s=(0.05, 0.2))
-    with pytest.raises(ConfigError, match="version-1"):
+    with pytest.raises(ConfigError, match="version 1 on"):
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", DeprecationWarning)
             v0 = E.make("bathprint/CoilRadius-v0", accuracy="draft")

@@ -1,4 +1,4 @@
-"""Robustness options for the version-1 environments: physics drawn per episode and noise.
+"""Robustness options for the environments of version 1 on: physics drawn per episode, noise.
 
 Domain randomisation (Tobin et al. 2017, "Domain randomization for transferring deep neural
 networks from simulation to the real world", IROS): a policy trained on many variants of the
@@ -19,7 +19,7 @@ Options (:class:`Robustness`):
   that stiffness all along (the curvature memory weighs by modulus ratios, which a common
   factor leaves alone).
 - ``pump_lag_s`` (lo, hi) s: the oil pump's time constant drawn uniformly per episode;
-  environments with an inner flow under a lag only (BuoyantLayers-v1).
+  environments with an inner flow under a lag only (BuoyantLayers-v1, -v2).
 - ``flow_noise`` (-): the alginate flow Q_o of each step multiplied by 1 + sigma z, z standard
   normal clipped to +-3, through the action's q_outer component (log or linear, as the
   environment maps it; clipped to the flow range); the observation keeps showing the
@@ -177,14 +177,14 @@ def _check_lag(value: Any) -> tuple[float, float] | None:
 
 
 def _v1(env: gym.Env) -> Any:
-    from bathprint.envs.v1 import BathprintEnvV1
+    from bathprint.envs.printing import PrintingEnv
 
     u = env.unwrapped
-    if not isinstance(u, BathprintEnvV1):
+    if not isinstance(u, PrintingEnv):
         raise ConfigError(
-            f"robustness options on {type(u).__name__}: allowed on the version-1 environments "
-            "(bathprint.envs.v1.BathprintEnvV1: CoilRadius-v1, WriteShape-v1/v2, "
-            "BuoyantLayers-v1)"
+            f"robustness options on {type(u).__name__}: allowed on the environments of "
+            "version 1 on (bathprint.envs.printing.PrintingEnv: CoilRadius-v1/v2, "
+            "WriteShape-v1/v2/v3, BuoyantLayers-v1/v2)"
         )
     return u
 
