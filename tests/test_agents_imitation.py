@@ -212,6 +212,14 @@ def test_tiny_training_with_bc_pretrain_records_it_and_evaluates_step_0(tmp_path
         steps = d["timesteps"].tolist()
     assert steps[0] == 0 and steps[-1] >= 82  # the pretrained model, then the end
     assert (run / "eval" / "best_model.zip").is_file()
+    # evaluating the run directory plays the model its validation selected; the final one
+    # on request, by its file
+    from bathprint.agents.train import trained_files
+
+    _, zip_path, stats, label, _ = trained_files(run)
+    assert zip_path == run / "eval" / "best_model.zip" and "selected on validation" in label
+    assert stats == run / "eval" / "vecnormalize.pkl"
+    assert trained_files(run / "final_model.zip")[1] == run / "final_model.zip"
 
     # a resume continues the checkpoint: no second behaviour cloning, step 0 kept
     import bathprint.agents.imitation as imitation

@@ -138,3 +138,19 @@ def test_get_state_set_state_continue_identically():
     for (o1, r1), (o2, r2) in zip(first, second, strict=True):
         np.testing.assert_array_equal(o1, o2)
         assert r1 == r2
+
+
+@pytest.mark.parametrize("family", ["floor", "free", "buoyant"])
+def test_compiled_prefix_alignment_is_shape_metric_align(family):
+    from bathprint.envs._kernels_shape import MOTIONS, aligned_squared_distances
+    from bathprint.envs.shape_metric import align
+
+    rng = np.random.default_rng(1)
+    t = np.cumsum(rng.normal(size=(50, 3)), axis=0)
+    c, s = np.cos(0.7), np.sin(0.7)
+    w = t @ np.array([[c, -s, 0], [s, c, 0], [0, 0, 1]]).T + [3.0, -2.0, 0.5]
+    w += rng.normal(scale=0.1, size=w.shape)
+    d2 = np.empty(len(t))
+    aligned_squared_distances(w, t, MOTIONS[family], d2)
+    want = np.sum((align(w, t, family) - t) ** 2, axis=1)
+    np.testing.assert_allclose(d2, want, rtol=1e-9, atol=1e-12)

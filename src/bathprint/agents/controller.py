@@ -188,7 +188,10 @@ class FloorController(_Controller):
 
         u, g = self.env, self.gains
         if self._new_episode():
-            self._path = place_in_box(u.target.points_mm, u.needle_mm, u.needle_box_mm)
+            if hasattr(u, "shape_target"):  # a shape environment placed the shape itself
+                self._path = np.asarray(u.target.points_mm, float)[:, :2].copy()
+            else:
+                self._path = place_in_box(u.target.points_mm, u.needle_mm, u.needle_box_mm)
         qo = min(max(g.q_outer_ml_min, u.q_outer_range[0]), u.q_outer_range[1])
         a = u.controls_to_action(qo)
         path, h = self._path, u.target.spacing_mm

@@ -611,6 +611,9 @@ class MPCSettings:
     init_std: float = 0.4
     min_std: float = 0.05
     seed: int = 0
+    #: start each search from the controller's plan over the horizon too (1), not only from
+    #: the rest of the previous plan (0); -1: 1 in the shape environments, else 0
+    warm_controller: int = -1
 
     def cem(self) -> CEMSettings:
         return CEMSettings(
@@ -644,6 +647,14 @@ class MPCPolicy:
         self.settings = settings or MPCSettings()
         self.planner = make(env_id, **u.init_kwargs).unwrapped
         self.rng = np.random.default_rng(self.settings.seed)
+        warm = self.settings.warm_controller
+        if warm < 0:
+            warm = int(hasattr(u, "shape_target"))
+        self.controller: Any = None
+        if warm:
+            from bathprint.agents.controller import make_controller
+
+            self.controller = make_controller(self.planner)
         self._plan: np.ndarray | None = None
         self._plan_step = 0
         self.plans = 0
@@ -676,10 +687,40 @@ class MPCPolicy:
                     break
             return -total
 
+        base = np.zeros((horizon, dim))
+        if self.controller is not None:
+            # search corrections to the controller's own plan over the horizon (its actions
+            # step by step: a block mean of a tracking controller's actions tracks worse)
+            p.set_state(state)
+            obs, acts = p._last_obs.copy(), []
+            for _ in range(horizon):
+                a, _ = self.controller.predict(obs)
+                acts.append(np.asarray(a, np.float64))
+                obs, _, term, trunc, _ = p.step(a)
+                if term or trunc:
+                    break
+            acts += [acts[-1]] * (horizon - len(acts))
+            base = np.asarray(acts)
+            mean = np.zeros((n_blocks, dim))
+
+            def objective(blocks: np.ndarray) -> float:
+                p.set_state(state)
+                plan = np.clip(base + expand(blocks, horizon, spb), -1.0, 1.0)
+                total = 0.0
+                for a in plan.astype(np.float32):
+                    _, r, term, trunc, _ = p.step(a)
+                    total += r
+                    if term or trunc:
+                        break
+                return -total
+
         warm_val = objective(mean)
         best, _, _ = cem(objective, mean, s.cem(), incumbents=[(warm_val, None)], rng=self.rng)
         blocks = mean if best is None else best
-        self._plan = expand(blocks, horizon, spb).astype(np.float32)
+        plan = expand(blocks, horizon, spb)
+        if self.controller is not None:
+            plan = np.clip(base + plan, -1.0, 1.0)
+        self._plan = plan.astype(np.float32)
         self._plan_step = u._steps
         self.plans += 1
 

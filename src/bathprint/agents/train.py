@@ -844,7 +844,9 @@ def _close(venv: Any, callbacks: list[Any]) -> None:
 def trained_files(path: str | Path) -> tuple[str, Path, Path, str, str]:
     """(algo, model .zip, VecNormalize statistics path, label, normalisation note) of a run
     directory or a model ``.zip``, checked without loading anything. A run directory gives
-    its final model, or its newest checkpoint if it has none yet.
+    the model its validation selected (``eval/best_model.zip``, labelled "selected on
+    validation"), else its final model, else its newest checkpoint; the final model on
+    request is ``RUN_DIR/final_model.zip``.
 
     The note says where the observation statistics come from. A run trained with
     observation normalisation whose statistics file is missing is refused (ConfigError):
@@ -859,7 +861,10 @@ def trained_files(path: str | Path) -> tuple[str, Path, Path, str, str]:
         run_json = path / "run.json"
         info = read_run_info(path)
         algo = info["algo"]
-        if (path / "final_model.zip").is_file():
+        selected = path / "eval" / "best_model.zip"
+        if selected.is_file():
+            zip_path, stats = selected, path / "eval" / "vecnormalize.pkl"
+        elif (path / "final_model.zip").is_file():
             zip_path, stats = path / "final_model.zip", path / "vecnormalize.pkl"
         else:
             ckpts = checkpoints(path)
@@ -868,6 +873,8 @@ def trained_files(path: str | Path) -> tuple[str, Path, Path, str, str]:
             n, zip_path = ckpts[-1]
             stats = path / "checkpoints" / f"model_vecnormalize_{n}_steps.pkl"
         label = f"{algo}:{path.name}"
+        if zip_path == selected:
+            label += " (selected on validation)"
     else:
         zip_path = path
         run_json = _run_json_above(path)

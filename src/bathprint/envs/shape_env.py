@@ -38,6 +38,7 @@ import numpy as np
 from gymnasium import spaces
 
 from bathprint.envs._kernels import metric_errors
+from bathprint.envs._kernels_shape import MOTIONS, aligned_squared_distances
 from bathprint.envs._kernels_v1 import observe_v1
 from bathprint.envs.base import (
     MM,
@@ -64,7 +65,7 @@ from bathprint.envs.observation import (
     VEL_OFFSETS_MM,
 )
 from bathprint.envs.printing import PrintingEnv
-from bathprint.envs.shape_metric import THRESHOLDS, align, shape_error
+from bathprint.envs.shape_metric import THRESHOLDS, shape_error
 from bathprint.envs.spec import load_spec
 from bathprint.envs.targets import Target
 from bathprint.errors import ConfigError, SimulationError
@@ -286,7 +287,7 @@ class ShapeEnv(PrintingEnv):
         self._target_features = np.ascontiguousarray(np.stack(cols, axis=1), np.float64)
         from bathprint.envs.shape_files import target_reference
 
-        self._reference = target_reference(self, tgt, self.family)
+        self._reference = np.ascontiguousarray(target_reference(self, tgt, self.family))
         self._episode_length_mm = self.episode_length_mm
         self._prepared_target = tgt
 
@@ -343,9 +344,9 @@ class ShapeEnv(PrintingEnv):
         """Phi of the scored prefix (module doc); sets ``_prefix_rms`` and ``_prefix_max``."""
         n, j, m2 = self.target.n_samples, self._n_scored, self.missing_error_mm**2
         if j >= 2:
-            w = self.written_curve()
-            ref = self._reference[:j]
-            d2 = np.sum((align(w, ref, self.family) - ref) ** 2, axis=1)
+            w = np.ascontiguousarray(self.written_curve())
+            d2 = np.empty(j)
+            aligned_squared_distances(w, self._reference[:j], MOTIONS[self.family], d2)
             self._prefix_rms = float(math.sqrt(d2.mean()))
             self._prefix_max = float(math.sqrt(d2.max()))
             total = float(np.minimum(d2, m2).sum()) + (n - j) * m2

@@ -166,20 +166,20 @@ def self_contacts(
     p = resample(points, spacing=h)
     sep = max(4.0 * diameter_mm, 1.0) if min_separation_mm is None else min_separation_mm
     gap = int(math.ceil(sep / h))
-    n = len(p)
+    from scipy.spatial import cKDTree
+
+    pairs = cKDTree(p).query_pairs(diameter_mm, output_type="ndarray")  # i < j, d <= diameter
+    pairs = pairs[pairs[:, 1] - pairs[:, 0] >= gap]
+    diff = p[pairs[:, 0]] - p[pairs[:, 1]]
+    d2 = np.einsum("ij,ij->i", diff, diff)
+    keep = d2 < diameter_mm**2
+    pairs, d2 = pairs[keep], d2[keep]
+    order = np.lexsort((pairs[:, 1], pairs[:, 0]))  # row by row, as a scan of i then j
     out: list[tuple[float, float, float]] = []
-    block = 512
-    for i0 in range(0, n, block):  # blocks of rows: memory O(block * n)
-        a = p[i0 : i0 + block]
-        d2 = np.einsum("ijk,ijk->ij", a[:, None, :] - p[None, :, :], a[:, None, :] - p[None, :, :])
-        rows = np.arange(i0, i0 + len(a))[:, None]
-        d2[np.abs(rows - np.arange(n)[None, :]) < gap] = np.inf
-        d2[:, :i0] = np.inf  # each pair once (j > i)
-        hit_i, hit_j = np.nonzero(d2 < diameter_mm**2)
-        for i, j in zip(hit_i, hit_j, strict=True):
-            s_i = (i0 + i) * h
-            if not out or s_i - out[-1][0] > 1.0:
-                out.append((s_i, j * h, float(math.sqrt(d2[i, j]))))
+    for (i, j), dd in zip(pairs[order], d2[order], strict=True):
+        s_i = float(i) * h
+        if not out or s_i - out[-1][0] > 1.0:
+            out.append((s_i, float(j) * h, float(math.sqrt(dd))))
     return out
 
 
