@@ -1350,6 +1350,18 @@ def headline() -> str:
         lo, hi = _g(min(values), digits), _g(max(values), digits)
         return lo if lo == hi else f"{lo}–{hi}"
 
+    _, shape_rows = _shape_rows()
+
+    def shapes_row(fam: str) -> str:
+        cells = []
+        for pol in ("controller", "cem"):
+            rs = [r for r in shape_rows if (r["family"], r["set"], r["policy"]) ==
+                  (fam, "test", pol)]  # fmt: skip
+            mean = sum(float(r["rms_mm"]) for r in rs) / len(rs)
+            won = sum(r["success"] == "True" for r in rs)
+            cells.append(f"{mean:.2f} mm ({won}/{len(rs)})")
+        return f"{fam} {cells[0]} / {cells[1]}"
+
     rows = [
         [
             "default scene (3 s, buckling and coiling)",
@@ -1372,6 +1384,12 @@ def headline() -> str:
             "[environments](docs/environments.md)",
         ],
         [
+            "shapes benchmark, test shapes: mean whole-shape error and shapes written, tuned "
+            "controller / cem planner (agents: not trained yet)",
+            "; ".join(shapes_row(f) for f in ("floor", "free", "buoyant")),
+            "[shapes](docs/shapes.md#references)",
+        ],
+        [
             "agents (version 1), test targets: mean metric M of the agent chosen on validation "
             "against the classical reference chosen on validation (the tuned controller, "
             "the calibrated feedforward or the best constant), and their paired difference "
@@ -1385,6 +1403,7 @@ def headline() -> str:
         result("pyelastica.csv"),
         result("envs.csv"),
         result("v1_against_controller.csv"),
+        result("references.csv"),
     ]
     dates = sorted({_committed(p)[0] or "uncommitted" for p in srcs})
     return _table(["what", "result", "details"], rows) + (
@@ -2387,6 +2406,101 @@ def study_wall(name: str = "ablation_wall") -> str:
     return _table(head, rows) + "\n\n" + provenance(path)
 
 
+SHAPE_POLICIES = ("constant", "feedforward", "controller", "cem", "mpc")
+SHAPE_SETS = (("validation", "validation"), ("test", "test"), ("ood_test", "held-out kinds"))
+
+
+def _shape_rows() -> tuple[Path, list[dict[str, str]]]:
+    path = result("references.csv")
+    return path, _csv(path)
+
+
+def v1_against_controller() -> str:
+    """experiments/v1_against_controller: each version-1 agent chosen on validation against
+    the classical reference chosen on validation, on the test targets."""
+    path = result("v1_against_controller.csv")
+    rows = [
+        [r["env"], r["agent"], f"{float(r['agent_mean_metric']):.3f}", r["reference"],
+         f"{float(r['reference_mean_metric']):.3f}",
+         f"{float(r['difference']):+.3f} [{float(r['difference_lo']):+.3f}, "
+         f"{float(r['difference_hi']):+.3f}]",
+         f"{r['targets_agent_better']}/{r['targets']}", f"{float(r['mpc_mean_metric']):.3f}",
+         f"{float(r['controller_validation_metric']):.3f} / "
+         f"{float(r['feedforward_calibrated_validation_metric']):.3f} / "
+         f"{float(r['constant_validation_metric']):.3f}"]
+        for r in _csv(path)
+    ]  # fmt: skip
+    head = ["environment", "agent (chosen on validation)", "agent M", "reference (chosen on "
+            "validation)", "reference M", "agent − reference (95% CI)", "targets agent better",
+            "MPC M", "validation M: controller / calibrated feedforward / constant"]  # fmt: skip
+    return _table(head, rows) + "\n\n" + provenance(path)
+
+
+def shape_references() -> str:
+    """experiments/shape_references: every reference on every named shape, per family and
+    set: the mean whole-shape RMS error (mm) and the shapes written (success)."""
+    from bathprint.agents.controller import FAMILY_ENVS
+
+    path, rows = _shape_rows()
+    by: dict[tuple[str, str, str], list[dict[str, str]]] = {}
+    for r in rows:
+        by.setdefault((r["family"], r["set"], r["policy"]), []).append(r)
+    out = []
+    for fam, env_id in FAMILY_ENVS.items():
+        for st, label in SHAPE_SETS:
+            cells = []
+            means = {}
+            for pol in SHAPE_POLICIES:
+                rs = by.get((fam, st, pol), [])
+                if not rs:
+                    cells.append("–")
+                    continue
+                rms = [float(r["rms_mm"]) for r in rs]
+                means[pol] = sum(rms) / len(rms)
+                won = sum(r["success"] == "True" for r in rs)
+                cells.append(f"{means[pol]:.2f} ({won}/{len(rs)})")
+            norm = "–"
+            if {"controller", "cem", "mpc"} <= set(means) and means["controller"] > means["cem"]:
+                norm = _g(
+                    (means["controller"] - means["mpc"]) / (means["controller"] - means["cem"]),
+                    2,
+                )
+            cpu = [float(r["cpu_s"]) for r in by.get((fam, st, "cem"), [])]
+            mpc_cpu = [float(r["cpu_s"]) for r in by.get((fam, st, "mpc"), [])]
+            n = len(by.get((fam, st, "controller"), []))
+            out.append(
+                [f"{fam} ({env_id.split('/')[1]})", label, str(n), *cells, norm,
+                 f"{sum(cpu) / max(len(cpu), 1):.1f} / {sum(mpc_cpu) / max(len(mpc_cpu), 1):.0f}"]
+            )  # fmt: skip
+    head = ["family (environment)", "set", "shapes", *SHAPE_POLICIES,
+            "mpc normalised", "CPU s per shape: cem / mpc"]  # fmt: skip
+    return _table(head, out) + "\n\n" + provenance(path)
+
+
+def shape_attainable() -> str:
+    """The named shapes marked not writable, and what the best reference writes of them."""
+    from bathprint.envs.shapes import index
+
+    path, rows = _shape_rows()
+    meta = {(r["family"], r["set"], r["name"]): r for r in index()}
+    best: dict[tuple[str, str, str], dict[str, str]] = {}
+    for r in rows:
+        key = (r["family"], r["set"], r["shape"])
+        if meta[key]["writable"] or r["policy"] not in ("controller", "cem", "mpc"):
+            continue
+        if key not in best or float(r["rms_mm"]) < float(best[key]["rms_mm"]):
+            best[key] = r
+    out = [
+        [fam, name, "; ".join(meta[(fam, st, name)]["issues"]), r["policy"],
+         _g(float(r["rms_mm"]), 2), _g(float(r["max_mm"]), 2),
+         "yes" if r["success"] == "True" else "no"]
+        for (fam, st, name), r in sorted(best.items())
+    ]  # fmt: skip
+    head = ["family", "shape", "why marked not writable", "best reference", "RMS (mm)",
+            "max (mm)", "written (family's threshold)"]  # fmt: skip
+    return _table(head, out) + "\n\n" + provenance(path)
+
+
 TABLES: dict[str, Callable[[], str]] = {
     "scene-keys": scene_keys,
     "builtin-scenes": builtin_scenes,
@@ -2417,6 +2531,9 @@ TABLES: dict[str, Callable[[], str]] = {
     "envs-speed": envs_speed,
     "agents": agents,
     "headline": headline,
+    "shape-references": shape_references,
+    "v1-against-controller": v1_against_controller,
+    "shape-attainable": shape_attainable,
     "reproduce-times": reproduce_times,
     "stability-onsets": stability_onsets,
     "coils": coils,

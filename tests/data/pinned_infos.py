@@ -30,6 +30,7 @@ V1_IDS = (
     "bathprint/BuoyantLayers-v1",
     "bathprint/WriteShape-v2",
 )
+SHAPE_IDS = ("bathprint/WriteShape-v3", "bathprint/CoilRadius-v2", "bathprint/BuoyantLayers-v2")
 
 
 def _canon(x: Any) -> Any:
@@ -202,6 +203,51 @@ def case_v1(env_id: str) -> dict[str, str]:
     return log.hashes()
 
 
+def case_shape(env_id: str) -> dict[str, str]:
+    """A shape environment: a test shape under random actions (info, rewards, the written
+    and reference curves), a training draw from the generator, the held-out kinds cycled,
+    state cloning and a diverged episode."""
+    import bathprint.envs as E
+
+    log = Log()
+    env = E.make(env_id, accuracy="draft", target_set="test")
+    u = env.unwrapped
+    _spaces(log, u)
+    log.add("layout", (u.obs_layout, sorted(u.obs_slices().items(), key=str)))
+    obs, info = env.reset(seed=2, options={"target_index": 2})
+    log.add("reset", (obs, info))
+    state = None
+    acts = _actions(env, 5, 200)
+    for k, a in enumerate(acts):
+        out = env.step(a)
+        _step_log(log, out)
+        if k == 9:
+            state = u.get_state()
+        if out[2] or out[3]:
+            break
+    log.add("written", (u.written_curve(), u.target.points_mm))
+    assert state is not None
+    env2 = E.make(env_id, accuracy="draft", target_set="test")
+    env2.reset(seed=0)
+    env2.unwrapped.set_state(state)
+    for a in acts[10:30]:
+        _step_log(log, env2.step(a))
+    env.close()
+    env2.close()
+
+    env = E.make(env_id, accuracy="draft")
+    log.add("train_reset", env.reset(seed=7))
+    env.close()
+    env = E.make(env_id, accuracy="draft", target_set="ood_test")
+    for k in range(2):
+        log.add("cycle", env.reset(seed=1 if k == 0 else None))
+    env.unwrapped.max_substeps = 1
+    for a in _actions(env, 40, 3):
+        _step_log(log, env.step(a))
+    env.close()
+    return log.hashes()
+
+
 def case_render() -> dict[str, str]:
     import bathprint.envs as E
 
@@ -247,6 +293,7 @@ def _import_all() -> None:
 CASES = {
     **{f"v0:{i}": (case_v0, i) for i in V0_IDS},
     **{f"v1:{i}": (case_v1, i) for i in V1_IDS},
+    **{f"shape:{i}": (case_shape, i) for i in SHAPE_IDS},
     "render": (case_render, None),
     "print": (case_print, None),
 }
