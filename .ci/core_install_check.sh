@@ -64,6 +64,7 @@ refuse() {
 }
 refuse rl train --algo ppo --env CoilRadius-v1 --timesteps 8 --out "$work/never"
 refuse rl evaluate random --env CoilRadius-v1
+refuse rl write shape.csv --out "$work/never"
 refuse viewer view run
 refuse dask sweep paper_simulation --grid duration_s=0.02 --out s.jsonl --scheduler local-dask
 test ! -e "$work/never"

@@ -146,6 +146,7 @@ def test_every_commands_help_builds_without_the_extras(core_env, tmp_path):
         (["train", "--algo", "ppo", "--env", "CoilRadius", "--timesteps", "8"], "rl"),
         (["train", "--campaign", "agents/campaigns/none.yml"], "rl"),
         (["evaluate", "random", "--env", "CoilRadius"], "rl"),
+        (["write", "shape.csv", "--out", "w"], "rl"),
         (["baselines", "show", "--env", "CoilRadius"], "rl"),
         (["view", "run"], "viewer"),
         (["sweep", "paper_simulation", "--grid", "duration_s=0.02", "--out", "s.jsonl",

@@ -4,11 +4,15 @@ filament.
 
 The policy is a baseline name, a trained run directory or a model ``.zip``, as ``bathprint
 evaluate`` takes; a trained one plays on the environment settings and wrapper it was
-trained with (:func:`bathprint.agents.evaluate.run_settings`).
+trained with (:func:`bathprint.agents.evaluate.run_settings`). :func:`play_recorded` plays
+and records an episode on an environment already made (``bathprint write`` uses it with a
+target of its own).
 """
 
 from __future__ import annotations
 
+import time
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -17,7 +21,42 @@ import numpy as np
 from bathprint.errors import OptionError
 from bathprint.viz.view import RecordEpisode, format_value, write_page
 
-__all__ = ["episode_page"]
+__all__ = ["RecordedEpisode", "episode_page", "play_recorded"]
+
+
+@dataclass
+class RecordedEpisode:
+    """One deterministic episode played by :func:`play_recorded`: its recording (for the
+    viewer's page), the last step's info, the return, the number of steps and the wall time
+    of the episode (reset to end, the policy's planning included)."""
+
+    record: RecordEpisode
+    info: dict[str, Any]
+    ret: float
+    steps: int
+    wall_s: float
+
+
+def play_recorded(
+    env: Any, policy: Any, seed: int = 0, options: dict[str, Any] | None = None
+) -> RecordedEpisode:
+    """Play one deterministic episode of ``policy`` (SB3's ``predict``) on ``env`` from
+    ``reset(seed=seed, options=options)`` to its end, recording every step."""
+    rec = RecordEpisode(env)
+    t0 = time.perf_counter()
+    obs, info = env.reset(seed=seed, options=options)
+    rec.capture(info)
+    state, start, done = None, np.ones(1, bool), False
+    ret, steps = 0.0, 0
+    while not done:
+        action, state = policy.predict(obs, state=state, episode_start=start, deterministic=True)
+        start = np.zeros(1, bool)
+        obs, reward, terminated, truncated, info = env.step(action)
+        ret += float(reward)
+        steps += 1
+        done = bool(terminated or truncated)
+        rec.capture(info)
+    return RecordedEpisode(rec, dict(info), ret, steps, time.perf_counter() - t0)
 
 
 def episode_page(
@@ -56,19 +95,9 @@ def episode_page(
             pol, label = load_policy(policy, env, env_id, seed=seed)
         except FileNotFoundError as exc:
             raise OptionError(f"--policy = {policy!r}: {exc}") from None
-        rec = RecordEpisode(env)
-        obs, info = env.reset(seed=seed, options={"target_index": target_index})
-        rec.capture(info)
-        state, start, done = None, np.ones(1, bool), False
-        ret = 0.0
-        while not done:
-            action, state = pol.predict(obs, state=state, episode_start=start, deterministic=True)
-            start = np.zeros(1, bool)
-            obs, reward, terminated, truncated, info = env.step(action)
-            ret += float(reward)
-            done = bool(terminated or truncated)
-            rec.capture(info)
-        data = rec.view_data(
+        ep = play_recorded(env, pol, seed, {"target_index": target_index})
+        ret = ep.ret
+        data = ep.record.view_data(
             env_id,
             extra=[
                 ("policy", label),
@@ -77,7 +106,7 @@ def episode_page(
                 ("return", format_value(ret)),
             ],
         )
-        info = dict(info)
+        info = ep.info
         info["return"] = ret
     finally:
         env.close()

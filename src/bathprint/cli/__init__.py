@@ -30,6 +30,7 @@ COMMANDS = (
     "play",
     "train",
     "evaluate",
+    "write",
     "baselines",
     "bench",
     "sweep",

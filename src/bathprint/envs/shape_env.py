@@ -340,6 +340,15 @@ class ShapeEnv(PrintingEnv):
 
         return written_curve(self, self.family)
 
+    @property
+    def reference_curve(self) -> np.ndarray:
+        """The current target's curve as the environment placed it and scores the written
+        curve against (mm, one point per target sample; a copy). Set by ``reset``."""
+        ref = getattr(self, "_reference", None)
+        if ref is None:
+            raise RuntimeError("call reset() before reading reference_curve")
+        return np.array(ref, float)
+
     def _potential(self) -> float:
         """Phi of the scored prefix (module doc); sets ``_prefix_rms`` and ``_prefix_max``."""
         n, j, m2 = self.target.n_samples, self._n_scored, self.missing_error_mm**2

@@ -3,6 +3,8 @@
 :func:`plot_filament` draws ``filament.png``: the region of interest (from the needle to a
 few coil turns below the buckling point, :func:`region_of_interest`) in 3D and from the
 side, with scale bars in mm, and the whole filament beside it with that region boxed.
+:func:`plot_written` draws ``written.png`` of ``bathprint write``: a shape's target and the
+curve written, from the top for flat (``floor``) shapes, else in 3D.
 """
 
 from __future__ import annotations
@@ -23,7 +25,7 @@ from mpl_toolkits.mplot3d.art3d import Line3DCollection  # noqa: E402
 
 from bathprint.core.layout import MAT_BIRTH_TIME  # noqa: E402
 
-__all__ = ["plot_filament", "plt", "region_of_interest", "scale_bar_length"]
+__all__ = ["plot_filament", "plot_written", "plt", "region_of_interest", "scale_bar_length"]
 
 ROI_TURNS = 3.0  # coil turns below the buckling point that filament.png frames
 
@@ -179,3 +181,55 @@ def plot_run(run_dir: str | Path, out: str | Path) -> Path:
         title=str(summary.get("scene") or Path(run_dir).name),
         measurements=summary.get("measurements"),
     )
+
+
+def plot_written(
+    target_mm: np.ndarray,
+    written_mm: np.ndarray,
+    path: str | Path,
+    top_view: bool,
+    title: str = "",
+) -> Path:
+    """Write a picture of a shape's target (grey) and the curve written (blue), both (N, 3)
+    in mm and already in one frame: from the top (x-y) when ``top_view``, else in 3D with
+    equal axes; a scale bar in mm, the start of the target marked."""
+    t = np.asarray(target_mm, dtype=float).reshape(-1, 3)
+    w = np.asarray(written_mm, dtype=float).reshape(-1, 3)
+    both = np.vstack([t, w]) if len(w) else t
+    lo, hi = _box(both)
+    fig = plt.figure(figsize=(6.4, 5.6))
+    if top_view:
+        ax = fig.add_subplot()
+        ax.plot(t[:, 0], t[:, 1], color="0.6", lw=3.0, label="target")
+        if len(w):
+            ax.plot(w[:, 0], w[:, 1], color="tab:blue", lw=1.4, label="written")
+        ax.plot(t[0, 0], t[0, 1], "o", color="0.35", ms=5, label="start")
+        ax.set_xlim(lo[0], hi[0])
+        ax.set_ylim(lo[1], hi[1])
+        ax.set_aspect("equal", adjustable="box")
+        ax.set_xlabel("x (mm)")
+        ax.set_ylabel("y (mm)")
+        bar = scale_bar_length(float((hi - lo)[:2].max()))
+        ax.add_artist(
+            AnchoredSizeBar(ax.transData, bar, _bar_label(bar), "lower right", frameon=False)
+        )
+    else:
+        ax = fig.add_subplot(projection="3d")
+        ax.plot(*t.T, color="0.6", lw=3.0, label="target")
+        if len(w):
+            ax.plot(*w.T, color="tab:blue", lw=1.4, label="written")
+        ax.scatter(*t[0], color="0.35", s=20, label="start", depthshade=False)
+        ax.set_xlim(lo[0], hi[0])
+        ax.set_ylim(lo[1], hi[1])
+        ax.set_zlim(lo[2], hi[2])
+        ax.set_box_aspect(tuple(np.maximum(hi - lo, 1e-9)))
+        ax.set_xlabel("x (mm)")
+        ax.set_ylabel("y (mm)")
+        ax.set_zlabel("z (mm)")
+    ax.legend(loc="upper left", fontsize=8)
+    ax.set_title(title, fontsize=10)
+    fig.tight_layout()
+    out = Path(path)
+    fig.savefig(out, dpi=110)
+    plt.close(fig)
+    return out
