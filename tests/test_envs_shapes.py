@@ -138,3 +138,21 @@ def test_get_state_set_state_continue_identically():
     for (o1, r1), (o2, r2) in zip(first, second, strict=True):
         np.testing.assert_array_equal(o1, o2)
         assert r1 == r2
+
+
+@pytest.mark.parametrize("family", list(IDS))
+def test_reference_curve_is_the_compared_curve_and_a_copy(family):
+    """``reference_curve`` refuses before reset, then is the target's form the written curve
+    is scored against (buoyant: heights from the density band), a copy the caller may edit."""
+    from bathprint.envs.shape_files import target_reference
+
+    env = make(IDS[family], target_set="test")
+    u = env.unwrapped
+    with pytest.raises(RuntimeError, match="reset"):
+        _ = u.reference_curve
+    env.reset(seed=0, options={"target_index": 0})
+    ref = u.reference_curve
+    assert ref.shape == (u.target.n_samples, 3)
+    assert np.array_equal(ref, target_reference(u, u.target, family))
+    ref[:] = 0.0
+    assert not np.array_equal(u.reference_curve, ref)

@@ -332,6 +332,16 @@ class ShapeEnv(PrintingEnv):
         )
 
     # ------------------------------------------------------------------ scoring
+    @property
+    def reference_curve(self) -> np.ndarray:
+        """The curve the written one is compared with (mm; a copy): the target's centreline,
+        with the heights its density band settles at for ``buoyant``. It exists from the
+        first ``reset`` on; plots and analyses read it to put the target beside what was
+        written."""
+        if getattr(self, "_prepared_target", None) is None:
+            raise RuntimeError("call reset() before reading reference_curve")
+        return self._reference.copy()
+
     def written_curve(self) -> np.ndarray:
         """The recorded samples as the family compares them (mm): positions, or for
         ``buoyant`` the target's path with each sample's settling height."""
