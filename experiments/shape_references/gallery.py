@@ -249,7 +249,7 @@ def plot_family(family: str, out: Path | None = None) -> Path:
         raise SystemExit(f"{npz_path(family)}: no results; run without --plot first")
     ncol = {"floor": 5, "free": 5, "buoyant": 4}[family]
     nrow = math.ceil(len(shapes) / ncol)
-    size = {"floor": 2.4, "free": 3.0, "buoyant": 2.8}[family]
+    size = {"floor": 2.4, "free": 2.8, "buoyant": 2.8}[family]
     fig = plt.figure(figsize=(ncol * size, nrow * size * 0.95 + 0.7))
     projection = "3d" if family == "free" else None
     for k, ((st, name), row) in enumerate(shapes.items()):
@@ -270,7 +270,8 @@ def plot_family(family: str, out: Path | None = None) -> Path:
     handles += [Line2D([], [], color=COLORS[p], lw=1.2, label=p) for p in POLICIES]
     fig.legend(handles=handles, loc="lower center", fontsize=7, ncol=3, frameon=False)
     h = fig.get_figheight()
-    fig.tight_layout(rect=(0, 0.3 / h, 1, 1 - 0.35 / h), h_pad=0.6, w_pad=0.4)
+    h_pad = 2.0 if family == "free" else 0.6  # room for the 3D axes' tick labels
+    fig.tight_layout(rect=(0, 0.3 / h, 1, 1 - 0.35 / h), h_pad=h_pad, w_pad=0.4)
     path = out or IMG / f"gallery_{family}.png"
     path.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(path, dpi=80, metadata={"Software": None})
