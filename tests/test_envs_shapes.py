@@ -154,3 +154,21 @@ def test_compiled_prefix_alignment_is_shape_metric_align(family):
     aligned_squared_distances(w, t, MOTIONS[family], d2)
     want = np.sum((align(w, t, family) - t) ** 2, axis=1)
     np.testing.assert_allclose(d2, want, rtol=1e-9, atol=1e-12)
+
+
+@pytest.mark.parametrize("family", list(IDS))
+def test_reference_curve_is_the_compared_curve_and_a_copy(family):
+    """``reference_curve`` refuses before reset, then is the target's form the written curve
+    is scored against (buoyant: heights from the density band), a copy the caller may edit."""
+    from bathprint.envs.shape_files import target_reference
+
+    env = make(IDS[family], target_set="test")
+    u = env.unwrapped
+    with pytest.raises(RuntimeError, match="reset"):
+        _ = u.reference_curve
+    env.reset(seed=0, options={"target_index": 0})
+    ref = u.reference_curve
+    assert ref.shape == (u.target.n_samples, 3)
+    assert np.array_equal(ref, target_reference(u, u.target, family))
+    ref[:] = 0.0
+    assert not np.array_equal(u.reference_curve, ref)

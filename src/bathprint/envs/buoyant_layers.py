@@ -129,7 +129,7 @@ class BuoyantLayersEnvV2(ShapeEnv):
     Each written sample sits at the height where the bath is as dense as it (settling
     takes minutes; the height follows from the density). Scored by the whole-shape error in
     mm after the best rotation about the vertical and horizontal translation
-    (``docs/shapes.md``); success: RMS <= 5 mm and max <= 10 mm.
+    (``docs/shapes.md``); success: RMS <= 5 mm (no bound on the maximum: the pump's lag).
     ``docs/envs/BuoyantLayers-v2.md``; spec ``envs/buoyant_layers_v2.toml``.
 
     ## Action Space

@@ -333,21 +333,22 @@ class ShapeEnv(PrintingEnv):
         )
 
     # ------------------------------------------------------------------ scoring
+    @property
+    def reference_curve(self) -> np.ndarray:
+        """The curve the written one is compared with (mm; a copy): the target's centreline,
+        with the heights its density band settles at for ``buoyant``. It exists from the
+        first ``reset`` on; plots and analyses read it to put the target beside what was
+        written."""
+        if getattr(self, "_prepared_target", None) is None:
+            raise RuntimeError("call reset() before reading reference_curve")
+        return self._reference.copy()
+
     def written_curve(self) -> np.ndarray:
         """The recorded samples as the family compares them (mm): positions, or for
         ``buoyant`` the target's path with each sample's settling height."""
         from bathprint.envs.shape_files import written_curve
 
         return written_curve(self, self.family)
-
-    @property
-    def reference_curve(self) -> np.ndarray:
-        """The current target's curve as the environment placed it and scores the written
-        curve against (mm, one point per target sample; a copy). Set by ``reset``."""
-        ref = getattr(self, "_reference", None)
-        if ref is None:
-            raise RuntimeError("call reset() before reading reference_curve")
-        return np.array(ref, float)
 
     def _potential(self) -> float:
         """Phi of the scored prefix (module doc); sets ``_prefix_rms`` and ``_prefix_max``."""
