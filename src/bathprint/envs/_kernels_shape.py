@@ -63,3 +63,22 @@ def aligned_squared_distances(w: np.ndarray, t: np.ndarray, motion: int, d2: np.
                 x += r[a, b] * (w[i, b] - wc[b])
             acc += x * x
         d2[i] = acc
+
+
+@njit(cache=True)
+def prefix_error_sums(
+    w: np.ndarray, t: np.ndarray, motion: int, cap2: float, d2: np.ndarray
+) -> tuple[float, float, float]:
+    """(sum of d2, largest d2, sum of min(d2, cap2)) of :func:`aligned_squared_distances`
+    (mm^2): what the reward's potential needs, in one call."""
+    aligned_squared_distances(w, t, motion, d2)
+    total = 0.0
+    largest = 0.0
+    capped = 0.0
+    for i in range(d2.shape[0]):
+        x = d2[i]
+        total += x
+        if x > largest:
+            largest = x
+        capped += x if x < cap2 else cap2
+    return total, largest, capped

@@ -38,7 +38,7 @@ import numpy as np
 from gymnasium import spaces
 
 from bathprint.envs._kernels import metric_errors
-from bathprint.envs._kernels_shape import MOTIONS, aligned_squared_distances
+from bathprint.envs._kernels_shape import MOTIONS, prefix_error_sums
 from bathprint.envs._kernels_v1 import observe_v1
 from bathprint.envs.base import (
     MM,
@@ -159,6 +159,7 @@ class ShapeEnv(PrintingEnv):
         from bathprint.envs.shapes import ShapeGenerator, index
 
         self.generator = ShapeGenerator(self.family)
+        self._train_targets: dict[str, Target] = {}
         meta = {(r["set"], r["name"]): r for r in index() if r["family"] == self.family}
         self.named: dict[str, list[Target]] = {}
         for st in SHAPE_SETS[1:]:
@@ -228,7 +229,13 @@ class ShapeEnv(PrintingEnv):
                 self._eval_cursor += 1
             return self.named[self.target_set][int(index)], int(index)
         shape = self.generator.sample(self.np_random)
-        return self.shape_target(shape.points_mm, shape.name, True), -1
+        target = self._train_targets.get(shape.key)
+        if target is None:  # placed and sampled once per shape and environment
+            target = self.shape_target(shape.points_mm, shape.name, True)
+            if len(self._train_targets) >= 1024:
+                self._train_targets.pop(next(iter(self._train_targets)))
+            self._train_targets[shape.key] = target
+        return target, -1
 
     # ------------------------------------------------------------------ observation
     def _init_observation(self) -> None:
@@ -289,6 +296,7 @@ class ShapeEnv(PrintingEnv):
 
         self._reference = np.ascontiguousarray(target_reference(self, tgt, self.family))
         self._episode_length_mm = self.episode_length_mm
+        self._target_key = tgt.key
         self._prepared_target = tgt
 
     def _observe(self) -> np.ndarray:
@@ -354,12 +362,16 @@ class ShapeEnv(PrintingEnv):
         """Phi of the scored prefix (module doc); sets ``_prefix_rms`` and ``_prefix_max``."""
         n, j, m2 = self.target.n_samples, self._n_scored, self.missing_error_mm**2
         if j >= 2:
-            w = np.ascontiguousarray(self.written_curve())
+            if self.family == "buoyant":
+                w = np.ascontiguousarray(self.written_curve())
+            else:  # the recorded samples as they are (no copy)
+                w = self._rec_pts[:j]
             d2 = np.empty(j)
-            aligned_squared_distances(w, self._reference[:j], MOTIONS[self.family], d2)
-            self._prefix_rms = float(math.sqrt(d2.mean()))
-            self._prefix_max = float(math.sqrt(d2.max()))
-            total = float(np.minimum(d2, m2).sum()) + (n - j) * m2
+            ref = self._reference[:j]
+            sq, largest, capped = prefix_error_sums(w, ref, MOTIONS[self.family], m2, d2)
+            self._prefix_rms = math.sqrt(sq / j)
+            self._prefix_max = math.sqrt(largest)
+            total = capped + (n - j) * m2
         else:
             self._prefix_rms = self._prefix_max = 0.0
             total = n * m2
@@ -488,7 +500,7 @@ class ShapeEnv(PrintingEnv):
             "needle_mm": self._needle_mm.copy(),
             "sim_time_s": float(self.sim.t) if not self._diverged else float("nan"),
             "n_nodes": int(self._x.shape[0]),
-            "target_key": self.target.key,
+            "target_key": self._target_key,
             "target_name": self.target.name,
             "target_writable": bool(self.target.params.get("writable", True)),
             "target_set": self._target_source,

@@ -193,10 +193,21 @@ class ShapeGenerator:
     def sample(self, rng: np.random.Generator) -> Shape:
         for _ in range(self.MAX_TRIES):
             p = self.sample_params(rng)
-            shape = make_shape(f"{self.family}:{params_key(p)}", p)
+            key = params_key(p)
+            shape = _MADE.get(key)
+            if shape is None:  # the grids are finite: a shape is built once per process
+                shape = make_shape(f"{self.family}:{key}", p)
+                if len(_MADE) >= _MADE_MAX:
+                    _MADE.pop(next(iter(_MADE)))
+                _MADE[key] = shape
             if shape.writable or not self.writable_only:
                 return shape
         raise RuntimeError(f"the {self.family!r} generator drew no writable shape")
+
+
+#: shapes the generators built in this process, by key (oldest dropped first)
+_MADE: dict[str, Shape] = {}
+_MADE_MAX = 4096
 
 
 # ------------------------------------------------------------------------------ files
