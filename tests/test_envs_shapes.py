@@ -172,3 +172,25 @@ def test_reference_curve_is_the_compared_curve_and_a_copy(family):
     assert np.array_equal(ref, target_reference(u, u.target, family))
     ref[:] = 0.0
     assert not np.array_equal(u.reference_curve, ref)
+
+
+def test_target_files_on_a_shape_environment(tmp_path):
+    """evaluate --target-files on a shape environment: the environment places the shape, the
+    error is its whole-shape error and the metric column the local metric."""
+    from bathprint.agents.evaluate import evaluate_target_files
+    from bathprint.envs.shapes import shape_path
+
+    f = shape_path("floor", "test", "letter_C")
+    rows = evaluate_target_files(
+        ["controller"], IDS["floor"], [f], out=tmp_path, accuracy="draft", progress=False
+    )
+    env = make(IDS["floor"])
+    pts = np.loadtxt(f, delimiter=",", skiprows=1)
+    ret, info, _ = play(
+        env, make_controller(env), seed=0, options={"target": env.unwrapped.shape_target(pts, "C")}
+    )
+    (row,) = rows
+    assert row["rms_mm"] == pytest.approx(info["rms_mm"], rel=1e-6)
+    assert row["metric"] == pytest.approx(info["local_metric"], rel=1e-9)
+    assert row["success"] == info["is_success"] == row["metric_success"]
+    assert (tmp_path / "targets.csv").is_file()

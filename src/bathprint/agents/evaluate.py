@@ -445,9 +445,16 @@ def evaluate_target_files(
                     "rms_mm": err.rms_mm if err else float("nan"),
                     "max_mm": err.max_mm if err else float("nan"),
                     "success": bool(err and err.success),
-                    "metric": ep.metrics["metric"],
+                    # the local metric M (a shape environment reports it as local_metric,
+                    # its metric being the whole-shape error) and the environment's success
+                    "metric": ep.metrics.get("local_metric", ep.metrics["metric"]),
                     "metric_success": bool(
-                        complete and ep.metrics["metric"] <= env.unwrapped.success_metric_max
+                        complete
+                        and (
+                            ep.is_success == 1.0
+                            if "local_metric" in ep.metrics
+                            else ep.metrics["metric"] <= env.unwrapped.success_metric_max
+                        )
                     ),
                     "truncated": ep.truncated,
                     "seed": seed,
