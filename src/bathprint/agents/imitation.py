@@ -201,6 +201,12 @@ def collect_demonstrations(
                 f"bc_pretrain.targets = {n_targets}; the training pool of {env_id} has "
                 f"{family.train_pool} targets: allowed 1..{family.train_pool}"
             )
+        gains = None
+        if demonstrator == "controller":  # the tuned gains, read once (a large file)
+            from bathprint.agents.controller import load_gains
+            from bathprint.envs.shape_files import env_family
+
+            gains = (env_family(env), load_gains(env_family(env)))
         rng = np.random.default_rng([int(seed), 7])
         obs_rows: list[np.ndarray] = []
         act_rows: list[np.ndarray] = []
@@ -222,7 +228,7 @@ def collect_demonstrations(
                 printed = np.asarray(u.actions_for(target), np.float32)
             for r in range(int(replays)):
                 obs, _ = env.reset(seed=int(seed) * 100_003 + s, options={"target": target})
-                label = _labeller(env, tap, printed)
+                label = _labeller(env, tap, printed, gains)
                 noisy = action_noise > 0 and (s * int(replays) + r) % 2 == 1
                 drift = np.zeros(env.action_space.shape)
                 for t in range(_MAX_STEPS):
@@ -253,15 +259,16 @@ def collect_demonstrations(
 _MAX_STEPS = 100_000
 
 
-def _labeller(env: Any, tap: _Tap, printed: np.ndarray | None) -> Any:
+def _labeller(env: Any, tap: _Tap, printed: np.ndarray | None, gains: Any) -> Any:
     """``t -> label`` of one episode just reset: the printing action of step t (the last
     one past the end), or the controller's action on the environment's observation (a
-    controller made for this episode, asked once per step: it keeps per-episode state)."""
+    controller of ``gains`` = (family, gains) made for this episode, asked once per step:
+    it keeps per-episode state)."""
     if printed is not None:
         return lambda t: printed[min(t, len(printed) - 1)]
     from bathprint.agents.controller import make_controller
 
-    controller = make_controller(env)
+    controller = make_controller(env, *gains)
     return lambda t: np.asarray(controller.predict(tap.last_obs)[0], np.float32)
 
 
