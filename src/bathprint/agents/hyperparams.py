@@ -22,7 +22,8 @@ rl-zoo3's layout (``python -m rl_zoo3.train --algo ppo --env ENV --gym-packages 
         checkpoint_freq: 10000 # environment steps between checkpoints
         torch_threads: 1
         time_budget_s: 600     # wall-time cap of a run (training stops there, "done")
-        bc_pretrain: {targets: 160, epochs: 30}   # PPO: behaviour cloning first (imitation)
+        bc_pretrain: {targets: 160, epochs: 30}   # PPO: behaviour cloning first (imitation;
+                                                  # demonstrator: controller on shapes)
       bathprint/CoilRadius-v1: {eval_freq: 20000}   # per environment, over the default
 
 :func:`load_hyperparams` merges the environment's entry with the ``bathprint`` section
@@ -57,7 +58,7 @@ import yaml
 
 from bathprint._resources import shared_dir
 from bathprint.agents.algos import ALGOS
-from bathprint.envs import printed_targets
+from bathprint.envs import printed_targets, shape_targets
 from bathprint.errors import ConfigError
 
 #: the section of a hyperparameter file that holds bathprint's own keys
@@ -509,7 +510,8 @@ def validate_hyperparams(algo: str, hp: Any, where: str, env_id: str | None = No
 
 def _check_bc(algo: str, hp: dict[str, Any], where: str, env_id: str | None) -> None:
     """``bc_pretrain`` (see :mod:`bathprint.agents.imitation`): its keys and values, and
-    that the run can use it (PPO, no action wrapper, raw observations)."""
+    that the run can use it (PPO, no action wrapper, raw observations, a demonstrator the
+    environment has: the shape environments' targets have no printing actions)."""
     from bathprint.agents.imitation import bc_settings
 
     settings = bc_settings(hp.get("bc_pretrain"), where)
@@ -521,10 +523,19 @@ def _check_bc(algo: str, hp: dict[str, Any], where: str, env_id: str | None) -> 
             "cloning pretrains PPO's policy only: remove bc_pretrain or use ppo"
         )
     if env_id is not None and not printed_targets(env_id):
+        if settings["demonstrator"] == "controller":
+            raise ConfigError(
+                f"{where}: bc_pretrain on {env_id}: the controller needs a version-1 "
+                "environment or later: remove bc_pretrain"
+            )
         raise ConfigError(
             f"{where}: bc_pretrain on {env_id}: only version-1 environments print their "
             "targets (the printing actions are the demonstrations): remove bc_pretrain"
         )
+    if env_id is not None and settings["demonstrator"] == "printed" and shape_targets(env_id):
+        from bathprint.agents.imitation import refuse_printed
+
+        raise ConfigError(f"{where}: {refuse_printed(env_id)}")
     if hp.get("env_wrapper") or hp.get("wrapper"):
         raise ConfigError(
             f"{where}: bc_pretrain with an env_wrapper: the demonstrations are the "

@@ -26,9 +26,11 @@ checkpoint there (model, VecNormalize statistics, SAC's replay buffer); the run 
 both signals and are closed by the training process. A killed run (SIGKILL) resumes from
 its last regular checkpoint and loses at most one checkpoint interval.
 
-With ``bc_pretrain`` (PPO on a version-1 environment; :mod:`bathprint.agents.imitation`) a
-freshly built model is first fitted to the training targets' own printing actions (never on
-a model loaded from a checkpoint), its wall time counts towards the run's, and the
+With ``bc_pretrain`` (PPO on an environment of version 1 or later;
+:mod:`bathprint.agents.imitation`) a freshly built model is first fitted to the training
+targets' own printing actions, or with ``demonstrator: controller`` to the tuned
+controller's actions on the training shapes (never on a model loaded from a checkpoint),
+its wall time counts towards the run's, and the
 validation callback evaluates the pretrained model at step 0, so that model selection can
 keep it if fine-tuning makes it worse.
 """
@@ -628,7 +630,7 @@ def _new_model(s: RunSettings, venv: Any, info: dict[str, Any]) -> Any:
         _write_run(s.run_dir, info)
         print(
             f"bc_pretrain: {info['bc_pretrain']['demonstration_pairs']} pairs from "
-            f"{bc['targets']} training targets; action MSE "
+            f"{bc['targets']} training targets ({bc['demonstrator']}); action MSE "
             f"{info['bc_pretrain']['mse_before']:.4f} -> {info['bc_pretrain']['mse_after']:.4f}"
         )
     return model

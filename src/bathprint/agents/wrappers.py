@@ -1,9 +1,10 @@
-"""Residual control: a learned correction on top of the scaling-law feedforward.
+"""Residual control: a learned correction on top of a reference controller.
 
 ``FeedforwardResidual`` makes the agent's action a *correction*: the environment receives
 ``clip(a_ff(obs) + scale * a, -1, 1)``, where ``a_ff`` is the
 :class:`~bathprint.agents.policies.FeedforwardPolicy` action for the last observation (residual
-policy learning: the agent starts at the feedforward controller and learns what the law
+policy learning, Silver et al. 2018, "Residual policy learning", arXiv:1812.06298; Johannink
+et al. 2019, ICRA: the agent starts at the feedforward controller and learns what the law
 misses). Select it in ``agents/<algo>.yml`` in rl-zoo3's form (rl-zoo3 imports the class)::
 
     env_wrapper:
@@ -11,6 +12,14 @@ misses). Select it in ``agents/<algo>.yml`` in rl-zoo3's form (rl-zoo3 imports t
 
 (older files: ``wrapper: {name: feedforward_residual, scale: 0.5}``); evaluation wraps the
 environment the same way (read from the run's ``run.json``).
+
+``ControllerResidual`` is the same on the tuned controller of the environment's shape family
+(:func:`~bathprint.agents.controller.make_controller`; the strong reference of the shape
+environments): ``clip(controller(obs) + scale * a, -1, 1)``, with a fresh controller each
+episode (it keeps per-episode state and reads the environment it drives)::
+
+    env_wrapper:
+      - bathprint.agents.wrappers.ControllerResidual: {scale: 0.5}
 
 The robustness options of the version-1 environments (:mod:`bathprint.envs.robust`: physics
 drawn per episode, flow and observation noise) are selected the same way, by the class or
@@ -29,12 +38,27 @@ import numpy as np
 
 from bathprint.agents.policies import PAPER_PREFACTOR, FeedforwardPolicy
 
-WRAPPERS = ("feedforward_residual", "robustness")
+WRAPPERS = ("feedforward_residual", "controller_residual", "robustness")
 #: the classes behind the names (rl-zoo3's ``env_wrapper`` names the class)
 WRAPPER_CLASSES = {
     "bathprint.agents.wrappers.FeedforwardResidual": "feedforward_residual",
+    "bathprint.agents.wrappers.ControllerResidual": "controller_residual",
     "bathprint.envs.robust.RobustnessWrapper": "robustness",
 }
+
+
+def _check_scale(scale: float) -> float:
+    number = isinstance(scale, int | float) and not isinstance(scale, bool)
+    if not (number and 0 < scale <= 2):
+        raise ValueError(f"wrapper scale = {scale!r}; allowed: 0 < scale <= 2")
+    return float(scale)
+
+
+def _finite(action: np.ndarray) -> np.ndarray:
+    a = np.asarray(action, np.float32)
+    if not np.isfinite(a).all():
+        raise ValueError(f"action {a!r} holds NaN or inf")
+    return a
 
 
 class FeedforwardResidual(gym.Wrapper):
@@ -42,15 +66,13 @@ class FeedforwardResidual(gym.Wrapper):
 
     def __init__(self, env: gym.Env, scale: float = 0.5, calibrated: bool = True) -> None:
         super().__init__(env)
-        if not 0 < scale <= 2:
-            raise ValueError(f"wrapper scale = {scale!r}; allowed: 0 < scale <= 2")
+        self.scale = _check_scale(scale)
         prefactor = PAPER_PREFACTOR
         if calibrated:
             from bathprint.agents.hyperparams import load_baselines
 
             prefactor = float(load_baselines(env.spec.id)["feedforward_prefactor"])
         self.feedforward = FeedforwardPolicy(env, prefactor=prefactor)
-        self.scale = float(scale)
         self._obs: np.ndarray | None = None
 
     def reset(self, **kwargs: Any) -> tuple[np.ndarray, dict[str, Any]]:
@@ -61,10 +83,42 @@ class FeedforwardResidual(gym.Wrapper):
     def step(self, action: np.ndarray) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
         if self._obs is None:
             raise RuntimeError("call reset() before step()")
-        a = np.asarray(action, np.float32)
-        if not np.isfinite(a).all():
-            raise ValueError(f"action {a!r} holds NaN or inf")
+        a = _finite(action)
         full = np.clip(self.feedforward.action(self._obs) + self.scale * a, -1.0, 1.0)
+        obs, reward, terminated, truncated, info = self.env.step(full.astype(np.float32))
+        self._obs = obs
+        return obs, reward, terminated, truncated, info
+
+
+class ControllerResidual(gym.Wrapper):
+    """The environment's action = clip(controller(obs) + scale * action, -1, 1), the
+    controller being the tuned one of the environment's family (module doc)."""
+
+    def __init__(self, env: gym.Env, scale: float = 0.5) -> None:
+        from bathprint.agents.controller import load_gains, make_controller
+        from bathprint.envs.shape_files import env_family
+
+        super().__init__(env)
+        self.scale = _check_scale(scale)
+        self.family = env_family(env)
+        self.gains = load_gains(self.family)  # read once; a fresh controller per episode
+        self.controller = make_controller(env, self.family, self.gains)
+        self._obs: np.ndarray | None = None
+
+    def reset(self, **kwargs: Any) -> tuple[np.ndarray, dict[str, Any]]:
+        from bathprint.agents.controller import make_controller
+
+        obs, info = self.env.reset(**kwargs)
+        self.controller = make_controller(self.env, self.family, self.gains)
+        self._obs = obs
+        return obs, info
+
+    def step(self, action: np.ndarray) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
+        if self._obs is None:
+            raise RuntimeError("call reset() before step()")
+        a = _finite(action)
+        base, _ = self.controller.predict(self._obs)
+        full = np.clip(base + self.scale * a, -1.0, 1.0)
         obs, reward, terminated, truncated, info = self.env.step(full.astype(np.float32))
         self._obs = obs
         return obs, reward, terminated, truncated, info
@@ -101,6 +155,8 @@ def wrapper_class(name: str) -> type[gym.Wrapper]:
         return RobustnessWrapper
     if name == "feedforward_residual":
         return FeedforwardResidual
+    if name == "controller_residual":
+        return ControllerResidual
     raise ValueError(f"wrapper name = {name!r}; allowed: {', '.join(WRAPPERS)}")
 
 
