@@ -406,8 +406,10 @@ def test_missing_statistics_of_an_observation_normalised_run_are_refused(
     run = tmp_path / "run"
     shutil.copytree(obs_normalised_run, run)
     label, summary, _ = evaluate_policy_spec(str(run), ENV, episodes=1, progress=False)
-    assert summary["obs_normalization"] == f"statistics from {run / 'vecnormalize.pkl'}"
-    (run / "vecnormalize.pkl").unlink()
+    # a run directory plays the model its validation selected, with that model's statistics
+    stats = run / "eval" / "vecnormalize.pkl"
+    assert summary["obs_normalization"] == f"statistics from {stats}"
+    stats.unlink()
     _refused(
         capsys,
         [
@@ -435,6 +437,7 @@ def test_missing_statistics_are_recorded_when_they_do_not_matter(obs_normalised_
     info["hyperparams"]["normalize"]["norm_obs"] = False
     (run / "run.json").write_text(json.dumps(info))
     (run / "vecnormalize.pkl").unlink()
+    (run / "eval" / "vecnormalize.pkl").unlink()  # the validation-selected model's
     assert (
         cli_main(
             [
