@@ -13,6 +13,7 @@ version says what its targets are, what it observes and what it rewards.
 from __future__ import annotations
 
 import math
+import pickle
 from typing import Any
 
 import numpy as np
@@ -314,3 +315,90 @@ class PrintingEnv(BathprintEnvBase):
             else:
                 out[f"{name}_kg_m3"] = float(value) * self.obs_density_scale + self.obs_density_ref
         return out
+
+    # ------------------------------------------------------------------ episode state
+    def _begin_episode(self, start_index: int) -> None:
+        """Load warm-up state ``start_index`` and reset the controls, the needle and the
+        recording for ``self.target`` (a reset, after the target is chosen)."""
+        self._start_index = int(start_index)
+        self.sim = pickle.loads(self._start_state(self._start_index))
+        self._u0_mm = float(np.sum(self.sim.rest_lengths())) / MM
+        self._origin_mm = self._u0_mm + self.lead_in_mm
+        warm = {"q_outer_ml_min": self.warmup_q_outer, "q_inner_ml_min": 0.0}
+        self._controls = {
+            **warm,
+            "inner_fraction": 0.0,
+            "inclusion_offset": float(self.sim.model.p.inclusion_offset),
+            "vel": np.zeros(3),
+            "action": self.controls_to_action(self.warmup_q_outer, 0.0).tolist(),
+        }
+        self._inner_now_ml_min = 0.0
+        self._needle_mm = self.needle_start_mm.copy()
+        self._steps = 0
+        self._diverged = False
+        n = self.target.n_samples
+        self._rec_pts = np.zeros((n, 3))
+        self._rec_rho = np.zeros(n)
+        self._n_scored = 0
+        self._n_scored_prev = 0
+
+    def _control_extras(self) -> list[float]:
+        """The observation's controls block: the last action, the lagged inner fraction (under
+        ``control.inner_lag_s``) and the needle's place in its box, each in [-1, 1]."""
+        c = self._controls
+        extra = list(c["action"])
+        if self.inner_lag_s > 0:
+            qo, qi = c["q_outer_ml_min"], self._inner_now_ml_min
+            p_lo, p_hi = self.inner_fraction_range
+            phi = qi / (qo + qi)
+            extra.append(0.0 if p_hi <= p_lo else 2.0 * (phi - p_lo) / (p_hi - p_lo) - 1.0)
+        for axis in self.needle_axes:
+            k = "xyz".index(axis)
+            lo, hi = self.needle_box_mm[k]
+            extra.append(0.0 if hi <= lo else 2.0 * (self._needle_mm[k] - lo) / (hi - lo) - 1.0)
+        return extra
+
+    def _printing_state(self) -> dict[str, Any]:
+        """What every printing environment's future depends on (the simulation pickled):
+        the part of :meth:`get_state` the versions share."""
+        assert self.sim is not None
+        return {
+            "sim": pickle.dumps(self.sim),
+            "target": self.target,
+            "target_index": self._target_index,
+            "target_source": self._target_source,
+            "start_index": self._start_index,
+            "u0": self._u0_mm,
+            "controls": {**self._controls, "vel": self._controls["vel"].copy()},
+            "inner_now": self._inner_now_ml_min,
+            "needle_mm": self._needle_mm.copy(),
+            "steps": self._steps,
+            "diverged": self._diverged,
+            "error": getattr(self, "_error_message", ""),
+            "rec_pts": self._rec_pts.copy(),
+            "rec_rho": self._rec_rho.copy(),
+            "n_scored": self._n_scored,
+            "n_scored_prev": self._n_scored_prev,
+            "last_obs": self._last_obs.copy(),
+        }
+
+    def _restore_printing_state(self, state: dict[str, Any]) -> None:
+        """The inverse of :meth:`_printing_state`."""
+        self.sim = pickle.loads(state["sim"])
+        self.target = state["target"]
+        self._target_index = state["target_index"]
+        self._target_source = state["target_source"]
+        self._start_index = state["start_index"]
+        self._u0_mm = state["u0"]
+        self._origin_mm = self._u0_mm + self.lead_in_mm
+        self._controls = {**state["controls"], "vel": state["controls"]["vel"].copy()}
+        self._inner_now_ml_min = state["inner_now"]
+        self._needle_mm = state["needle_mm"].copy()
+        self._steps = state["steps"]
+        self._diverged = state["diverged"]
+        self._error_message = state["error"]
+        self._rec_pts = state["rec_pts"].copy()
+        self._rec_rho = state["rec_rho"].copy()
+        self._n_scored = state["n_scored"]
+        self._n_scored_prev = state["n_scored_prev"]
+        self._last_obs = state["last_obs"].copy()

@@ -38,7 +38,6 @@ from __future__ import annotations
 
 import math
 import os
-import pickle
 from typing import Any, ClassVar
 
 import numpy as np
@@ -47,7 +46,6 @@ from gymnasium import spaces
 from bathprint.envs._kernels import metric_errors, printed_at
 from bathprint.envs._kernels_v1 import observe_v1, squared_sum
 from bathprint.envs.base import (
-    MM,
     advance_to,
     check_accuracy,
     check_render_mode,
@@ -423,27 +421,7 @@ class BathprintEnvV1(PrintingEnv):
                 raise ConfigError(
                     f"options['start_state'] = {start!r}; allowed 0..{self.n_start_states - 1}"
                 )
-        self._start_index = int(start)
-        self.sim = pickle.loads(self._start_state(self._start_index))
-        self._u0_mm = float(np.sum(self.sim.rest_lengths())) / MM
-        self._origin_mm = self._u0_mm + self.lead_in_mm
-        warm = {"q_outer_ml_min": self.warmup_q_outer, "q_inner_ml_min": 0.0}
-        self._controls = {
-            **warm,
-            "inner_fraction": 0.0,
-            "inclusion_offset": float(self.sim.model.p.inclusion_offset),
-            "vel": np.zeros(3),
-            "action": self.controls_to_action(self.warmup_q_outer, 0.0).tolist(),
-        }
-        self._inner_now_ml_min = 0.0
-        self._needle_mm = self.needle_start_mm.copy()
-        self._steps = 0
-        self._diverged = False
-        n = self.target.n_samples
-        self._rec_pts = np.zeros((n, 3))
-        self._rec_rho = np.zeros(n)
-        self._n_scored = 0
-        self._n_scored_prev = 0
+        self._begin_episode(int(start))
         self._sse = 0.0
         self._snapshot()
         if self._prepared_target is not self.target:
@@ -550,17 +528,7 @@ class BathprintEnvV1(PrintingEnv):
     def _observe(self) -> np.ndarray:
         tgt = self.target
         assert tgt is not None
-        c = self._controls
-        extra = list(c["action"])
-        if self.inner_lag_s > 0:
-            qo, qi = c["q_outer_ml_min"], self._inner_now_ml_min
-            p_lo, p_hi = self.inner_fraction_range
-            phi = qi / (qo + qi)
-            extra.append(0.0 if p_hi <= p_lo else 2.0 * (phi - p_lo) / (p_hi - p_lo) - 1.0)
-        for axis in self.needle_axes:
-            k = "xyz".index(axis)
-            lo, hi = self.needle_box_mm[k]
-            extra.append(0.0 if hi <= lo else 2.0 * (self._needle_mm[k] - lo) / (hi - lo) - 1.0)
+        extra = self._control_extras()
         n, j = tgt.n_samples, self._n_scored
         miss = self.metric_params.missing_error
         extra += [self._printed_mm / self._episode_length_mm, j / n]
@@ -664,47 +632,11 @@ class BathprintEnvV1(PrintingEnv):
         """Everything the episode's future depends on (the simulation pickled), for
         :meth:`set_state` on this or another instance with the same settings: planners
         branch from it."""
-        assert self.sim is not None
-        return {
-            "sim": pickle.dumps(self.sim),
-            "target": self.target,
-            "target_index": self._target_index,
-            "target_source": self._target_source,
-            "start_index": self._start_index,
-            "u0": self._u0_mm,
-            "controls": {**self._controls, "vel": self._controls["vel"].copy()},
-            "inner_now": self._inner_now_ml_min,
-            "needle_mm": self._needle_mm.copy(),
-            "steps": self._steps,
-            "diverged": self._diverged,
-            "error": getattr(self, "_error_message", ""),
-            "rec_pts": self._rec_pts.copy(),
-            "rec_rho": self._rec_rho.copy(),
-            "n_scored": self._n_scored,
-            "n_scored_prev": self._n_scored_prev,
-            "last_obs": self._last_obs.copy(),
-        }
+        return self._printing_state()
 
     def set_state(self, state: dict[str, Any]) -> None:
         """Continue from a :meth:`get_state` snapshot."""
-        self.sim = pickle.loads(state["sim"])
-        self.target = state["target"]
-        self._target_index = state["target_index"]
-        self._target_source = state["target_source"]
-        self._start_index = state["start_index"]
-        self._u0_mm = state["u0"]
-        self._origin_mm = self._u0_mm + self.lead_in_mm
-        self._controls = {**state["controls"], "vel": state["controls"]["vel"].copy()}
-        self._inner_now_ml_min = state["inner_now"]
-        self._needle_mm = state["needle_mm"].copy()
-        self._steps = state["steps"]
-        self._diverged = state["diverged"]
-        self._error_message = state["error"]
-        self._rec_pts = state["rec_pts"].copy()
-        self._rec_rho = state["rec_rho"].copy()
-        self._n_scored = state["n_scored"]
-        self._n_scored_prev = state["n_scored_prev"]
-        self._last_obs = state["last_obs"].copy()
+        self._restore_printing_state(state)
         if self._prepared_target is not self.target:
             self._prepare_target()
         if not self._diverged:
