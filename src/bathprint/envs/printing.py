@@ -20,13 +20,18 @@ import numpy as np
 from gymnasium import spaces
 
 from bathprint.envs._kernels import printed_at
-from bathprint.envs._kernels_v1 import record_samples
+from bathprint.envs._kernels_v1 import observe_v1, record_samples
 from bathprint.envs.base import ML_MIN, MM, BathprintEnvBase, move_needle_within, set_flows
 from bathprint.envs.metric import MetricParams, PrintedSamples
 from bathprint.envs.observation import (
+    CURV_INDEX,
+    OBS_CLIP,
     OBS_CURVATURE_MM,
     OBS_LENGTH_MM,
+    QUERY_MM,
     TARGET_OFFSETS_MM,
+    TIP_OFFSETS_MM,
+    VEL_OFFSETS_MM,
     layout_slices,
 )
 from bathprint.envs.targets import FREE_DENSITY
@@ -402,3 +407,27 @@ class PrintingEnv(BathprintEnvBase):
         self._n_scored = state["n_scored"]
         self._n_scored_prev = state["n_scored_prev"]
         self._last_obs = state["last_obs"].copy()
+
+    def _observation(self, extra: list[float]) -> np.ndarray:
+        """The observation (float32, clipped): the filament near the tip, its curvature and
+        densities, the target's features around the needle's sample
+        (``self._target_features``), then ``extra`` (each version's controls, progress and
+        target positions)."""
+        return observe_v1(
+            self._x,
+            self._v,
+            self._u,
+            self._rho,
+            QUERY_MM,
+            len(TIP_OFFSETS_MM),
+            len(VEL_OFFSETS_MM),
+            CURV_INDEX,
+            self._obs_dens_off,
+            self._obs_scales,
+            self._target_features,
+            self._obs_tgt_off,
+            self._printed_mm - self.lead_in_mm,
+            self.target.spacing_mm,
+            np.array(extra),
+            OBS_CLIP,
+        )

@@ -38,7 +38,6 @@ from gymnasium import spaces
 
 from bathprint.envs._kernels import metric_errors
 from bathprint.envs._kernels_shape import MOTIONS, prefix_error_sums
-from bathprint.envs._kernels_v1 import observe_v1
 from bathprint.envs.base import (
     advance_to,
     check_accuracy,
@@ -48,7 +47,6 @@ from bathprint.envs.base import (
 )
 from bathprint.envs.metric import prepare
 from bathprint.envs.observation import (
-    CURV_INDEX,
     CURV_OFFSETS_MM,
     DENS_OFFSETS_MM,
     OBS_CLIP,
@@ -57,7 +55,6 @@ from bathprint.envs.observation import (
     OBS_DENSITY_SCALE_KG_M3,
     OBS_LENGTH_MM,
     OBS_SPEED_MM_S,
-    QUERY_MM,
     TARGET_OFFSETS_MM,
     TIP_OFFSETS_MM,
     VEL_OFFSETS_MM,
@@ -309,24 +306,7 @@ class ShapeEnv(PrintingEnv):
         ]
         if self._obs_tpos_off.size:
             extra += self._target_positions()
-        return observe_v1(
-            self._x,
-            self._v,
-            self._u,
-            self._rho,
-            QUERY_MM,
-            len(TIP_OFFSETS_MM),
-            len(VEL_OFFSETS_MM),
-            CURV_INDEX,
-            self._obs_dens_off,
-            self._obs_scales,
-            self._target_features,
-            self._obs_tgt_off,
-            self._printed_mm - self.lead_in_mm,
-            tgt.spacing_mm,
-            np.array(extra),
-            OBS_CLIP,
-        )
+        return self._observation(extra)
 
     # ------------------------------------------------------------------ scoring
     @property

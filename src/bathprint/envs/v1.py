@@ -44,7 +44,7 @@ import numpy as np
 from gymnasium import spaces
 
 from bathprint.envs._kernels import metric_errors, printed_at
-from bathprint.envs._kernels_v1 import observe_v1, squared_sum
+from bathprint.envs._kernels_v1 import squared_sum
 from bathprint.envs.base import (
     advance_to,
     check_accuracy,
@@ -55,7 +55,6 @@ from bathprint.envs.base import (
 from bathprint.envs.goals import GoalLayout
 from bathprint.envs.metric import MetricValue, prepare
 from bathprint.envs.observation import (
-    CURV_INDEX,
     CURV_OFFSETS_MM,
     DENS_OFFSETS_MM,
     OBS_CLIP,
@@ -64,7 +63,6 @@ from bathprint.envs.observation import (
     OBS_DENSITY_SCALE_KG_M3,
     OBS_LENGTH_MM,
     OBS_SPEED_MM_S,
-    QUERY_MM,
     RECENT_SAMPLES,
     TARGET_OFFSETS_MM,
     TIP_OFFSETS_MM,
@@ -541,24 +539,7 @@ class BathprintEnvV1(PrintingEnv):
             ]
         if self._obs_tpos_off.size:
             extra += self._target_positions()
-        return observe_v1(
-            self._x,
-            self._v,
-            self._u,
-            self._rho,
-            QUERY_MM,
-            len(TIP_OFFSETS_MM),
-            len(VEL_OFFSETS_MM),
-            CURV_INDEX,
-            self._obs_dens_off,
-            self._obs_scales,
-            self._target_features,
-            self._obs_tgt_off,
-            self._printed_mm - self.lead_in_mm,
-            tgt.spacing_mm,
-            np.array(extra),
-            OBS_CLIP,
-        )
+        return self._observation(extra)
 
     # ------------------------------------------------------------------ goals
     def _achieved_goal(self) -> np.ndarray:
