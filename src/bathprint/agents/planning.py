@@ -79,6 +79,20 @@ class CEMSettings:
                 raise ConfigError(f"{name} = {v!r}; allowed: a number > 0")
 
 
+def cem_settings_of(settings: Any) -> CEMSettings:
+    """The CEM search of a planner's settings (its samples, iterations, elites, blocks,
+    spreads and seed), checked."""
+    return CEMSettings(
+        settings.samples,
+        settings.iterations,
+        settings.elites,
+        settings.block_mm,
+        settings.init_std,
+        settings.min_std,
+        settings.seed,
+    )
+
+
 def _blocks(n_steps: int, steps_per_block: int) -> np.ndarray:
     """Block index of every step."""
     return np.minimum(np.arange(n_steps) // steps_per_block, (n_steps - 1) // steps_per_block)
@@ -450,15 +464,7 @@ class ShapeCEMSettings:
     seed: int = 0
 
     def cem(self) -> CEMSettings:
-        return CEMSettings(
-            self.samples,
-            self.iterations,
-            self.elites,
-            self.block_mm,
-            self.init_std,
-            self.min_std,
-            self.seed,
-        )
+        return cem_settings_of(self)
 
     def __post_init__(self) -> None:
         self.cem()
@@ -616,18 +622,15 @@ class MPCSettings:
     warm_controller: int = -1
 
     def cem(self) -> CEMSettings:
-        return CEMSettings(
-            self.samples,
-            self.iterations,
-            self.elites,
-            self.block_mm,
-            self.init_std,
-            self.min_std,
-            self.seed,
-        )
+        return cem_settings_of(self)
 
     def __post_init__(self) -> None:
         self.cem()  # checks the search settings
+        if self.warm_controller not in (-1, 0, 1):
+            raise ConfigError(
+                f"warm_controller = {self.warm_controller!r}; allowed: -1 (on in the shape "
+                "environments), 0, 1"
+            )
         for name in ("horizon_mm", "replan_mm"):
             v = getattr(self, name)
             if not (isinstance(v, int | float) and not isinstance(v, bool) and v > 0):
