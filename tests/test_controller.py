@@ -101,3 +101,14 @@ def test_tune_writes_the_chosen_gains(tmp_path):
     best = min(entry["grid"], key=lambda r: r["mean_rms_mm"])
     assert entry["gains"]["lead_mm"] == best["lead_mm"]
     assert C.load_gains("buoyant", path) == C.BuoyantGains(**entry["gains"])
+
+
+def test_mpc_searches_around_the_controller_in_the_shape_environments(envs):
+    from bathprint.agents.planning import MPCPolicy, MPCSettings, parse_options
+
+    env = envs["floor"]
+    assert MPCPolicy(env, C.FAMILY_ENVS["floor"]).controller is not None
+    off = MPCPolicy(env, C.FAMILY_ENVS["floor"], MPCSettings(warm_controller=0))
+    assert off.controller is None
+    with pytest.raises(ConfigError, match="warm_controller = 2"):
+        parse_options("mpc:warm_controller=2", MPCSettings)
