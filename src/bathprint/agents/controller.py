@@ -318,7 +318,7 @@ def score_shapes(
     seed: int = 0,
 ) -> list[dict[str, Any]]:
     """One deterministic episode per named shape; the whole-shape error of each (RMS and
-    maximum mm; NaN where the episode was cut short) and the local metric M."""
+    maximum mm; NaN where the episode was cut short) and the local metric M (``metric``)."""
     from bathprint.agents.rollout import run_episode
     from bathprint.envs.shape_files import reference_curve, shape_target, written_curve
     from bathprint.envs.shape_metric import shape_error
@@ -340,7 +340,8 @@ def score_shapes(
                 "rms_mm": err.rms_mm if err else math.nan,
                 "max_mm": err.max_mm if err else math.nan,
                 "success": bool(err and err.success),
-                "metric": float(ep.metrics["metric"]),
+                # the local metric M (a shape environment's own metric is the rms above)
+                "metric": float(ep.metrics.get("local_metric", ep.metrics["metric"])),
                 "truncated": bool(ep.truncated),
             }
         )
