@@ -330,8 +330,15 @@ class ShapeEnv(PrintingEnv):
         """Phi of the scored prefix (module doc); sets ``_prefix_rms`` and ``_prefix_max``."""
         n, j, m2 = self.target.n_samples, self._n_scored, self.missing_error_mm**2
         if j >= 2:
-            if self.family == "buoyant":
-                w = np.ascontiguousarray(self.written_curve())
+            if self.family == "buoyant":  # written_curve(), into a buffer of this episode
+                top, bottom = self.bath_range
+                w = self._written_buf[:j]
+                w[:, :2] = self.target.points_mm[:j, :2]
+                w[:, 2] = (
+                    -(np.clip(self._rec_rho[:j], top, bottom) - top)
+                    / (bottom - top)
+                    * float(self.depth_mm)
+                )
             else:  # the recorded samples as they are (no copy)
                 w = self._rec_pts[:j]
             d2 = np.empty(j)
@@ -376,6 +383,7 @@ class ShapeEnv(PrintingEnv):
                 f"options['start_state'] = {start!r}; allowed 0..{self.n_start_states - 1}"
             )
         self._begin_episode(int(start))
+        self._written_buf = np.zeros((self.target.n_samples, 3))
         self._snapshot()
         if getattr(self, "_prepared_target", None) is not self.target:
             self._prepare_target()
@@ -471,6 +479,7 @@ class ShapeEnv(PrintingEnv):
     def set_state(self, state: dict[str, Any]) -> None:
         """Continue from a :meth:`get_state` snapshot."""
         self._restore_printing_state(state)
+        self._written_buf = np.zeros((self.target.n_samples, 3))
         self._phi = state["phi"]
         self._prefix_rms, self._prefix_max = state["prefix"]
         self._end = dict(state["end"])
