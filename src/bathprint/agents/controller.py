@@ -45,6 +45,7 @@ from typing import Any
 
 import numpy as np
 
+from bathprint.envs.shapes import family_shapes  # noqa: F401  (re-exported)
 from bathprint.errors import ConfigError
 
 #: the environment each family is written in (the benchmark's pairing)
@@ -346,23 +347,6 @@ def score_shapes(
             }
         )
     return rows
-
-
-def family_shapes(
-    family: str, set_name: str, writable_only: bool = False
-) -> list[tuple[str, np.ndarray]]:
-    """The named shapes of a family's set as (name, points mm), from the committed files."""
-    from bathprint.envs.shape_files import read_points
-    from bathprint.envs.shapes import index, shape_path
-
-    out = []
-    for row in index():
-        if row["family"] != family or row["set"] != set_name:
-            continue
-        if writable_only and not row["writable"]:
-            continue
-        out.append((row["name"], read_points(shape_path(family, set_name, row["name"]))))
-    return out
 
 
 def tune(

@@ -149,9 +149,8 @@ class ShapeEnv(PrintingEnv):
     def _init_shapes(self, target_file: str | None, target_index: int | None) -> None:
         """The family's generator and named sets (as targets of this environment); a file's
         shape as the only target."""
-        from bathprint.agents.controller import family_shapes
         from bathprint.envs.shape_files import load_shape_file
-        from bathprint.envs.shapes import ShapeGenerator, index
+        from bathprint.envs.shapes import ShapeGenerator, family_shapes, index
 
         self.generator = ShapeGenerator(self.family)
         self._train_targets: dict[str, Target] = {}

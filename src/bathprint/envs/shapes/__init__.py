@@ -272,3 +272,19 @@ def write(root: Path | None = None) -> list[Path]:
     (root / "index.json").write_text(json.dumps(meta, indent=1) + "\n")
     out.append(root / "index.json")
     return out
+
+
+def family_shapes(
+    family: str, set_name: str, writable_only: bool = False
+) -> list[tuple[str, np.ndarray]]:
+    """The named shapes of a family's set as (name, points mm), from the committed files."""
+    from bathprint.envs.shape_files import read_points
+
+    out = []
+    for row in index():
+        if row["family"] != family or row["set"] != set_name:
+            continue
+        if writable_only and not row["writable"]:
+            continue
+        out.append((row["name"], read_points(shape_path(family, set_name, row["name"]))))
+    return out
