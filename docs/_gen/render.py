@@ -1060,7 +1060,13 @@ def agents() -> str:
 
 #: the campaigns (version 1 and later) whose tables the docs render
 #: (agents/results/<Env>/results.json)
-CAMPAIGN_ENVS = ("CoilRadius-v1", "BuoyantLayers-v1", "WriteShape-v1", "WriteShape-v2")
+CAMPAIGN_ENVS = (
+    "CoilRadius-v1",
+    "BuoyantLayers-v1",
+    "WriteShape-v1",
+    "WriteShape-v2",
+    "CoilRadius-v2",
+)
 
 
 def campaign(env: str) -> str:
@@ -2436,6 +2442,29 @@ def v1_against_controller() -> str:
     return _table(head, rows) + "\n\n" + provenance(path)
 
 
+def shape_agents(env: str = "CoilRadius-v2") -> str:
+    """experiments/shape_agents: each agent group's validation-selected models and the
+    references on the test shapes and the held-out kinds, against the controller."""
+    path = result(f"{env}_summary.csv")
+    names = {"ppo_bc_controller": "PPO cloned from the controller",
+             "ppo_residual_controller": "PPO residual on the controller"}  # fmt: skip
+    rows = []
+    for r in _csv(path):
+        diff = "–"
+        if r["group"] != "controller":
+            diff = (f"{float(r['minus_controller_mm']):+.2f} "
+                    f"[{float(r['minus_controller_lo']):+.2f}, "
+                    f"{float(r['minus_controller_hi']):+.2f}]")  # fmt: skip
+        rows.append(
+            ["test shapes" if r["set"] == "test" else "held-out kinds (cones)",
+             names.get(r["group"], r["group"]), r["runs"], r["shapes"],
+             f"{float(r['mean_rms_mm']):.2f}", f"{float(r['success_rate']):.2f}", diff]
+        )  # fmt: skip
+    head = ["set", "policy", "runs (seeds)", "shapes", "mean RMS error (mm)", "success rate",
+            "− controller (mm, 95% CI)"]  # fmt: skip
+    return _table(head, rows) + "\n\n" + provenance(path)
+
+
 def shape_references() -> str:
     """experiments/shape_references: every reference on every named shape, per family and
     set: the mean whole-shape RMS error (mm) and the shapes written (success)."""
@@ -2532,6 +2561,7 @@ TABLES: dict[str, Callable[[], str]] = {
     "agents": agents,
     "headline": headline,
     "shape-references": shape_references,
+    "shape-agents": shape_agents,
     "v1-against-controller": v1_against_controller,
     "shape-attainable": shape_attainable,
     "reproduce-times": reproduce_times,
