@@ -321,16 +321,12 @@ def score_shapes(
     """One deterministic episode per named shape; the whole-shape error of each (RMS and
     maximum mm; NaN where the episode was cut short) and the local metric M (``metric``)."""
     from bathprint.agents.rollout import run_episode
-    from bathprint.envs.shape_files import reference_curve, shape_target, written_curve
+    from bathprint.envs.shape_files import place_shape, reference_curve, written_curve
     from bathprint.envs.shape_metric import shape_error
 
     rows = []
-    make_target = getattr(env.unwrapped, "shape_target", None)
     for name, pts in shapes:
-        if make_target is not None:  # a shape environment places the shape itself
-            target = make_target(pts, name)
-        else:
-            target = shape_target(pts, env, family, name)
+        target = place_shape(pts, env, family, name)
         ep = run_episode(env, policy, seed, options={"target": target})
         written = written_curve(env, family)
         ok = not ep.truncated and len(written) == target.n_samples

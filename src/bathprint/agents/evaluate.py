@@ -402,8 +402,8 @@ def evaluate_target_files(
     from bathprint.envs.shape_files import (
         env_family,
         load_shape_file,
+        place_shape,
         reference_curve,
-        shape_target,
         written_curve,
     )
     from bathprint.envs.shape_geometry import length_mm
@@ -426,11 +426,7 @@ def evaluate_target_files(
         ]  # all checked first
         policy, label = load_policy(spec, env, env_id, seed=seed)
         for path, pts in tqdm(shapes, desc=f"targets {label}", disable=not progress):
-            make_target = getattr(env.unwrapped, "shape_target", None)
-            if make_target is not None and fam == env.unwrapped.family:
-                target = make_target(pts, path.name)
-            else:
-                target = shape_target(pts, env, fam, path.name)
+            target = place_shape(pts, env, fam, path.name)
             ep = run_episode(env, policy, seed, options={"target": target})
             written = written_curve(env, fam)
             complete = not ep.truncated and len(written) == target.n_samples

@@ -62,6 +62,19 @@ def check_accuracy(accuracy: Any) -> None:
         )
 
 
+def check_needle_velocity(needle_velocity: Any) -> None:
+    """The needle axes an environment of version 1 on adds to its action (None: the spec's)."""
+    if not (
+        needle_velocity is None
+        or isinstance(needle_velocity, bool)
+        or (isinstance(needle_velocity, str) and needle_velocity in ("xy", "xyz"))
+    ):
+        raise ConfigError(
+            f"needle_velocity = {needle_velocity!r}; allowed: None (the spec's default), "
+            "False, True (= 'xyz'), 'xy', 'xyz'"
+        )
+
+
 def check_scene_overrides(scene_overrides: Any) -> None:
     if scene_overrides is not None and not (
         isinstance(scene_overrides, dict) and all(isinstance(k, str) for k in scene_overrides)

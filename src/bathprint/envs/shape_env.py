@@ -41,6 +41,7 @@ from bathprint.envs._kernels_shape import MOTIONS, prefix_error_sums
 from bathprint.envs.base import (
     advance_to,
     check_accuracy,
+    check_needle_velocity,
     check_render_mode,
     check_scene_overrides,
     is_index,
@@ -95,15 +96,7 @@ class ShapeEnv(PrintingEnv):
             raise ConfigError(
                 f"target_set = {target_set!r}; allowed: " + ", ".join(map(repr, SHAPE_SETS))
             )
-        if not (
-            needle_velocity is None
-            or isinstance(needle_velocity, bool)
-            or (isinstance(needle_velocity, str) and needle_velocity in ("xy", "xyz"))
-        ):
-            raise ConfigError(
-                f"needle_velocity = {needle_velocity!r}; allowed: None (the spec's default), "
-                "False, True (= 'xyz'), 'xy', 'xyz'"
-            )
+        check_needle_velocity(needle_velocity)
         if target_file is not None and not isinstance(target_file, str | os.PathLike):
             raise ConfigError(f"target_file = {target_file!r}; allowed: None or a path")
         if spec_file is not None and not isinstance(spec_file, str | os.PathLike):

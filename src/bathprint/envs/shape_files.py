@@ -203,6 +203,16 @@ def shape_target(points: np.ndarray, env: Any, family: str, name: str) -> Target
     )
 
 
+def place_shape(points: np.ndarray, env: Any, family: str, name: str) -> Target:
+    """The target an episode of ``env`` writes for a shape: a shape environment's own
+    (:meth:`~bathprint.envs.shape_env.ShapeEnv.shape_target`, which places a floor shape
+    under the needle) when the family is its own, else :func:`shape_target`."""
+    u = env.unwrapped
+    if hasattr(u, "shape_target") and family == getattr(u, "family", None):
+        return u.shape_target(points, name)
+    return shape_target(points, env, family, name)
+
+
 def target_reference(env: Any, target: Target, family: str) -> np.ndarray:
     """The curve a shape target (:func:`shape_target`) is the environment's form of: its
     centreline, with the heights its density band settles at for ``buoyant`` (equal to

@@ -48,6 +48,7 @@ from bathprint.envs._kernels_v1 import squared_sum
 from bathprint.envs.base import (
     advance_to,
     check_accuracy,
+    check_needle_velocity,
     check_render_mode,
     check_scene_overrides,
     is_index,
@@ -169,15 +170,7 @@ class BathprintEnvV1(PrintingEnv):
             raise ConfigError(
                 f"target_set = {target_set!r}; allowed: " + ", ".join(map(repr, TARGET_SETS))
             )
-        if not (
-            needle_velocity is None
-            or isinstance(needle_velocity, bool)
-            or (isinstance(needle_velocity, str) and needle_velocity in ("xy", "xyz"))
-        ):
-            raise ConfigError(
-                f"needle_velocity = {needle_velocity!r}; allowed: None (the spec's default), "
-                "False, True (= 'xyz'), 'xy', 'xyz'"
-            )
+        check_needle_velocity(needle_velocity)
         if not isinstance(goal_conditioned, bool):
             raise ConfigError(f"goal_conditioned = {goal_conditioned!r}; allowed: True, False")
         check_scene_overrides(scene_overrides)
