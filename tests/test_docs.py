@@ -313,3 +313,15 @@ def test_page_directives_become_tables():
     hooks = _hooks()
     out = hooks.on_page_markdown("intro\n\n<!-- render: builtin-scenes -->\n", None, None, None)
     assert "<!-- render" not in out and "| `paper_simulation` |" in out
+
+
+def test_commit_hashes_in_the_docs_do_not_depend_on_the_clone(monkeypatch):
+    # git's own abbreviation grows with a repository's object count, so another clone of
+    # the same history (CI's) would print longer hashes: the docs keep seven digits always
+    path = ROOT / "agents" / "results" / "WriteShape-v1" / "results.json"
+    _, short = render._committed(path)
+    assert len(short) == 7
+    monkeypatch.setenv("GIT_CONFIG_COUNT", "1")
+    monkeypatch.setenv("GIT_CONFIG_KEY_0", "core.abbrev")
+    monkeypatch.setenv("GIT_CONFIG_VALUE_0", "12")
+    assert render._committed(path)[1] == short

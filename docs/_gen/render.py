@@ -76,14 +76,20 @@ def _rel(path: Path) -> str:
     return path.resolve().relative_to(ROOT).as_posix()
 
 
+#: hex digits of a commit hash in the docs (fixed: see _committed)
+ABBREV = 7
+
+
 def _committed(path: Path) -> tuple[str, str]:
     """(date, short commit) of the last commit that changed ``path``'s content (a move
     alone does not count); ("", "") if uncommitted."""
     if _git("status", "--porcelain", "--", _rel(path)):
         return "", ""
-    out = _git("log", "-1", "--follow", "--diff-filter=AM", "--format=%cs %h", "--", _rel(path))
+    out = _git("log", "-1", "--follow", "--diff-filter=AM", "--format=%cs %H", "--", _rel(path))
     out = out.split()
-    return (out[0], out[1]) if len(out) == 2 else ("", "")
+    # the first 7 hex digits of the full hash: git's own abbreviation (%h) grows with the
+    # repository's object count, so the same commit would read differently in another clone
+    return (out[0], out[1][:ABBREV]) if len(out) == 2 else ("", "")
 
 
 def provenance(*paths: Path) -> str:

@@ -32,7 +32,8 @@ def code_version() -> dict[str, str | None]:
 
     commit = None
     if _git("ls-files", "--error-unmatch", "__init__.py") is not None:
-        head = _git("rev-parse", "--short=7", "HEAD")
+        # seven hex digits always: --short grows with the repository's object count
+        head = (_git("rev-parse", "HEAD") or "")[:7]
         if head:
             dirty = _git("status", "--porcelain", "--untracked-files=no", "--", ".")
             commit = head + ("-dirty" if dirty else "")
