@@ -2448,27 +2448,61 @@ def v1_against_controller() -> str:
     return _table(head, rows) + "\n\n" + provenance(path)
 
 
-def shape_agents(env: str = "CoilRadius-v2") -> str:
-    """experiments/shape_agents: each agent group's validation-selected models and the
-    references on the test shapes and the held-out kinds, against the controller."""
-    path = result(f"{env}_summary.csv")
-    names = {"ppo_bc_controller": "PPO cloned from the controller",
-             "ppo_residual_controller": "PPO residual on the controller"}  # fmt: skip
+#: what each family's held-out kinds are (``bathprint.envs.shapes``: ood_test)
+HELD_OUT = {"floor": "digits", "free": "cones", "buoyant": "staircases"}
+AGENT_GROUPS = {"ppo_bc_controller": "PPO cloned from the controller",
+                "ppo_residual_controller": "PPO residual on the controller"}  # fmt: skip
+
+
+def _shape_agent_files() -> list[tuple[str, str, Path]]:
+    """(family, environment, summary file) of every family whose agents have results."""
+    from bathprint.agents.controller import FAMILY_ENVS
+
+    out = []
+    for fam, env_id in FAMILY_ENVS.items():
+        env = env_id.split("/")[1]
+        hits = sorted(EXPERIMENTS.glob(f"*/results/{env}_summary.csv"))
+        if hits:
+            out.append((fam, env, hits[0]))
+    return out
+
+
+def shape_headline(env: str) -> tuple[str, float]:
+    """(group, mean validation error in mm over its seeds) of the environment's agent group
+    that validation selects: the lowest mean of the seeds' ``eval/best.json``."""
+    best = ("", math.inf)
+    for group in sorted(p for p in (AGENTS / env).iterdir() if p.is_dir()):
+        vals = [json.loads(f.read_text())["mean_metric"]
+                for f in sorted(group.glob("seed*/eval/best.json"))]  # fmt: skip
+        if vals and sum(vals) / len(vals) < best[1]:
+            best = (group.name, sum(vals) / len(vals))
+    return best
+
+
+def shape_agents() -> str:
+    """experiments/shape_agents: each family's agent groups (validation-selected models) and
+    the references on the test shapes and the held-out kinds, against the controller."""
     rows = []
-    for r in _csv(path):
-        diff = "–"
-        if r["group"] != "controller":
-            diff = (f"{float(r['minus_controller_mm']):+.2f} "
-                    f"[{float(r['minus_controller_lo']):+.2f}, "
-                    f"{float(r['minus_controller_hi']):+.2f}]")  # fmt: skip
-        rows.append(
-            ["test shapes" if r["set"] == "test" else "held-out kinds (cones)",
-             names.get(r["group"], r["group"]), r["runs"], r["shapes"],
-             f"{float(r['mean_rms_mm']):.2f}", f"{float(r['success_rate']):.2f}", diff]
-        )  # fmt: skip
-    head = ["set", "policy", "runs (seeds)", "shapes", "mean RMS error (mm)", "success rate",
-            "− controller (mm, 95% CI)"]  # fmt: skip
-    return _table(head, rows) + "\n\n" + provenance(path)
+    files = _shape_agent_files()
+    for fam, env, path in files:
+        head_group = shape_headline(env)[0]
+        for r in _csv(path):
+            diff = "–"
+            if r["group"] != "controller":
+                diff = (f"{float(r['minus_controller_mm']):+.2f} "
+                        f"[{float(r['minus_controller_lo']):+.2f}, "
+                        f"{float(r['minus_controller_hi']):+.2f}]")  # fmt: skip
+            rows.append(
+                [f"{env} ({fam})",
+                 "test shapes" if r["set"] == "test" else f"held-out kinds ({HELD_OUT[fam]})",
+                 AGENT_GROUPS.get(r["group"], r["group"])
+                 + (" (headline: best on validation)" if r["group"] == head_group else ""),
+                 r["runs"], r["shapes"],
+                 f"{float(r['mean_rms_mm']):.2f}", f"{float(r['success_rate']):.2f}", diff]
+            )  # fmt: skip
+    head = ["environment", "set", "policy", "runs (seeds)", "shapes", "mean RMS error (mm)",
+            "success rate", "− controller (mm, 95% CI)"]  # fmt: skip
+    return _table(head, rows) + "\n\n" + provenance(*(f for _, _, f in files))
 
 
 def shape_references() -> str:
