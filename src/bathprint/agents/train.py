@@ -956,9 +956,16 @@ def _dummy_venv(model: Any) -> Any:
 
 
 def read_episodes(run_dir: Path) -> list[dict[str, float]]:
-    """Rows of ``episodes.csv`` as floats."""
+    """Rows of ``episodes.csv`` as floats (or of ``episodes.csv.gz``, an exported run's)."""
+    import gzip
+
     path = Path(run_dir) / "episodes.csv"
-    if not path.is_file():
+    gz = path.with_name("episodes.csv.gz")
+    if path.is_file():
+        f = path.open(newline="")
+    elif gz.is_file():
+        f = gzip.open(gz, "rt", newline="")
+    else:
         return []
-    with path.open() as f:
+    with f:
         return [{k: float(v) for k, v in row.items()} for row in csv.DictReader(f)]
