@@ -294,7 +294,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     for root in paths:
         for m in model_files(root):
             r = slim_model(m)
-            what = ", ".join(r.dropped) or "nothing to drop"
+            what = ", ".join(r.dropped) or ("no optimiser state; deflated" if r.changed
+                                            else "slim already")
             print(f"{m}: {r.bytes_before} -> {r.bytes_after} bytes ({what})")
         if args.drop_curves:
             for p in regenerable_curves(root):
