@@ -4,6 +4,7 @@ that never reads the test targets."""
 
 from __future__ import annotations
 
+import io
 import json
 import os
 import shutil
@@ -11,10 +12,12 @@ import signal
 import subprocess
 import sys
 import time
+import zipfile
 from pathlib import Path
 
 import numpy as np
 import pytest
+import torch
 import yaml
 
 from bathprint.agents import statistics as st
@@ -22,6 +25,7 @@ from bathprint.agents.campaign import export, load_campaign, parse_seeds, run_st
 from bathprint.agents.campaign import main as campaign_main
 from bathprint.agents.hyperparams import load_hyperparams
 from bathprint.errors import ConfigError
+from bathprint.provenance import code_version
 
 ROOT = Path(__file__).resolve().parents[1]
 ENV = "bathprint/CoilRadius-v1"
@@ -229,11 +233,25 @@ def test_a_killed_campaign_resumes_and_ends_in_one_table(tmp_path, capsys, monke
     assert len(list(kept.glob("tiny/seed*/episodes.csv.gz"))) == 2
     assert list(kept.glob("baselines/oracle/*/episodes.csv"))
     assert not list(kept.rglob("checkpoints")) and not list(kept.rglob("model_*_steps.zip"))
+    (model,) = kept.glob("tiny/seed*/eval/best_model.zip")  # without the optimiser's state
+    with zipfile.ZipFile(model) as z:
+        optimizer = torch.load(io.BytesIO(z.read("policy.optimizer.pth")), weights_only=True)
+    assert optimizer["state"] == {} and optimizer["param_groups"]
+    assert model.with_name("best_model.slim.json").is_file()
+    assert not list(kept.rglob("training_curve.png"))  # python -m bathprint.agents.curves
+    meta = json.loads((kept / "results.meta.json").read_text())
+    assert meta["campaign"] == str(path) and meta["command"].endswith(f"--export {tmp_path}")
+    assert set(meta["runs"]) == {"tiny/seed0", "tiny/seed1"}
+    assert all(r["commit"] == code_version()["commit"] for r in meta["runs"].values())
+    assert list(meta["models"]) == [model.relative_to(kept).as_posix()]
     # the exported copy alone rebuilds the same table (the committed results can be checked)
     shutil.copytree(kept, tmp_path / "copy" / "CoilRadius-v1")
     assert campaign_main([str(path), "--quiet", "--report-only", "--out",
                           str(tmp_path / "copy")]) == 0  # fmt: skip
     assert (tmp_path / "copy" / "CoilRadius-v1" / "results.md").read_text() == table
+    again = export(load_campaign(path, tmp_path / "copy"), ENV, tmp_path / "again")
+    assert len(list(again.glob("tiny/seed*/episodes.csv.gz"))) == 2  # the copy's, copied
+    assert len(list(again.glob("tiny/seed*/eval/best_model.slim.json"))) == 1
     # the campaign itself, pointed at the copy, neither deletes nor retrains its runs (a copy
     # keeps one selected model per group and no final models): a new seed can be added to it
     before = sorted(str(f) for f in (tmp_path / "copy").rglob("*"))

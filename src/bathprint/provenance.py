@@ -38,3 +38,20 @@ def code_version() -> dict[str, str | None]:
             dirty = _git("status", "--porcelain", "--untracked-files=no", "--", ".")
             commit = head + ("-dirty" if dirty else "")
     return {"bathprint": __version__, "commit": commit}
+
+
+def first_commit(path: str | Path) -> str | None:
+    """``"YYYY-MM-DD abcdef1"``: the date and commit that first added ``path`` to the git
+    repository holding it (seven hex digits, as :func:`code_version`), or None when git does
+    not track it."""
+    path = Path(path).resolve()
+    if not path.parent.is_dir():
+        return None
+    try:
+        out = subprocess.run(
+            ["git", "log", "--diff-filter=A", "--format=%cs %H", "--", path.name],
+            cwd=path.parent, capture_output=True, text=True, check=True, timeout=10,
+        ).stdout.split()
+    except (OSError, subprocess.SubprocessError):
+        return None
+    return f"{out[-2]} {out[-1][:7]}" if len(out) >= 2 else None

@@ -43,6 +43,7 @@ from __future__ import annotations
 import argparse
 import csv
 import json
+import shlex
 import shutil
 import signal
 import sys
@@ -117,6 +118,8 @@ class Campaign:
     reference: str | None
     runs: list[RunSpec]
     eval_seed: int = 0
+    #: the campaign file it was read from (None: built in code, e.g. --seeds)
+    file: str | None = None
 
     @property
     def envs(self) -> list[str]:
@@ -218,7 +221,7 @@ def load_campaign(path: str | Path, out: str | Path | None = None) -> Campaign:
                 )
             )
     camp = Campaign(out_dir, episodes, list(baselines), reference, runs,
-                    int(data.get("seed", 0)))
+                    int(data.get("seed", 0)), str(path))
     for spec in runs:  # every run's settings checked before the first starts
         _settings(spec)
     return camp
@@ -616,27 +619,39 @@ def plot_curves(camp: Campaign, env_id: str, path: Path) -> Path | None:
 
 
 #: what :func:`export` copies of a run (relative to its folder): enough to check a result
-#: later (the curves, the test episodes, the selection), no checkpoints; the training
-#: episode log gzipped
+#: later (the validation curve, the test episodes, the selection), no checkpoints; the
+#: training episode log gzipped; no training_curve.png (``python -m bathprint.agents.curves
+#: RUN_DIR`` draws it again from these files)
 EXPORT_FILES = (
-    "run.json", "training_curve.png", "eval/evaluations.npz", "eval/best.json",
+    "run.json", "eval/evaluations.npz", "eval/best.json",
     "test/*/summary.json", "test/*/episodes.csv",
 )
-#: the selected model and its statistics: copied for one run per group (see export)
-MODEL_FILES = ("eval/best_model.zip", "eval/vecnormalize.pkl")
+#: the selected model (slimmed, :mod:`bathprint.agents.slim`), its record and its
+#: statistics: copied for one run per group (see export)
+MODEL_FILES = ("eval/best_model.zip", "eval/best_model.slim.json", "eval/vecnormalize.pkl")
+#: what :func:`export` writes beside the results: the command, campaign file and commits that
+#: made them
+META = "results.meta.json"
 
 
-def export(camp: Campaign, env_id: str, dest: str | Path, all_models: bool = False) -> Path:
+def export(camp: Campaign, env_id: str, dest: str | Path, all_models: bool = False,
+           command: str | None = None) -> Path:
     """Copy one environment's results and the small files of its runs and baselines
     (:data:`EXPORT_FILES`, ``episodes.csv`` as ``episodes.csv.gz``, no checkpoints) into
     ``dest`` with the campaign's layout, and the selected model with its VecNormalize
     statistics (:data:`MODEL_FILES`) of every run (``all_models``) or, to keep the copy
-    small, of the run of each group with the best validation metric."""
+    small, of the run of each group with the best validation metric; the models without
+    their optimisers' state (:func:`bathprint.agents.slim.slim_model`). ``dest/``
+    :data:`META` records ``command`` (what wrote the copy), the campaign file, the code
+    commit of the export and of each run (:func:`export_meta`)."""
     import gzip
+
+    from bathprint.agents.slim import slim_model
 
     src = env_dir(camp.out, env_id)
     dest = Path(dest)
     dest.mkdir(parents=True, exist_ok=True)
+    meta = export_meta(camp, env_id, dest, command)  # before the copy: git knows dest's files
     for name in ("results.md", "results.json", "runs.csv", "scores.csv", "curves.png"):
         if (src / name).is_file():
             shutil.copy2(src / name, dest / name)
@@ -662,12 +677,63 @@ def export(camp: Campaign, env_id: str, dest: str | Path, all_models: bool = Fal
                 target = dest / f.relative_to(src)
                 target.parent.mkdir(parents=True, exist_ok=True)
                 shutil.copy2(f, target)
+                if f.name == "best_model.zip":
+                    slim_model(target)
+                    meta["models"][target.relative_to(dest).as_posix()] = target.stat().st_size
+        target = dest / d.relative_to(src) / "episodes.csv.gz"
         if (d / "episodes.csv").is_file():
-            target = dest / d.relative_to(src) / "episodes.csv.gz"
             target.parent.mkdir(parents=True, exist_ok=True)
             with gzip.GzipFile(target, "wb", mtime=0) as z:
                 z.write((d / "episodes.csv").read_bytes())
+        elif (d / "episodes.csv.gz").is_file() and d / "episodes.csv.gz" != target:
+            shutil.copy2(d / "episodes.csv.gz", target)  # an exported copy exported again
+    (dest / META).write_text(json.dumps(meta, indent=2) + "\n")
     return dest
+
+
+def export_meta(camp: Campaign, env_id: str, dest: Path, command: str | None) -> dict[str, Any]:
+    """What :func:`export` writes to ``dest/`` :data:`META`: ``command``, the campaign file
+    and its SHA-256, the ``date``, the code ``commit`` that wrote the tables and the copy
+    (:func:`bathprint.provenance.code_version`), the runs' ``machine``; per run the code
+    commits that trained it (run.json's ``code``) or, for runs trained before run.json held
+    them, the commit that first committed the run's run.json at ``dest`` (from git:
+    the code that trained it is that commit's or an earlier one)."""
+    import datetime
+    import hashlib
+
+    from bathprint.provenance import code_version, first_commit
+
+    src = env_dir(camp.out, env_id)
+    runs: dict[str, dict[str, Any]] = {}
+    machines = set()
+    for r in camp.runs:
+        f = Path(r.run_dir) / "run.json"
+        if r.env_id != env_id or not f.is_file():
+            continue
+        info = json.loads(f.read_text())
+        m = info.get("machine", {})
+        machines.add(f"{m.get('processor', '?')}, {m.get('cpus', '?')} cores")
+        rel = Path(r.run_dir).relative_to(src).as_posix()
+        codes = info.get("code") or []
+        runs[rel] = {"commit": ", ".join(c["commit"] for c in codes if c.get("commit")) or None}
+        if not codes:
+            runs[rel]["first_committed"] = first_commit(dest / rel / "run.json")
+    file_hash = None
+    if camp.file and Path(camp.file).is_file():
+        file_hash = hashlib.sha256(Path(camp.file).read_bytes()).hexdigest()
+    if command is None:
+        where = dest.parent.as_posix()
+        command = f"python -m bathprint.agents.campaign {camp.file or '?'} --export {where}"
+    return {
+        "command": command,
+        "campaign": camp.file,
+        "campaign_sha256": file_hash,
+        "date": datetime.date.today().isoformat(),
+        **code_version(),
+        "machine": "; ".join(sorted(machines)) or "not recorded",
+        "runs": runs,
+        "models": {},
+    }
 
 
 # --------------------------------------------------------------------------- command
@@ -685,8 +751,9 @@ def _parser() -> argparse.ArgumentParser:
     ap.add_argument("--report-only", action="store_true",
                     help="only rebuild the results from what is on disk")
     ap.add_argument("--export", default=None, metavar="DIR",
-                    help="then copy the results and the runs' small files (no checkpoints) "
-                    "into DIR/<Env>/")
+                    help="then copy the results, the runs' small files (no checkpoints) and "
+                    "each group's selected model without optimiser state into DIR/<Env>/, "
+                    "with results.meta.json (command, campaign file, commits)")
     ap.add_argument("--quiet", action="store_true")
     return ap
 
@@ -718,8 +785,13 @@ def main(argv: Sequence[str] | None = None) -> int:
         print(path.read_text())
         print(f"wrote {path.parent}/ (results.md, results.json, runs.csv, scores.csv, curves.png)")
         if args.export:
-            dest = export(camp, env_id, Path(args.export) / env_id.split("/")[-1])
-            print(f"copied the results and the runs' small files to {dest}/")
+            command = " ".join(
+                ["python -m bathprint.agents.campaign"]
+                + [shlex.quote(a) for a in (sys.argv[1:] if argv is None else argv)]
+            )
+            dest = export(camp, env_id, Path(args.export) / env_id.split("/")[-1], command=command)
+            print(f"copied the results, the runs' small files and the slimmed models to "
+                  f"{dest}/ ({META})")
     return 0
 
 

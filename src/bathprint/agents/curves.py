@@ -1,9 +1,18 @@
 """Training curves: the final metric of training episodes (rolling mean) and of the
-held-out evaluations against environment steps, as ``training_curve.png`` in a run."""
+held-out evaluations against environment steps, as ``training_curve.png`` in a run.
+
+``python -m bathprint.agents.curves RUN_DIR...`` draws them again, for a run folder or an
+exported copy of one (``run.json``, ``episodes.csv`` or ``episodes.csv.gz``,
+``eval/evaluations.npz``): the committed results keep no per-run curve
+(:mod:`bathprint.agents.slim`).
+"""
 
 from __future__ import annotations
 
+import argparse
 import json
+import sys
+from collections.abc import Sequence
 from pathlib import Path
 
 import numpy as np
@@ -70,3 +79,21 @@ def plot_training_curve(run_dir: str | Path, window: int = 50) -> Path:
     fig.savefig(path, dpi=110)
     plt.close(fig)
     return path
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(prog="python -m bathprint.agents.curves", description=__doc__,
+                                 formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("runs", nargs="+", help="run folders (with run.json)")
+    args = ap.parse_args(argv)
+    missing = [r for r in args.runs if not (Path(r) / "run.json").is_file()]
+    if missing:
+        print(f"curves: no run.json in {', '.join(missing)}", file=sys.stderr)
+        return 2
+    for r in args.runs:
+        print(f"wrote {plot_training_curve(r)}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -5,7 +5,8 @@ A run directory holds everything a run writes, and everything ``--resume`` needs
     run.json                 settings (algorithm, environment, seed, hyperparameters),
                              status (running, done, interrupted, failed: with the reason),
                              the wall time spent so far and, with ``bc_pretrain``, what
-                             behaviour cloning did (pairs, action MSE before and after)
+                             behaviour cloning did (pairs, action MSE before and after),
+                             the code of each session (``code``: version and commit)
     checkpoints/             model_<N>_steps.zip (+ VecNormalize statistics and, for SAC,
                              the replay buffer) every ``checkpoint_freq`` environment steps
     episodes.csv             every training episode: timesteps, return, final metric
@@ -65,6 +66,7 @@ from bathprint.agents.imitation import bc_settings
 from bathprint.agents.signals import Interrupted, SignalStop, signal_name
 from bathprint.envs import printed_targets, target_set_size
 from bathprint.errors import ConfigError
+from bathprint.provenance import code_version
 
 _CKPT = re.compile(r"model_(\d+)_steps\.zip$")
 STATUSES = ("running", "done", "interrupted", "failed")
@@ -792,6 +794,9 @@ def train(
         _write_run(run_dir, info)
         trainer = _build(s, info, stop)
         info.update(_compute_info(s.n_envs, s.torch_threads))
+        codes = info.setdefault("code", [])  # the code of each session (a resume may differ)
+        if code_version() not in codes:
+            codes.append(code_version())
         info["train_target_set"] = "train"
         info["eval_target_set"] = eval_target_set(env_id)
         base_wall = float(info.get("wall_time_s", 0.0))  # time spent before this session
@@ -956,9 +961,16 @@ def _dummy_venv(model: Any) -> Any:
 
 
 def read_episodes(run_dir: Path) -> list[dict[str, float]]:
-    """Rows of ``episodes.csv`` as floats."""
+    """Rows of ``episodes.csv`` as floats (or of ``episodes.csv.gz``, an exported run's)."""
+    import gzip
+
     path = Path(run_dir) / "episodes.csv"
-    if not path.is_file():
+    gz = path.with_name("episodes.csv.gz")
+    if path.is_file():
+        f = path.open(newline="")
+    elif gz.is_file():
+        f = gzip.open(gz, "rt", newline="")
+    else:
         return []
-    with path.open() as f:
+    with f:
         return [{k: float(v) for k, v in row.items()} for row in csv.DictReader(f)]
