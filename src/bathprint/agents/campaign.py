@@ -353,19 +353,43 @@ def evaluate_one(policy: str, env_id: str, out: Path, episodes: int, seed: int,
 
     out = Path(out)
     where = default_target_set(env_id)
+    print_ = model_fingerprint(policy)
     found = _episodes_file(out)
     if found is not None and (found.parent / "summary.json").is_file():
         summary = json.loads((found.parent / "summary.json").read_text())
-        if (summary.get("episodes"), summary.get("target_set"), summary.get("seed")) == (
-            episodes, where, seed
-        ):
+        if (summary.get("episodes"), summary.get("target_set"), summary.get("seed"),
+                summary.get("model_fingerprint")) == (episodes, where, seed, print_):
             return found
         shutil.rmtree(found.parent)
     evaluate_policy_spec(policy, env_id, episodes, seed, out, images=1, animate=False,
                          progress=progress, target_set=where)
     found = _episodes_file(out)
     assert found is not None
+    summary_path = found.parent / "summary.json"
+    summary = json.loads(summary_path.read_text())
+    summary["model_fingerprint"] = print_
+    summary_path.write_text(json.dumps(summary, indent=2, default=str))
     return found
+
+
+def model_fingerprint(policy: str) -> str | None:
+    """SHA-256 of what a model file plays with: its policy weights (the zip's
+    ``policy.pth``, which slimming keeps byte for byte) and the observation statistics
+    beside it; None for a policy given by name. An evaluation is kept only for the model
+    that made it: a run trained further, or a model replaced, is evaluated again."""
+    import hashlib
+    import zipfile
+
+    path = Path(policy)
+    if path.suffix != ".zip" or not path.is_file():
+        return None
+    h = hashlib.sha256()
+    with zipfile.ZipFile(path) as z:
+        h.update(z.read("policy.pth") if "policy.pth" in z.namelist() else path.read_bytes())
+    stats = path.with_name("vecnormalize.pkl")
+    if stats.is_file():
+        h.update(stats.read_bytes())
+    return h.hexdigest()
 
 
 def _task(kind: str, payload: dict[str, Any]) -> dict[str, Any]:
