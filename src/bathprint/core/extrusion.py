@@ -221,6 +221,8 @@ def set_boundary(model, rod, t: float, scratch) -> None:
     s_tip = extruded_length(model.flow, model.flow_cum, prm.needle_area, t)
     node_s[tip] = s_tip
     seg_rest[tip - 1] = s_tip - node_s[tip - 1]
+    if prm.liquid:  # its volume pi r_exit^2 (s_tip - s) at its present (relaxed) radius
+        seg_rest[tip - 1] *= (prm.exit_radius / rod.seg_mat[tip - 1, MAT_RADIUS]) ** 2
     # The ghost segment only fixes the clamp direction. Its rest length enters nothing
     # but the tip's Voronoi length, which must be half the inlet segment alone so that
     # the rod is clamped at the tip itself (with dl here it would be clamped dl/2 inside
