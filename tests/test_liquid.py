@@ -1,0 +1,141 @@
+"""The liquid effect (Maxwell relaxation of the rest state at constant volume).
+
+- Its liquid limit with the viscosity effect is Trouton's viscous thread: a thread hanging
+  under its net weight against the analytic Lagrangian solution (length and stretch profile).
+- Volume is conserved segment by segment (the printed volume does not change).
+- Material that has set (bulk gel past its gel point) is the elastic rod, bit for bit.
+- Bad values and scenes it cannot serve are refused, naming the key and the allowed range.
+"""
+
+from __future__ import annotations
+
+import warnings
+
+import numpy as np
+import pytest
+
+from bathprint.analysis import validation as V
+from bathprint.core.scene import load_scene
+from bathprint.core.simulation import Simulation
+from bathprint.errors import CoarseNumericsWarning, SceneError
+
+
+def _thread(time_step_s: float) -> V.HangingThread:
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", CoarseNumericsWarning)  # E = 2 Pa: a short buckling l
+        return V.viscous_thread_under_gravity(spacing_mm=0.5, time_step_s=time_step_s)
+
+
+@pytest.fixture(scope="module")
+def threads() -> tuple[V.HangingThread, V.HangingThread]:
+    """The thread at 40 segments with fixed steps of 0.05 and 0.025 s (t* = 15.3 s)."""
+    return _thread(0.05), _thread(0.025)
+
+
+def test_a_hanging_liquid_thread_stretches_as_trouton_s_thread(threads) -> None:
+    """Length and stretch profile at 1/4, 1/2 and 3/4 of the blow-up time eta_e / (drho g L),
+    40 segments and steps of t*/600: within 0.3% of the length and 0.9% of every element's
+    stretch (measured 2.7e-3 and 8.9e-3 at 3/4, where the top element has stretched 3.7x)."""
+    thread = threads[1]
+    for t, got, exact, s, se in zip(
+        thread.times_s,
+        thread.length_m,
+        thread.exact_length_m,
+        thread.stretch,
+        thread.exact_stretch,
+        strict=True,
+    ):
+        assert got == pytest.approx(exact, rel=3e-3), t
+        np.testing.assert_allclose(s, se, rtol=1e-2, err_msg=f"t = {t}")
+    assert thread.exact_stretch[-1][-1] > 3.5  # the top element: no small strain
+    assert thread.stretch[-1][-1] == pytest.approx(thread.exact_stretch[-1][-1], rel=1e-2)
+
+
+def test_the_thread_s_error_is_first_order_in_the_step(threads) -> None:
+    """The rest state relaxes once per accepted step, so the error is O(h): halving the step
+    halves it (ratio 1.9 measured at 3/4 of t*), and the Richardson extrapolation 2 e(h/2) -
+    e(h), what is left of the node spacing's O(dl^2), is within 5e-4 of the exact length."""
+    coarse, fine = threads
+    for k in range(len(fine.times_s)):
+        e_coarse = coarse.length_m[k] / coarse.exact_length_m[k] - 1.0
+        e_fine = fine.length_m[k] / fine.exact_length_m[k] - 1.0
+        assert 1.6 < e_coarse / e_fine < 2.2, (k, e_coarse, e_fine)
+        assert abs(2.0 * e_fine - e_coarse) < 5e-4, k
+
+
+def _hanging(effects: list[str], overrides: dict | None = None) -> Simulation:
+    return Simulation(
+        "paper_simulation",
+        {
+            **V.VISCOUS_ROD,
+            "effects": effects,
+            "initial.length_mm": 10.0,
+            "bath.density_kg_m3": 1000.0,
+            "material.density_kg_m3": 1100.0,
+            "numerics.tolerance": 1e-5,
+            **(overrides or {}),
+        },
+    )
+
+
+def test_volume_is_conserved_segment_by_segment() -> None:
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", CoarseNumericsWarning)
+        sim = _hanging(
+            ["elasticity", "drag", "gravity", "viscosity", "liquid"],
+            {"material.youngs_modulus_pa": 2.0, "liquid.viscosity_pa_s": 1e-6},
+        )
+    vol0 = sim.rest_lengths() * sim.material()[:, 2] ** 2
+    sim.advance(2.0)
+    vol = sim.rest_lengths() * sim.material()[:, 2] ** 2
+    assert np.max(sim.rest_lengths() / (vol0 / sim.model.radius**2)) > 1.2  # it flowed
+    np.testing.assert_allclose(vol, vol0, rtol=1e-11)  # round-off over some 100 steps
+
+
+def test_set_material_is_the_elastic_rod_bit_for_bit() -> None:
+    """Bulk gel older than its gel point (liquid.set_time_s) does not flow: a cantilever
+    under its weight with the liquid effect listed ends where it ends without it."""
+    base = {
+        "needle.direction": [1.0, 0.0, 0.0],
+        "gelation.model": "bulk",
+        "initial.age_s": 10.0,
+        "liquid.set_time_s": 1.0,
+    }
+    runs = []
+    for extra in ([], ["liquid"]):
+        sim = _hanging(["elasticity", "drag", "gravity", "gelation", *extra], base)
+        sim.advance(0.5)
+        runs.append((sim.centerline(), sim.rest_lengths(), sim.material()))
+    for a, b in zip(runs[0], runs[1], strict=True):
+        assert np.array_equal(a, b)
+    assert abs(runs[0][0][0, 2] - runs[0][0][-1, 2]) > 1e-5  # it bent under its weight
+
+
+@pytest.mark.parametrize(
+    ("key", "value", "allowed"),
+    [
+        ("liquid.viscosity_pa_s", 0.0, "(0, 100000]"),
+        ("liquid.viscosity_pa_s", -1.0, "(0, 100000]"),
+        ("liquid.set_time_s", 0.0, "(0, 10000]"),
+        ("liquid.viscosity_exponent", 5.0, "[0.5, 3]"),
+    ],
+)
+def test_bad_values_are_refused_naming_the_key(key: str, value: float, allowed: str) -> None:
+    with pytest.raises(SceneError, match=key.replace(".", r"\.")) as err:
+        load_scene("drag_coiling_22G", overrides={key: value, "effects": ["elasticity", "liquid"]})
+    assert allowed in str(err.value)
+
+
+def test_scenes_it_cannot_serve_are_refused() -> None:
+    with pytest.raises(SceneError, match="'liquid' needs 'elasticity'"):
+        load_scene("drag_coiling_22G", overrides={"effects": ["drag", "gravity", "liquid"]})
+    with pytest.raises(SceneError, match=r"liquid\.set_time_s = 1e-08"):
+        load_scene(
+            "drag_coiling_22G",
+            overrides={
+                "effects": ["elasticity", "drag", "gelation", "liquid"],
+                "gelation.model": "bulk",
+                "gelation.rate_1_s": 1e-3,
+                "liquid.set_time_s": 1e-8,
+            },
+        )
