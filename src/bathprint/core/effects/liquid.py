@@ -32,9 +32,9 @@ When the liquid sets (tau -> infinity) is read off gelation:
   (E_c / eta_m) E_c xi^4 / (E_s f_B) for bending (f_S, f_B the shell-and-core factors), so
   the rest state freezes once a shell thicker than about E_c / E_s of the section has set.
 
-The inlet segment is relaxed only while nothing is extruded into it (its record is
-re-derived from the extruded material otherwise: material younger than about two node
-spacings of extrusion stays as it left the needle). A material effect: it runs once per
+The inlet segment flows too: extrusion keeps its section (its rest length is its volume
+pi r_exit^2 (S - s) over that section, so new material joins it at the inlet's radius, not
+the exit's), and when it splits both halves keep it. A material effect: it runs once per
 accepted step on the whole rod, after gelation.
 """
 
@@ -89,24 +89,11 @@ def update(model, rod, t: float, h: float, scratch) -> None:
     h toward the current ones (exactly at fixed configuration) and scale its radius to keep
     its volume. Called once per accepted step on the whole rod, after gelation."""
     p = model.params[0]
-    pos, node_s, n_nodes, seg_rest, seg_mat = (
-        rod.pos,
-        rod.node_s,
-        rod.n_nodes,
-        rod.seg_rest,
-        rod.seg_mat,
-    )
+    pos, n_nodes, seg_rest, seg_mat = rod.pos, rod.n_nodes, rod.seg_rest, rod.seg_mat
     n_seg = filament_segments(n_nodes, p)
-    inlet = -1
-    if p.clamped:
-        inlet = n_seg - 1
-        if node_s[n_nodes - 2] > max(node_s[inlet], 0.0):
-            inlet = -2  # being extruded into: extrusion owns its record (see the docstring)
     ka = scratch.curvature[0]
     kb = scratch.curvature[1]
     for j in range(n_seg):
-        if inlet == -2 and j == n_seg - 1:
-            continue
         rate_s, rate_b = relaxation_rates(seg_mat, j, t - seg_mat[j, MAT_BIRTH_TIME], p)
         if rate_s <= 0.0 and rate_b <= 0.0:
             continue
@@ -124,7 +111,7 @@ def update(model, rod, t: float, h: float, scratch) -> None:
             l0_new = length + (l0 - length) * f_s
             seg_mat[j, MAT_RADIUS] *= math.sqrt(l0 / l0_new)
             seg_rest[j] = l0_new
-    if inlet >= 0 and p.clamped:  # the ghost mirrors the inlet's record
-        seg_mat[n_seg, MAT_RADIUS] = seg_mat[inlet, MAT_RADIUS]
+    if p.clamped and n_seg > 0:  # the ghost mirrors the inlet's record
+        seg_mat[n_seg, MAT_RADIUS] = seg_mat[n_seg - 1, MAT_RADIUS]
         for c in range(3):
-            seg_mat[n_seg, MAT_KAPPA_X + c] = seg_mat[inlet, MAT_KAPPA_X + c]
+            seg_mat[n_seg, MAT_KAPPA_X + c] = seg_mat[n_seg - 1, MAT_KAPPA_X + c]
