@@ -139,3 +139,26 @@ def test_scenes_it_cannot_serve_are_refused() -> None:
                 "liquid.set_time_s": 1e-8,
             },
         )
+
+
+def test_an_extruded_liquid_jet_keeps_the_mass_balance() -> None:
+    """A jet extruded while it flows (the inlet keeps its relaxed section, a split keeps it
+    in both halves): the printed volume grows by exactly Q t, and the jet has thinned."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", CoarseNumericsWarning)
+        sim = Simulation(
+            "drag_coiling_22G",
+            {
+                "effects": ["elasticity", "drag", "gravity", "viscosity", "liquid"],
+                "liquid.viscosity_pa_s": 1e-4,
+                "bath.density_kg_m3": 1000.0,
+                "material.density_kg_m3": 1100.0,
+            },
+        )
+    vol0 = sim.printed_volume()
+    sim.advance(0.2)
+    q = sim.model.exit_speed() * sim.model.needle_area
+    assert sim.counts()["nodes_born"] > 20
+    assert sim.printed_volume() - vol0 == pytest.approx(q * sim.t, rel=1e-10)
+    r = sim.material()[:, 2] / sim.model.radius
+    assert r.min() < 0.99  # gravity has drawn the liquid jet thinner
