@@ -103,7 +103,7 @@ def test_set_material_is_the_elastic_rod_bit_for_bit() -> None:
     }
     runs = []
     for extra in ([], ["liquid"]):
-        sim = _hanging(["elasticity", "drag", "gravity", "gelation", *extra], base)
+        sim = _hanging(["elasticity", "drag", "gravity", "gelation", "viscosity", *extra], base)
         sim.advance(0.5)
         runs.append((sim.centerline(), sim.rest_lengths(), sim.material()))
     for a, b in zip(runs[0], runs[1], strict=True):
@@ -122,18 +122,23 @@ def test_set_material_is_the_elastic_rod_bit_for_bit() -> None:
 )
 def test_bad_values_are_refused_naming_the_key(key: str, value: float, allowed: str) -> None:
     with pytest.raises(SceneError, match=key.replace(".", r"\.")) as err:
-        load_scene("drag_coiling_22G", overrides={key: value, "effects": ["elasticity", "liquid"]})
+        load_scene(
+            "drag_coiling_22G",
+            overrides={key: value, "effects": ["elasticity", "drag", "viscosity", "liquid"]},
+        )
     assert allowed in str(err.value)
 
 
 def test_scenes_it_cannot_serve_are_refused() -> None:
     with pytest.raises(SceneError, match="'liquid' needs 'elasticity'"):
-        load_scene("drag_coiling_22G", overrides={"effects": ["drag", "gravity", "liquid"]})
+        load_scene("drag_coiling_22G", overrides={"effects": ["drag", "viscosity", "liquid"]})
+    with pytest.raises(SceneError, match="'liquid' needs 'viscosity'"):
+        load_scene("drag_coiling_22G", overrides={"effects": ["elasticity", "drag", "liquid"]})
     with pytest.raises(SceneError, match=r"liquid\.set_time_s = 1e-08"):
         load_scene(
             "drag_coiling_22G",
             overrides={
-                "effects": ["elasticity", "drag", "gelation", "liquid"],
+                "effects": ["elasticity", "drag", "gelation", "viscosity", "liquid"],
                 "gelation.model": "bulk",
                 "gelation.rate_1_s": 1e-3,
                 "liquid.set_time_s": 1e-8,

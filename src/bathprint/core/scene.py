@@ -380,7 +380,7 @@ class Liquid:
     the gel sets (docs/physics/index.md#liquid gives the laws and the sources)."""
 
     viscosity_pa_s: float = _num(
-        1.0, 0.0, 1e5, lo_open=True, doc="extensional viscosity eta_m of the Maxwell element"
+        1e-3, 0.0, 1e5, lo_open=True, doc="extensional viscosity eta_m of the Maxwell element"
     )
     set_time_s: float = _num(
         0.5, 0.0, 1e4, lo_open=True, doc="age at the gel point, where the liquid sets (bulk gel)"
@@ -750,12 +750,20 @@ def _check_tables(scene: Scene) -> None:
 
 
 def _check_liquid(scene: Scene) -> None:
-    """What the liquid effect needs: the elastic spring whose rest state it relaxes, and (with
-    bulk gelation) a gel point that the crosslinking reaches."""
+    """What the liquid effect needs: the elastic spring whose rest state it relaxes, the
+    viscous stress of the liquid, and (with bulk gelation) a gel point that crosslinking
+    reaches."""
     if "elasticity" not in scene.effects:
         raise SceneError(
             f"effects = {scene.effects!r}: 'liquid' needs 'elasticity' (it relaxes the rest "
             "lengths and curvatures of the elastic spring); allowed: add 'elasticity'"
+        )
+    if "viscosity" not in scene.effects:
+        raise SceneError(
+            f"effects = {scene.effects!r}: 'liquid' needs 'viscosity' (the liquid's viscous "
+            "stress is that effect's; without it a liquid segment's stress would be its "
+            "spring's over one time step, E h d(eps)/dt, which depends on the step); allowed: "
+            "add 'viscosity'"
         )
     gel = scene.gelation
     if "gelation" in scene.effects and gel.model == "bulk":
