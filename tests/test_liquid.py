@@ -203,3 +203,54 @@ def test_a_liquid_rod_keeps_its_bent_shape() -> None:
     # (its straight rest shape still acts over the first step, before the first relaxation:
     # 0.987 measured)
     assert ratios[1] == pytest.approx(1.0, abs=0.02)
+
+
+@pytest.mark.parametrize("model", ["bulk", "surface"])
+def test_the_liquid_sets_as_gelation_says(model: str) -> None:
+    """Relaxation rates 1/tau against the laws of bathprint.core.effects.liquid: bulk, E(a)
+    (1 - X/X_c)^s / eta_m up to the gel point and 0 from it on; surface, E_c / eta_m at the
+    needle (all core), falling as the shell sets, 0 once the section has set."""
+    from bathprint.core.effects.liquid import relaxation_rates
+    from bathprint.core.layout import MAT_BIRTH_TIME, MAT_RADIUS
+
+    eta_m, t_set, s = 0.01, 0.5, 1.3
+    sim = Simulation(
+        "gelation_coiling_22G",
+        {
+            "effects": ["elasticity", "drag", "gravity", "gelation", "viscosity", "liquid"],
+            "gelation.model": model,
+            "liquid.viscosity_pa_s": eta_m,
+            "liquid.set_time_s": t_set,
+            "liquid.viscosity_exponent": s,
+        },
+    )
+    p = sim.model.params[0]
+    row = sim.seg_mat[:1].copy()
+    row[0, MAT_BIRTH_TIME] = 0.0
+    gel = sim.model.scene.gelation
+    ages = [0.0, 0.1, 0.25, 0.45, 0.5, 5.0, 1e4]
+    rates = []
+    for age in ages:
+        if model == "bulk":
+            e = gel.final_modulus_pa - (gel.final_modulus_pa - gel.initial_modulus_pa) * np.exp(
+                -gel.rate_1_s * age
+            )
+            row[0, 1] = e
+            x, xc = 1 - np.exp(-gel.rate_1_s * age), 1 - np.exp(-gel.rate_1_s * t_set)
+            expect = e / eta_m * max(1 - x / xc, 0.0) ** s if age < t_set else 0.0
+            got = relaxation_rates(row, 0, age, p)
+            assert got[0] == pytest.approx(expect, rel=1e-12, abs=1e-300)
+            assert got[1] == got[0]
+        else:
+            got = relaxation_rates(row, 0, age, p)
+        rates.append(got[0])
+    assert rates[0] == pytest.approx(
+        (gel.initial_modulus_pa if model == "bulk" else gel.core_modulus_pa) / eta_m, rel=1e-12
+    )
+    if model == "surface":  # the shell only grows (bulk: E(a) may grow faster than the
+        # viscosity diverges, as here with k = 0.5/s: docs/physics/index.md#liquid)
+        assert all(a >= b for a, b in zip(rates, rates[1:], strict=False)), rates
+    assert rates[-1] == 0.0
+    if model == "bulk":
+        assert rates[ages.index(t_set)] == 0.0
+    assert row[0, MAT_RADIUS] > 0.0
