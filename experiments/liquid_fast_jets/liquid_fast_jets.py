@@ -38,9 +38,10 @@ ALL_OVERRIDES = {
 }
 
 
-def overrides(d: float, q: float, eta_m: float | None) -> dict:
+def overrides(d: float, q: float, eta_m: float | None, seed_um: float = 20.0) -> dict:
     """The ablation's "all" at (d, q) plus ``liquid`` with eta_m (None: without it)."""
     base = ablation.base_overrides(d, q, True, ablation.FULL["fig1b"][1])
+    base["needle.imperfection_um"] = seed_um
     effects = ALL_EFFECTS if eta_m is not None else ALL_EFFECTS[:-1]
     over = ablation.variant_overrides(base, effects, ALL_OVERRIDES)
     if eta_m is not None:
@@ -57,13 +58,18 @@ def radius_profile(sim: Simulation, at_mm: tuple[float, ...]) -> dict[str, float
     return {f"{a:g}": float(np.interp(a * 1e-3, s_from_tip, r)) for a in at_mm}
 
 
-def run(d: float, q: float, eta_m: float | None, cap_s: float) -> dict:
+def run(d: float, q: float, eta_m: float | None, cap_s: float, seed_um: float = 20.0) -> dict:
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        sim = Simulation(ablation.SCENE, overrides(d, q, eta_m))
+        sim = Simulation(ablation.SCENE, overrides(d, q, eta_m, seed_um))
     sc = sim.model.scene
     t_end = sc.duration_s
-    out: dict = {"diameter_mm": d, "q_ml_min": q, "liquid_viscosity_pa_s": eta_m}
+    out: dict = {
+        "diameter_mm": d,
+        "q_ml_min": q,
+        "liquid_viscosity_pa_s": eta_m,
+        "imperfection_um": seed_um,
+    }
     start = time.perf_counter()
     status = "completed"
     times, frames = [0.0], [sim.centerline()]
@@ -105,6 +111,7 @@ def main() -> None:
     ap.add_argument("--cap-s", type=float, default=540.0)
     ap.add_argument("--liquid-viscosity", type=float, default=1.0)
     ap.add_argument("--without-liquid", action="store_true", help="the ablation's all alone")
+    ap.add_argument("--seed-um", type=float, default=20.0, help="needle.imperfection_um")
     ap.add_argument("--out", default=str(Path(__file__).with_name("results")))
     args = ap.parse_args()
     out = Path(args.out)
@@ -113,7 +120,7 @@ def main() -> None:
     rows = json.loads(path.read_text()) if path.exists() else []
     for q in args.q:
         eta_m = None if args.without_liquid else args.liquid_viscosity
-        row = run(0.41, q, eta_m, args.cap_s)
+        row = run(0.41, q, eta_m, args.cap_s, args.seed_um)
         print(json.dumps(row), flush=True)
         rows = [r for r in rows if (r["q_ml_min"], r["liquid_viscosity_pa_s"]) != (q, eta_m)]
         rows.append(row)
