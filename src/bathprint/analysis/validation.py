@@ -342,6 +342,100 @@ def kelvin_voigt_relaxation(
     return deflection() / d0, math.exp(-1.0)
 
 
+@dataclass
+class HangingThread:
+    """A viscous thread hanging under its net weight, simulated and exact, at some times:
+    ``times_s`` (s), total lengths (m) and each segment's stretch (length over its length at
+    t = 0, top segment last), and the analytic blow-up time ``blowup_s``."""
+
+    times_s: list[float]
+    length_m: list[float]
+    exact_length_m: list[float]
+    stretch: list[np.ndarray]
+    exact_stretch: list[np.ndarray]
+    blowup_s: float
+
+
+def hanging_thread_exact(
+    t: float, edges_m: np.ndarray, length_m: float, drho: float, g: float, eta_e: float
+) -> tuple[float, np.ndarray]:
+    """(total length, each element's mean stretch) of Trouton's viscous thread hanging from
+    a fixed top under its net weight, without inertia or surface tension, at time t (s).
+
+    In the Lagrangian coordinate u (m of unstretched thread above the free end) the weight
+    below is W = drho g A0 u; the tension W = eta_e A dln(l)/dt with A = A0 / lambda gives
+    d(1/lambda)/dt = -W / (eta_e A0), so lambda = 1 / (1 - c u t), c = drho g / eta_e, and
+    the length int_0^L lambda du = ln(1 / (1 - c L t)) / (c t). ``edges_m`` are the elements'
+    edges in u (rising); an element's mean stretch is ln((1 - c t u_a) / (1 - c t u_b)) /
+    (c t (u_b - u_a))."""
+    ct = drho * g / eta_e * t
+    if ct * length_m >= 1.0:
+        raise ValueError(f"t = {t!r} s is at or past the blow-up time")
+    total = -math.log1p(-ct * length_m) / ct
+    ua, ub = edges_m[:-1], edges_m[1:]
+    stretch = (np.log1p(-ct * ua) - np.log1p(-ct * ub)) / (ct * (ub - ua))
+    return total, stretch
+
+
+def viscous_thread_under_gravity(
+    fractions: tuple[float, ...] = (0.25, 0.5, 0.75),
+    spacing_mm: float = 0.5,
+    tolerance: float = 1e-6,
+    time_step_s: float = 0.0,
+    eta: float = 100.0,
+    length_mm: float = 20.0,
+) -> HangingThread:
+    """The liquid limit of the ``liquid`` effect: a thread of ``length_mm`` (radius 0.5 mm,
+    drho = 100 kg/m^3, E = 2 Pa relaxed with tau = 1e-7 s, so tau << every step) hanging from
+    the needle with ``elasticity``, ``gravity``, ``viscosity`` and ``liquid`` (a drag of
+    1e-6 Pa s keeps the overdamped equations regular), at the given fractions of the blow-up
+    time eta_e / (drho g L), against :func:`hanging_thread_exact`."""
+    sim = Simulation(
+        "paper_simulation",
+        {
+            **VISCOUS_ROD,
+            "effects": ["elasticity", "drag", "gravity", "viscosity", "liquid"],
+            "initial.length_mm": length_mm,
+            "numerics.node_spacing_mm": spacing_mm,
+            "numerics.tolerance": tolerance,
+            "numerics.time_step_s": time_step_s,
+            "numerics.max_strain": 1.0,
+            "numerics.stretch_limit": 1.0,
+            "bath.density_kg_m3": 1000.0,
+            "material.density_kg_m3": 1100.0,
+            "material.youngs_modulus_pa": 2.0,
+            "liquid.viscosity_pa_s": 2e-7,
+            "viscosity.solution_viscosity_pa_s": eta,
+            "viscosity.trouton_ratio": 3.0,
+        },
+    )
+    scene = sim.model.scene
+    drho = scene.material.density_kg_m3 - scene.bath.density_kg_m3
+    g = scene.bath.gravity_m_s2
+    eta_e = scene.viscosity.trouton_ratio * eta
+    from bathprint.core.layout import MAT_RADIUS
+
+    n_seg = sim.n_segments
+    r0 = sim.model.radius
+    l_start = np.linalg.norm(np.diff(sim.centerline(), axis=0), axis=1)[:n_seg]
+    vol = sim.rest_lengths()[:n_seg] * sim.material()[:n_seg, MAT_RADIUS] ** 2 / r0**2
+    edges = np.concatenate([[0.0], np.cumsum(vol)])  # u of each node, free end first
+    length0 = float(edges[-1])
+    blowup = eta_e / (drho * g * length0)
+    out = HangingThread([], [], [], [], [], blowup)
+    for f in fractions:
+        t = f * blowup
+        sim.advance(t)
+        seg = np.linalg.norm(np.diff(sim.centerline(), axis=0), axis=1)[:n_seg]
+        total, stretch = hanging_thread_exact(t, edges, length0, drho, g, eta_e)
+        out.times_s.append(t)
+        out.length_m.append(float(seg.sum()))
+        out.exact_length_m.append(total)
+        out.stretch.append(seg / l_start)
+        out.exact_stretch.append(stretch)
+    return out
+
+
 def viscosity_checks() -> list[Check]:
     """The viscosity effect: Trouton's thread and the Kelvin-Voigt rod."""
     sim_rate, rate = viscous_thread_stretch_rate()

@@ -221,6 +221,8 @@ def set_boundary(model, rod, t: float, scratch) -> None:
     s_tip = extruded_length(model.flow, model.flow_cum, prm.needle_area, t)
     node_s[tip] = s_tip
     seg_rest[tip - 1] = s_tip - node_s[tip - 1]
+    if prm.liquid:  # its volume pi r_exit^2 (s_tip - s) at its present (relaxed) radius
+        seg_rest[tip - 1] *= (prm.exit_radius / rod.seg_mat[tip - 1, MAT_RADIUS]) ** 2
     # The ghost segment only fixes the clamp direction. Its rest length enters nothing
     # but the tip's Voronoi length, which must be half the inlet segment alone so that
     # the rod is clamped at the tip itself (with dl here it would be clamped dl/2 inside
@@ -374,6 +376,7 @@ def split_inlet(model, rod, t: float, split_count: int, scratch) -> int:
     seg_rest[out] = s_new - s_out
     seg_rest[new] = s_tip - s_new
     row = scratch.mat_row
+    r_inlet = seg_mat[out, MAT_RADIUS]
     segment_material(s_out, s_new, t, model, row, scratch)
     for c in range(N_MAT):
         seg_mat[out, c] = row[c]
@@ -381,6 +384,12 @@ def split_inlet(model, rod, t: float, split_count: int, scratch) -> int:
     for c in range(N_MAT):
         seg_mat[new, c] = row[c]
         seg_mat[new + 1, c] = row[c]  # the ghost mirrors the inlet's material
+    if p.liquid:  # both halves keep the inlet's (relaxed) section and their volumes
+        f = (p.exit_radius / r_inlet) ** 2
+        seg_rest[out] *= f
+        seg_rest[new] *= f
+        for k in (out, new, new + 1):
+            seg_mat[k, MAT_RADIUS] = r_inlet
     return n_nodes + 1
 
 
@@ -394,7 +403,10 @@ def refresh_inlet_material(model, rod, t: float, scratch) -> None:
     if node_s[n_nodes - 2] <= max(node_s[out], 0.0):
         return  # nothing extruded into it yet: it is still initial material
     row = scratch.mat_row
+    r_inlet = seg_mat[out, MAT_RADIUS]
     segment_material(node_s[out], node_s[n_nodes - 2], t, model, row, scratch)
+    if model.params[0].liquid:  # the liquid effect owns its section (it relaxes at volume)
+        row[MAT_RADIUS] = r_inlet
     for c in range(N_MAT):
         seg_mat[out, c] = row[c]
         seg_mat[out + 1, c] = row[c]

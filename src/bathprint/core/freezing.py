@@ -47,6 +47,7 @@ import numpy as np
 from numba import njit
 
 from bathprint.core.effects._band import add_block
+from bathprint.core.effects.drag import segment_mu_s
 from bathprint.core.effects.elasticity import bend_energy_grad_hess, segment_bending_stiffness
 from bathprint.core.effects.floor import friction_block
 from bathprint.core.effects.gravity import bath_density
@@ -94,6 +95,8 @@ def tail_load(model, rod, n_frozen: int, gravity_on: bool, on_floor: bool, ws) -
         ez = pos[3 * j + 5] - pos[3 * j + 2]
         length = math.sqrt(ex * ex + ey * ey + ez * ez)
         tt = (ex / length, ey / length, ez / length)
+        if p.liquid:
+            mu_s = segment_mu_s(p, seg_mat[j, MAT_RADIUS])
         for a in range(3):
             for b in range(3):
                 tail.drag[a, b] += mu_s * length * ((2.0 if a == b else 0.0) - tt[a] * tt[b])

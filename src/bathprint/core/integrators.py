@@ -32,7 +32,7 @@ from numba import njit
 
 from bathprint.core import solver
 from bathprint.core.assemble import assemble
-from bathprint.core.effects import _hydro_lag, contact, gelation
+from bathprint.core.effects import _hydro_lag, contact, gelation, liquid
 from bathprint.core.extrusion import (
     extruded_length,
     flow_rate,
@@ -60,6 +60,7 @@ from bathprint.core.layout import (
     E_GRAVITY,
     E_HYDRODYNAMICS,
     E_INCLUSIONS,
+    E_LIQUID,
     INTEGRATOR_EXPLICIT,
     INTEGRATOR_IMPLICIT_EULER,
     INTEGRATOR_SDIRK4,
@@ -799,6 +800,9 @@ def _accept(model, state, ws, h: float, h_taken: float, err: float) -> int:
     if enabled[E_GELATION]:
         state.calls[E_GELATION] += 1
         gelation.update(model, whole, t, ws.scratch)
+    if enabled[E_LIQUID]:
+        state.calls[E_LIQUID] += 1
+        liquid.update(model, whole, t, h_taken, ws.scratch)
     if p.freeze_beyond > 0.0 and p.clamped:
         limit = s_tip - p.freeze_beyond
         while (

@@ -126,6 +126,11 @@ PARAMS_FIELDS: tuple[tuple[str, str, str], ...] = (
     ("solution_viscosity", "f8", "Pa s, shear viscosity eta of the alginate solution"),
     ("trouton_ratio", "f8", "-, extensional / shear viscosity of the solution (3: Newtonian)"),
     ("line_search", "?", "Newton updates backtrack until the force residual decreases"),
+    ("liquid", "?", "the liquid effect is listed: rest lengths and curvatures relax (Maxwell)"),
+    ("liquid_viscosity", "f8", "Pa s, extensional viscosity eta_m of the Maxwell element"),
+    ("liquid_set_time", "f8", "s, age at the gel point (bulk gelation): the liquid sets"),
+    ("liquid_exponent", "f8", "-, s of eta_m (1 - X/X_c)^-s as the gel point nears"),
+    ("drag_cox", "?", "mu_s is Cox's 2 pi mu / ln(L/r) (not a constant)"),
 )
 PARAMS_DTYPE = np.dtype([(name, kind) for name, kind, _ in PARAMS_FIELDS])
 
@@ -141,7 +146,8 @@ E_INCLUSIONS = 7  # a material effect: composite properties of material at its b
 E_CONTACT = 8  # self-contact between non-adjacent segments (couplings off the band)
 E_HYDRODYNAMICS = 9  # nonlocal slender-body flow (the drag's local law with a nonlocal part)
 E_VISCOSITY = 10  # viscous stress of the alginate solution in the rod (Kelvin-Voigt)
-N_EFFECTS = 11
+E_LIQUID = 11  # a material effect: rest lengths and curvatures relax while liquid (Maxwell)
+N_EFFECTS = 12
 
 EFFECT_NAMES = (
     "elasticity",
@@ -155,6 +161,7 @@ EFFECT_NAMES = (
     "contact",
     "hydrodynamics",
     "viscosity",
+    "liquid",
 )
 
 # --- gelation's material models (``p.gel_model``) -------------------------------------

@@ -303,6 +303,11 @@ def compile_model(scene: Scene) -> Model:
     p.added_mass_coefficient = scene.inertia.added_mass_coefficient
     p.solution_viscosity = scene.viscosity.solution_viscosity_pa_s
     p.trouton_ratio = scene.viscosity.trouton_ratio
+    p.liquid = "liquid" in scene.effects
+    p.liquid_viscosity = scene.liquid.viscosity_pa_s
+    p.liquid_set_time = scene.liquid.set_time_s
+    p.liquid_exponent = scene.liquid.viscosity_exponent
+    p.drag_cox = scene.drag.model != "constant"
     p.end_load = scene.end_load.force_n
     num = effective_numerics(scene)
     p.node_spacing = num["node_spacing_mm"] * MM

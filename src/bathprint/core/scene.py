@@ -374,6 +374,23 @@ class Viscosity:
 
 
 @dataclass
+class Liquid:
+    """The liquid jet's Maxwell relaxation (effect 'liquid'): while liquid, rest lengths and
+    curvatures relax toward the current ones at the rate E / eta_m, at constant volume, until
+    the gel sets (docs/physics/index.md#liquid gives the laws and the sources)."""
+
+    viscosity_pa_s: float = _num(
+        1e-3, 0.0, 1e5, lo_open=True, doc="extensional viscosity eta_m of the Maxwell element"
+    )
+    set_time_s: float = _num(
+        0.5, 0.0, 1e4, lo_open=True, doc="age at the gel point, where the liquid sets (bulk gel)"
+    )
+    viscosity_exponent: float = _num(
+        1.0, 0.5, 3.0, doc="s of the viscosity's divergence (1 - X/X_c)^-s at the gel point"
+    )
+
+
+@dataclass
 class EndLoad:
     """A dead force on the free end (validation scenes: column buckling)."""
 
@@ -522,6 +539,7 @@ class Scene:
     contact: Contact = field(default_factory=Contact)
     inertia: Inertia = field(default_factory=Inertia)
     viscosity: Viscosity = field(default_factory=Viscosity)
+    liquid: Liquid = field(default_factory=Liquid)
     end_load: EndLoad = field(default_factory=EndLoad)
     initial: Initial = field(default_factory=Initial)
     numerics: Numerics = field(default_factory=Numerics)
@@ -682,6 +700,8 @@ def _check_tables(scene: Scene) -> None:
             f"effects = {scene.effects!r}: 'contact' needs 'elasticity' (a filament without "
             "elastic forces cannot hold its segments apart); allowed: add 'elasticity'"
         )
+    if "liquid" in scene.effects:
+        _check_liquid(scene)
     d = scene.needle.direction
     if math.hypot(*d) < 1e-6:
         raise SceneError(f"needle.direction = {list(d)!r} must be a non-zero vector")
@@ -727,6 +747,34 @@ def _check_tables(scene: Scene) -> None:
             f"the filament radius ({source} mm); allowed: numerics.node_spacing_mm >= "
             f"{0.2 * r_mm:g} (a rod model needs segments at least that long)"
         )
+
+
+def _check_liquid(scene: Scene) -> None:
+    """What the liquid effect needs: the elastic spring whose rest state it relaxes, the
+    viscous stress of the liquid, and (with bulk gelation) a gel point that crosslinking
+    reaches."""
+    if "elasticity" not in scene.effects:
+        raise SceneError(
+            f"effects = {scene.effects!r}: 'liquid' needs 'elasticity' (it relaxes the rest "
+            "lengths and curvatures of the elastic spring); allowed: add 'elasticity'"
+        )
+    if "viscosity" not in scene.effects:
+        raise SceneError(
+            f"effects = {scene.effects!r}: 'liquid' needs 'viscosity' (the liquid's viscous "
+            "stress is that effect's; without it a liquid segment's stress would be its "
+            "spring's over one time step, E h d(eps)/dt, which depends on the step); allowed: "
+            "add 'viscosity'"
+        )
+    gel = scene.gelation
+    if "gelation" in scene.effects and gel.model == "bulk":
+        conv = -math.expm1(-gel.rate_1_s * scene.liquid.set_time_s)
+        if not conv > 1e-9:
+            raise SceneError(
+                f"liquid.set_time_s = {scene.liquid.set_time_s!r} with gelation.rate_1_s = "
+                f"{gel.rate_1_s!r}: the crosslinking conversion at the gel point, "
+                f"1 - exp(-k t_set) = {conv:.3g}, is too small to resolve; allowed: "
+                f"liquid.set_time_s >= {1e-9 / gel.rate_1_s:.3g} s"
+            )
 
 
 def _check_hydrodynamics(scene: Scene) -> None:

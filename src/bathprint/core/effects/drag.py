@@ -33,6 +33,15 @@ from bathprint.core.layout import DRAG_FINITE_RE, MAT_RADIUS
 from bathprint.core.topology import filament_segments, free_nodes
 
 
+@njit(**KERNEL, inline="always")
+def segment_mu_s(p, radius: float) -> float:
+    """mu_s (Pa s) of a segment of the given radius: the compiled one, or with the liquid
+    effect (radii change) and Cox's law, 2 pi mu / ln(L/r) at that radius (ln >= 1)."""
+    if p.liquid and p.drag_cox:
+        return 2.0 * math.pi * p.bath_viscosity / max(math.log(p.drag_length / radius), 1.0)
+    return p.mu_s
+
+
 @njit(**KERNEL)
 def accumulate(model, rod, stage, out) -> float:
     """Add drag forces (and -cv dF/dv - cx dF/dx); return the dissipation rate (W)."""
@@ -55,6 +64,8 @@ def accumulate(model, rod, stage, out) -> float:
         ez = pos[3 * j + 5] - pos[3 * j + 2]
         length = math.sqrt(ex * ex + ey * ey + ez * ez)
         tt = (ex / length, ey / length, ez / length)
+        if p.liquid:
+            mu_s = segment_mu_s(p, rod.seg_mat[j, MAT_RADIUS])
         half = 0.5 * mu_s * length
         if do_jac:
             for a in range(3):
