@@ -1072,6 +1072,8 @@ CAMPAIGN_ENVS = (
     "WriteShape-v1",
     "WriteShape-v2",
     "CoilRadius-v2",
+    "WriteShape-v3",
+    "BuoyantLayers-v2",
 )
 
 
