@@ -673,9 +673,11 @@ def plot(path: Path, effects: dict, fits: dict, regimes: dict, missing: dict[str
     width = 0.8 / max(len(shown), 1)
     for k, n in enumerate(shown):
         ratios = [fits[n][key] / PAPER[key] for key in keys]
-        ax.bar(np.arange(3) + k * width, ratios, width, label=n)
+        # the ten colours of the cycle, then greys: no two variants share a colour
+        color = f"C{k}" if k < 10 else str(0.15 + 0.3 * ((k - 10) % 3))
+        ax.bar(np.arange(3) + k * width, ratios, width, label=n, color=color)
     ax.axhline(1.0, color="k", lw=0.8, ls="--")
-    ax.set_xticks(np.arange(3) + 0.4 - width / 2, ["l / R", "R prefactor", "omega prefactor"])
+    ax.set_xticks(np.arange(3) + 0.4 - width / 2, ["l / R", "R\nprefactor", "omega\nprefactor"])
     ax.set_ylabel("fitted / paper's value")
     ax.set_title("Fig. 2 fits per variant (1 = the paper's)")
     ax.legend(fontsize=7)
