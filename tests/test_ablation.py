@@ -25,7 +25,8 @@ def test_quick_ablation_writes_its_outputs_and_resumes(tmp_path) -> None:
     assert main(argv) == 0
     rows = _read_csv(tmp_path / "ablation.csv")
     n_points = sum(len(pts) for pts, _ in ablation.QUICK.values())
-    names = [v.name for v in (*ablation.VARIANTS, *ablation.COMBINATIONS)] + [ablation.ALL]
+    names = [v.name for v in (*ablation.VARIANTS, *ablation.COMBINATIONS)]
+    names += [ablation.ALL, ablation.ALL_LIQUID]
     assert len(rows) == n_points * len(names)
     assert [r["variant"] for r in rows[: len(names)]] == names
     planned, missing = ablation.plan(quick=True)
@@ -48,8 +49,9 @@ def test_quick_ablation_writes_its_outputs_and_resumes(tmp_path) -> None:
             assert effects - base - {"floor"} == {"hydrodynamics"}
         if r["variant"] == "contact_finite_re_hydrodynamics":
             assert effects - base - {"floor"} == {"contact", "hydrodynamics"}
-        if r["variant"] == ablation.ALL:
-            assert effects == base | {e for v in available for e in v.effects} | (
+        if r["variant"] in (ablation.ALL, ablation.ALL_LIQUID):
+            liquid = {"liquid"} if r["variant"] == ablation.ALL_LIQUID else set()
+            assert effects == base | {e for v in available for e in v.effects} | liquid | (
                 {"floor"} if r["set"] == "fig1b" else set()
             )
         gap = float(r["min_gap_ratio"])
@@ -77,8 +79,10 @@ def test_a_variant_the_scene_refuses_is_not_available_and_left_out_of_all(monkey
     runs, missing = ablation.plan(quick=True)
     assert "no_such_effect" in missing["bogus"] and "drag.no_such_key" in missing["keyed"]
     assert ablation.ALL not in missing
+    # without the viscosity effect in "all" the scene refuses liquid: said so, not run
+    assert "'liquid' needs 'viscosity'" in missing[ablation.ALL_LIQUID]
     for r in runs:
-        if r["variant"] in ("bogus", "keyed"):
+        if r["variant"] in ("bogus", "keyed", ablation.ALL_LIQUID):
             assert r["overrides"] is None
         elif r["variant"] == ablation.ALL:
             assert r["overrides"]["effects"][-1] == "inertia"
@@ -89,6 +93,26 @@ def test_a_variant_the_scene_refuses_is_not_available_and_left_out_of_all(monkey
             assert r["overrides"]["effects"][-1] == "hydrodynamics"  # a combination
         else:
             assert r["overrides"]["effects"][-1] in ("gravity", "floor")
+
+
+def test_all_liquid_is_all_plus_the_liquid_effect_at_its_defaults() -> None:
+    runs, missing = ablation.plan()
+    assert ablation.ALL_LIQUID not in missing
+    by_key = {(r["set"], r["point"], r["variant"]): r for r in runs}
+    liquid_runs = [r for r in runs if r["variant"] == ablation.ALL_LIQUID]
+    assert len(liquid_runs) == sum(len(pts) for pts, _ in ablation.FULL.values())
+    for r in liquid_runs:
+        same = by_key[(r["set"], r["point"], ablation.ALL)]
+        assert r["skipped"] == same["skipped"]  # nonlocal: the same points as "all"
+        if r["overrides"] is None:
+            continue
+        assert r["overrides"]["effects"] == [*same["overrides"]["effects"], "liquid"]
+        assert {k: v for k, v in r["overrides"].items() if k != "effects"} == {
+            k: v for k, v in same["overrides"].items() if k != "effects"
+        }
+        assert not any(k.startswith("liquid.") for k in r["overrides"])  # its defaults
+    others = [r for r in runs if r["variant"] != ablation.ALL_LIQUID and r["overrides"]]
+    assert others and all("liquid" not in r["overrides"]["effects"] for r in others)
 
 
 def _table_row(variant: str, point: float, **values) -> dict:
@@ -207,7 +231,7 @@ def test_the_cost_probe_times_every_variant_at_one_point() -> None:
     costs = ablation.time_variants("fig2", ablation.QUICK["fig2"][0][0], quick=True)
     _, missing = ablation.plan(quick=True)
     variants = (*ablation.VARIANTS, *ablation.COMBINATIONS)
-    assert list(costs) == [v.name for v in variants] + [ablation.ALL]
+    assert list(costs) == [v.name for v in variants] + [ablation.ALL, ablation.ALL_LIQUID]
     for name, c in costs.items():
         if name in missing:
             assert c["error"].startswith("not available")

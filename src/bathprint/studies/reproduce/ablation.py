@@ -9,9 +9,11 @@ Variants: local slender-body
 (Stokes) drag with elasticity and gravity only, then one effect added at a time (inertia,
 self-contact, finite-Reynolds drag, nonlocal hydrodynamics, surface gelation, the solution's
 viscous stress), the two that tighten the coils together (finite-Re drag with nonlocal
-hydrodynamics, ``COMBINATIONS``) and all of them together. A variant whose scene keys this
-build does not know (probed by loading its scene) gets "not available" rows and is left out
-of "all". Per run: l (the paper's inset definition and the other three of
+hydrodynamics, ``COMBINATIONS``), all of them together, and all of them with the ``liquid``
+effect at its defaults (``all_liquid``: the jet's rest state flows while it is liquid,
+docs/physics/index.md#liquid). A variant whose scene keys this build does not know (probed
+by loading its scene) gets "not available" rows and is left out of "all". Per run: l (the
+paper's inset definition and the other three of
 :func:`bathprint.analysis.measure.buckling_length_definitions`), R, Lambda, omega (rad/s and
 Hz), omega R / v, the regime, and the smallest gap between non-adjacent segments over the
 saved frames (:func:`bathprint.analysis.measure.min_gap_ratio`; below
@@ -90,6 +92,12 @@ COMBINATIONS = (
     ),
 )
 ALL = "all"
+# "all" plus the liquid jet (the Maxwell relaxation of the rest state while the material is
+# liquid, with the defaults of the ``liquid`` keys): does a jet that can flow pass the strain
+# bound where "all" fails, and does its slowing move omega R / v? A row of its own, not part
+# of "all", so the runs of "all" keep their scenes (and their run ids).
+ALL_LIQUID = "all_liquid"
+LIQUID_EFFECTS = ("liquid",)
 BASELINE = "stokes"
 
 
@@ -117,7 +125,7 @@ FULL = {
 # of the Fig. 2 grid only; their other Fig. 2 rows say "not run". With contact the nonlocal
 # flow is cheap enough for the whole grid (12 s to 8 min per run on the d = 0.41 mm row,
 # against 25-75 min for the pair without contact), so that combination runs everywhere.
-NONLOCAL = ("hydrodynamics", "finite_re_hydrodynamics", "all")
+NONLOCAL = ("hydrodynamics", "finite_re_hydrodynamics", ALL, ALL_LIQUID)
 FIG2_NONLOCAL = [(0.41, q) for q in (0.3, 0.5, 1.0, 2.0)]
 NOT_RUN = "not run: nonlocal hydrodynamics runs on the d = 0.41 mm row of the Fig. 2 grid only"
 QUICK_BUDGET = Budget(turns=1.0, max_duration_s=0.12, max_segments=60.0)
@@ -207,16 +215,16 @@ def plan(quick: bool = False) -> tuple[list[dict], dict[str, str]]:
         # docs/reproduction.md, experiments/hydrodynamics/hydrodynamics.py failing_solve)
         merged["hydrodynamics.kernel"] = "rpy"
     combined = Variant(ALL, "all", tuple(effects), merged)
-    why = _probe(variant_overrides(probe_base, combined.effects, combined.overrides))
-    if why is not None:
-        missing[ALL] = why
-    else:
-        available.append(combined)
+    liquid = Variant(ALL_LIQUID, "all + liquid", (*effects, *LIQUID_EFFECTS), merged)
+    for v in (combined, liquid):
+        why = _probe(variant_overrides(probe_base, v.effects, v.overrides))
+        if why is not None:
+            missing[v.name] = why
     runs = []
     for set_name, (pts, budget) in sets.items():
         for d, q in pts:
             base = base_overrides(d, q, set_name == "fig1b", budget)
-            for v in (*VARIANTS, *COMBINATIONS, combined):
+            for v in (*VARIANTS, *COMBINATIONS, combined, liquid):
                 skipped = (
                     not quick
                     and set_name == "fig2"
@@ -665,9 +673,11 @@ def plot(path: Path, effects: dict, fits: dict, regimes: dict, missing: dict[str
     width = 0.8 / max(len(shown), 1)
     for k, n in enumerate(shown):
         ratios = [fits[n][key] / PAPER[key] for key in keys]
-        ax.bar(np.arange(3) + k * width, ratios, width, label=n)
+        # the ten colours of the cycle, then greys: no two variants share a colour
+        color = f"C{k}" if k < 10 else str(0.15 + 0.3 * ((k - 10) % 3))
+        ax.bar(np.arange(3) + k * width, ratios, width, label=n, color=color)
     ax.axhline(1.0, color="k", lw=0.8, ls="--")
-    ax.set_xticks(np.arange(3) + 0.4 - width / 2, ["l / R", "R prefactor", "omega prefactor"])
+    ax.set_xticks(np.arange(3) + 0.4 - width / 2, ["l / R", "R\nprefactor", "omega\nprefactor"])
     ax.set_ylabel("fitted / paper's value")
     ax.set_title("Fig. 2 fits per variant (1 = the paper's)")
     ax.legend(fontsize=7)
