@@ -35,10 +35,11 @@ HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE.parent))  # experiments/: _common
 sys.path.insert(0, str(HERE.parent / "shape_references"))  # the references' gallery
 from _common import RESULTS, ROOT, write_meta  # noqa: E402
-from gallery import FREE_Z_STRETCH, N_PLOT, aligned  # noqa: E402
+from gallery import N_PLOT, aligned, policy_arrays  # noqa: E402
+from gallery import _panel as ref_panel  # noqa: E402
 
 from bathprint.agents.controller import FAMILY_ENVS, family_shapes  # noqa: E402
-from bathprint.envs.shape_geometry import arclength, resample  # noqa: E402
+from bathprint.envs.shape_geometry import resample  # noqa: E402
 from bathprint.envs.shape_metric import arclength_axes, shape_error  # noqa: E402
 
 SETS = ("test", "ood_test")
@@ -129,10 +130,7 @@ def play(env_name: str) -> Path:
         "agent_run": np.array(run_dir.relative_to(ROOT).as_posix()),
         "agent_validation_mm": np.array(val),
     }
-    for pol in POLICIES:
-        arrays[f"written_{pol}"] = np.stack([r[pol]["written"] for r in rows]).astype(np.float32)
-        for key, dtype in (("rms_mm", np.float32), ("max_mm", np.float32), ("success", bool)):
-            arrays[f"{key}_{pol}"] = np.array([r[pol][key] for r in rows], dtype)
+    arrays.update(policy_arrays(rows, POLICIES))
     path = npz_path(env_name)
     path.parent.mkdir(parents=True, exist_ok=True)
     np.savez_compressed(path, **arrays)  # type: ignore[arg-type]
@@ -169,34 +167,6 @@ def summary(env: str) -> str:
 
 
 # ---------------------------------------------------------------------------- plot
-def _panel(ax: Any, family: str, row: dict[str, Any]) -> None:
-    from matplotlib.ticker import MaxNLocator
-
-    curves = [(row["target"], "0.55", 3.5)]
-    curves += [(row[pol]["written"], COLORS[pol], 1.0) for pol in POLICIES]
-    if family == "floor":
-        for c, color, lw in curves:
-            ax.plot(c[:, 0], c[:, 1], color=color, lw=lw, solid_capstyle="round")
-        ax.set_aspect("equal", adjustable="datalim")
-    elif family == "free":
-        for c, color, lw in curves:
-            ax.plot(c[:, 0], c[:, 1], c[:, 2], color=color, lw=lw)
-        span = np.ptp(row["target"], axis=0)
-        ax.set_box_aspect((span[0], span[1], max(span[2] * FREE_Z_STRETCH, 0.2 * span[0])))
-        ax.view_init(elev=20, azim=-60)
-        for axis in (ax.xaxis, ax.yaxis, ax.zaxis):
-            axis.pane.fill = False
-            axis.set_major_locator(MaxNLocator(4))
-        ax.tick_params(labelsize=5, pad=0)
-    else:  # buoyant: height against the horizontal arclength
-        s = arclength(row["target"], arclength_axes(family))
-        for c, color, lw in curves:
-            ax.plot(s, c[:, 2], color=color, lw=lw)
-        ax.set_xlabel("horizontal arclength (mm)", fontsize=6, labelpad=1)
-        ax.set_ylabel("height (mm)", fontsize=6, labelpad=1)
-    ax.tick_params(labelsize=5)
-
-
 def _title(row: dict[str, Any]) -> str:
     errs = []
     for pol, short in zip(POLICIES, ("ctl", "agent"), strict=True):
@@ -217,7 +187,7 @@ def _figure(panels: list[tuple[str, dict[str, Any]]], ncol: int, size: float, ti
     fig = plt.figure(figsize=(ncol * size, nrow * size * 0.95 + 0.7))
     for k, (family, row) in enumerate(panels):
         ax = fig.add_subplot(nrow, ncol, k + 1, projection="3d" if family == "free" else None)
-        _panel(ax, family, row)
+        ref_panel(ax, family, row, POLICIES, COLORS)
         ax.set_title(_title(row), fontsize=6.5, pad=2)
     fig.suptitle(title, fontsize=8)
     handles = [Line2D([], [], color="0.6", lw=3.5, label="target"),

@@ -103,15 +103,23 @@ def save(family: str, shapes: dict[tuple[str, str], dict[str, Any]], accuracy: s
         "accuracy": np.array(accuracy),
         "seed": np.array(SEED),
     }
-    for pol in POLICIES:
-        arrays[f"written_{pol}"] = np.stack([r[pol]["written"] for r in rows]).astype(np.float32)
-        for key, dtype in (("rms_mm", np.float32), ("max_mm", np.float32), ("success", bool)):
-            arrays[f"{key}_{pol}"] = np.array([r[pol][key] for r in rows], dtype)
+    arrays.update(policy_arrays(rows, POLICIES))
     path = npz_path(family)
     path.parent.mkdir(parents=True, exist_ok=True)
     np.savez_compressed(path, **arrays)  # type: ignore[arg-type]
     write_meta(path)
     return path
+
+
+def policy_arrays(rows: list[dict[str, Any]], policies: tuple[str, ...]) -> dict[str, np.ndarray]:
+    """Each policy's written curves (float32), RMS and largest distance (mm) and success, one
+    entry per row, as the npz files store them (``written_<policy>``, ``rms_mm_<policy>``...)."""
+    arrays: dict[str, np.ndarray] = {}
+    for pol in policies:
+        arrays[f"written_{pol}"] = np.stack([r[pol]["written"] for r in rows]).astype(np.float32)
+        for key, dtype in (("rms_mm", np.float32), ("max_mm", np.float32), ("success", bool)):
+            arrays[f"{key}_{pol}"] = np.array([r[pol][key] for r in rows], dtype)
+    return arrays
 
 
 def aligned(written: np.ndarray, shape: np.ndarray, family: str) -> np.ndarray:
@@ -206,11 +214,18 @@ def _title(name: str, st: str, row: dict[str, Any]) -> str:
     return f"{name} ({tag})\n{' / '.join(errs)} mm"
 
 
-def _panel(ax: Any, family: str, row: dict[str, Any]) -> None:
+def _panel(
+    ax: Any,
+    family: str,
+    row: dict[str, Any],
+    policies: tuple[str, ...] = POLICIES,
+    colors: dict[str, str] = COLORS,
+) -> None:
+    """One shape: the target grey and thick under each policy's written curve."""
     from matplotlib.ticker import MaxNLocator
 
     curves = [("target", row["target"], "0.55", 3.5)]
-    curves += [(pol, row[pol]["written"], COLORS[pol], 1.0) for pol in POLICIES]
+    curves += [(pol, row[pol]["written"], colors[pol], 1.0) for pol in policies]
     if family == "floor":
         for _, c, color, lw in curves:
             ax.plot(c[:, 0], c[:, 1], color=color, lw=lw, solid_capstyle="round")

@@ -61,22 +61,24 @@ def _finite(action: np.ndarray) -> np.ndarray:
     return a
 
 
-class FeedforwardResidual(gym.Wrapper):
-    """The environment's action = clip(feedforward(obs) + scale * action, -1, 1)."""
+class _Residual(gym.Wrapper):
+    """The environment's action = clip(base(obs) + scale * action, -1, 1); a subclass
+    names the base policy (``_base``) and what a new episode resets (``_new_episode``)."""
 
-    def __init__(self, env: gym.Env, scale: float = 0.5, calibrated: bool = True) -> None:
+    def __init__(self, env: gym.Env, scale: float) -> None:
         super().__init__(env)
         self.scale = _check_scale(scale)
-        prefactor = PAPER_PREFACTOR
-        if calibrated:
-            from bathprint.agents.hyperparams import load_baselines
-
-            prefactor = float(load_baselines(env.spec.id)["feedforward_prefactor"])
-        self.feedforward = FeedforwardPolicy(env, prefactor=prefactor)
         self._obs: np.ndarray | None = None
+
+    def _base(self, obs: np.ndarray) -> np.ndarray:
+        raise NotImplementedError
+
+    def _new_episode(self) -> None:
+        """Called after the environment's reset, before the first step."""
 
     def reset(self, **kwargs: Any) -> tuple[np.ndarray, dict[str, Any]]:
         obs, info = self.env.reset(**kwargs)
+        self._new_episode()
         self._obs = obs
         return obs, info
 
@@ -84,13 +86,29 @@ class FeedforwardResidual(gym.Wrapper):
         if self._obs is None:
             raise RuntimeError("call reset() before step()")
         a = _finite(action)
-        full = np.clip(self.feedforward.action(self._obs) + self.scale * a, -1.0, 1.0)
+        full = np.clip(self._base(self._obs) + self.scale * a, -1.0, 1.0)
         obs, reward, terminated, truncated, info = self.env.step(full.astype(np.float32))
         self._obs = obs
         return obs, reward, terminated, truncated, info
 
 
-class ControllerResidual(gym.Wrapper):
+class FeedforwardResidual(_Residual):
+    """The environment's action = clip(feedforward(obs) + scale * action, -1, 1)."""
+
+    def __init__(self, env: gym.Env, scale: float = 0.5, calibrated: bool = True) -> None:
+        super().__init__(env, scale)
+        prefactor = PAPER_PREFACTOR
+        if calibrated:
+            from bathprint.agents.hyperparams import load_baselines
+
+            prefactor = float(load_baselines(env.spec.id)["feedforward_prefactor"])
+        self.feedforward = FeedforwardPolicy(env, prefactor=prefactor)
+
+    def _base(self, obs: np.ndarray) -> np.ndarray:
+        return self.feedforward.action(obs)
+
+
+class ControllerResidual(_Residual):
     """The environment's action = clip(controller(obs) + scale * action, -1, 1), the
     controller being the tuned one of the environment's family (module doc)."""
 
@@ -98,30 +116,18 @@ class ControllerResidual(gym.Wrapper):
         from bathprint.agents.controller import load_gains, make_controller
         from bathprint.envs.shape_files import env_family
 
-        super().__init__(env)
-        self.scale = _check_scale(scale)
+        super().__init__(env, scale)
         self.family = env_family(env)
         self.gains = load_gains(self.family)  # read once; a fresh controller per episode
         self.controller = make_controller(env, self.family, self.gains)
-        self._obs: np.ndarray | None = None
 
-    def reset(self, **kwargs: Any) -> tuple[np.ndarray, dict[str, Any]]:
+    def _new_episode(self) -> None:
         from bathprint.agents.controller import make_controller
 
-        obs, info = self.env.reset(**kwargs)
         self.controller = make_controller(self.env, self.family, self.gains)
-        self._obs = obs
-        return obs, info
 
-    def step(self, action: np.ndarray) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
-        if self._obs is None:
-            raise RuntimeError("call reset() before step()")
-        a = _finite(action)
-        base, _ = self.controller.predict(self._obs)
-        full = np.clip(base + self.scale * a, -1.0, 1.0)
-        obs, reward, terminated, truncated, info = self.env.step(full.astype(np.float32))
-        self._obs = obs
-        return obs, reward, terminated, truncated, info
+    def _base(self, obs: np.ndarray) -> np.ndarray:
+        return self.controller.predict(obs)[0]
 
 
 def wrapper_spec(env_wrapper: Any) -> dict[str, Any] | None:
